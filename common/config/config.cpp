@@ -1,0 +1,226 @@
+#include "common/config/config.h"
+
+#include <google/protobuf/descriptor.h>
+#include <google/protobuf/io/tokenizer.h>
+#include <google/protobuf/text_format.h>
+
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <sstream>
+
+#include "config_operator.pb.h"
+#include "config_robot.pb.h"
+
+namespace hemm::config {
+namespace {
+
+namespace pb = google::protobuf;
+
+// Collects the first parse error (protobuf reports 0-based line/column).
+class FirstErrorCollector : public pb::io::ErrorCollector {
+ public:
+  void AddError(int line, pb::io::ColumnNumber column, const std::string& message) override {
+    if (!has_error) {
+      has_error = true;
+      this->line = line + 1;
+      this->column = column + 1;
+      this->message = message;
+    }
+  }
+  void AddWarning(int, pb::io::ColumnNumber, const std::string&) override {}
+
+  bool has_error = false;
+  int line = 0;
+  int column = 0;
+  std::string message;
+};
+
+// Finds where a dotted field path ("a.b.c", with optional "[i]" indices) was
+// written, walking the parse-info tree. Returns {0,0} if it was not written
+// (e.g. a required value missing, or a default broke a rule).
+std::pair<int, int> locate(const pb::Message& msg, const pb::TextFormat::ParseInfoTree& root,
+                           const std::string& path) {
+  const pb::Descriptor* desc = msg.GetDescriptor();
+  const pb::TextFormat::ParseInfoTree* tree = &root;
+  std::pair<int, int> where{0, 0};
+  std::stringstream ss(path);
+  std::string part;
+  while (std::getline(ss, part, '.')) {
+    int index = -1;
+    if (auto open = part.find('['); open != std::string::npos) {
+      index = std::atoi(part.c_str() + open + 1);
+      part.resize(open);
+    }
+    if (desc == nullptr || tree == nullptr) break;
+    const pb::FieldDescriptor* field = desc->FindFieldByName(part);
+    if (field == nullptr) break;
+    const int i = field->is_repeated() ? std::max(index, 0) : -1;
+    pb::TextFormat::ParseLocation loc = tree->GetLocation(field, i);
+    if (loc.line < 0) break;
+    where = {loc.line + 1, loc.column + 1};
+    if (field->cpp_type() != pb::FieldDescriptor::CPPTYPE_MESSAGE) break;
+    tree = tree->GetTreeForNested(field, i);
+    desc = field->message_type();
+  }
+  return where;
+}
+
+bool in_range(uint64_t v, uint64_t lo, uint64_t hi) { return v >= lo && v <= hi; }
+
+void check_link(const LinkConfig& link, const std::string& prefix, std::vector<FieldIssue>& out) {
+  if (link.station_name().size() > 64) out.push_back({prefix + "station_name", "longer than 64 bytes"});
+  if (!in_range(link.heartbeat_period_ms(), 1, 10000))
+    out.push_back({prefix + "heartbeat_period_ms", "must be 1..10000"});
+  if (link.link_timeout_ms() < 2 * link.heartbeat_period_ms())
+    out.push_back({prefix + "link_timeout_ms", "must be at least twice heartbeat_period_ms"});
+  if (!in_range(link.connect_timeout_ms(), 10, 600000))
+    out.push_back({prefix + "connect_timeout_ms", "must be 10..600000"});
+  if (!in_range(link.handshake_timeout_ms(), 10, 600000))
+    out.push_back({prefix + "handshake_timeout_ms", "must be 10..600000"});
+  if (!in_range(link.ping_period_ms(), 1, 10000)) out.push_back({prefix + "ping_period_ms", "must be 1..10000"});
+  if (!in_range(link.max_frame_bytes(), 1024, 64u << 20))
+    out.push_back({prefix + "max_frame_bytes", "must be 1024..67108864"});
+  if (!in_range(link.replay_window(), 64, 65536)) out.push_back({prefix + "replay_window", "must be 64..65536"});
+}
+
+void check_port(uint32_t port, bool zero_ok, const std::string& field, std::vector<FieldIssue>& out) {
+  if (port > 65535 || (!zero_ok && port == 0))
+    out.push_back({field, zero_ok ? "must be 0..65535" : "must be 1..65535"});
+}
+
+void check_positive(double v, const std::string& field, std::vector<FieldIssue>& out) {
+  if (!(v > 0.0)) out.push_back({field, "must be positive"});
+}
+
+void check_probability(double v, const std::string& field, std::vector<FieldIssue>& out) {
+  if (!(v >= 0.0 && v <= 1.0)) out.push_back({field, "must be within 0..1"});
+}
+
+}  // namespace
+
+std::string ConfigError::to_string() const {
+  std::ostringstream os;
+  os << file;
+  if (line > 0) {
+    os << ':' << line;
+    if (column > 0) os << ':' << column;
+  }
+  os << ": ";
+  if (!field.empty()) os << field << ": ";
+  os << message;
+  return os.str();
+}
+
+std::optional<ConfigError> parse_text_config(const std::string& text, const std::string& file_name,
+                                             Validator validate, pb::Message* out) {
+  std::unique_ptr<pb::Message> parsed(out->New());
+  pb::TextFormat::Parser parser;
+  FirstErrorCollector errors;
+  pb::TextFormat::ParseInfoTree info;
+  parser.RecordErrorsTo(&errors);
+  parser.WriteLocationsTo(&info);
+  if (!parser.ParseFromString(text, parsed.get())) {
+    ConfigError e{file_name, errors.line, errors.column, "", errors.message};
+    if (!errors.has_error) e.message = "could not parse";
+    return e;
+  }
+  if (validate != nullptr) {
+    std::vector<FieldIssue> issues = validate(*parsed);
+    if (!issues.empty()) {
+      const FieldIssue& first = issues.front();
+      auto [line, column] = locate(*parsed, info, first.field);
+      std::string message = first.message;
+      if (issues.size() > 1) message += " (and " + std::to_string(issues.size() - 1) + " more problem(s))";
+      return ConfigError{file_name, line, column, first.field, message};
+    }
+  }
+  out->GetReflection()->Swap(out, parsed.get());
+  return std::nullopt;
+}
+
+std::optional<ConfigError> load_text_config(const std::string& path, Validator validate, pb::Message* out) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return ConfigError{path, 0, 0, "", "cannot open file"};
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  if (in.bad()) return ConfigError{path, 0, 0, "", "read error"};
+  constexpr size_t kMaxConfigBytes = 1 << 20;
+  if (ss.str().size() > kMaxConfigBytes) return ConfigError{path, 0, 0, "", "file larger than 1 MiB"};
+  return parse_text_config(ss.str(), path, validate, out);
+}
+
+std::vector<FieldIssue> validate_robot_config(const pb::Message& m) {
+  const auto& c = static_cast<const RobotConfig&>(m);
+  std::vector<FieldIssue> out;
+  check_link(c.link(), "link.", out);
+  check_port(c.net().session_port(), false, "net.session_port", out);
+  check_port(c.net().stream_port(), true, "net.stream_port", out);
+  if (!in_range(c.net().state_rate_hz(), 200, 1000)) out.push_back({"net.state_rate_hz", "must be 200..1000"});
+  if (!(c.sim().timestep_s() > 0 && c.sim().timestep_s() <= 0.01))
+    out.push_back({"sim.timestep_s", "must be within (0, 0.01]"});
+  const auto& l = c.laser();
+  if (!in_range(l.beams(), 2, 4096)) out.push_back({"laser.beams", "must be 2..4096"});
+  if (!(l.fov_deg() > 0 && l.fov_deg() <= 360)) out.push_back({"laser.fov_deg", "must be within (0, 360]"});
+  check_positive(l.range_min_m(), "laser.range_min_m", out);
+  if (!(l.range_max_m() > l.range_min_m())) out.push_back({"laser.range_max_m", "must exceed range_min_m"});
+  if (!(l.sigma_m() >= 0)) out.push_back({"laser.sigma_m", "must be non-negative"});
+  if (!(l.rate_hz() > 0 && l.rate_hz() <= 1000)) out.push_back({"laser.rate_hz", "must be within (0, 1000]"});
+  check_probability(l.dropout_probability(), "laser.dropout_probability", out);
+  const auto& s = c.sonar();
+  if (!in_range(s.count(), 1, 64)) out.push_back({"sonar.count", "must be 1..64"});
+  if (!(s.cone_deg() > 0 && s.cone_deg() < 90)) out.push_back({"sonar.cone_deg", "must be within (0, 90)"});
+  if (!in_range(s.rays_per_cone(), 1, 64)) out.push_back({"sonar.rays_per_cone", "must be 1..64"});
+  check_positive(s.range_min_m(), "sonar.range_min_m", out);
+  if (!(s.range_max_m() > s.range_min_m())) out.push_back({"sonar.range_max_m", "must exceed range_min_m"});
+  if (!(s.sigma_m() >= 0)) out.push_back({"sonar.sigma_m", "must be non-negative"});
+  if (!(s.rate_hz() > 0 && s.rate_hz() <= 1000)) out.push_back({"sonar.rate_hz", "must be within (0, 1000]"});
+  check_probability(s.dropout_probability(), "sonar.dropout_probability", out);
+  check_positive(c.base().max_speed_mps(), "base.max_speed_mps", out);
+  check_positive(c.base().max_yaw_rate_rps(), "base.max_yaw_rate_rps", out);
+  check_positive(c.base().max_accel_mps2(), "base.max_accel_mps2", out);
+  check_positive(c.base().max_yaw_accel_rps2(), "base.max_yaw_accel_rps2", out);
+  check_positive(c.arm().max_joint_speed_rps(), "arm.max_joint_speed_rps", out);
+  check_positive(c.arm().max_joint_torque_nm(), "arm.max_joint_torque_nm", out);
+  if (!(c.arm().kp() >= 0)) out.push_back({"arm.kp", "must be non-negative"});
+  if (!(c.arm().kd() >= 0)) out.push_back({"arm.kd", "must be non-negative"});
+  if (!in_range(c.safety().watchdog_ms(), 10, 10000)) out.push_back({"safety.watchdog_ms", "must be 10..10000"});
+  if (!(c.safety().collision_margin_m() >= 0 && c.safety().collision_margin_m() < 5))
+    out.push_back({"safety.collision_margin_m", "must be within [0, 5)"});
+  return out;
+}
+
+std::vector<FieldIssue> validate_operator_config(const pb::Message& m) {
+  const auto& c = static_cast<const OperatorConfig&>(m);
+  std::vector<FieldIssue> out;
+  check_link(c.link(), "link.", out);
+  if (c.net().robot_address().empty()) out.push_back({"net.robot_address", "must not be empty"});
+  check_port(c.net().session_port(), false, "net.session_port", out);
+  check_port(c.net().stream_port(), true, "net.stream_port", out);
+  check_port(c.net().local_stream_port(), true, "net.local_stream_port", out);
+  if (!in_range(c.net().command_rate_hz(), 100, 1000)) out.push_back({"net.command_rate_hz", "must be 100..1000"});
+  const std::string& type = c.device().type();
+  if (type != "sim-omni" && type != "replay")
+    out.push_back({"device.type", "must be \"sim-omni\" or \"replay\""});
+  if (type == "replay" && c.device().replay_file().empty())
+    out.push_back({"device.replay_file", "required when device.type is \"replay\""});
+  if (!in_range(c.servo().rate_hz(), 100, 10000)) out.push_back({"servo.rate_hz", "must be 100..10000"});
+  return out;
+}
+
+std::optional<ConfigError> load_robot_config(const std::string& path, RobotConfig* out) {
+  return load_text_config(path, &validate_robot_config, out);
+}
+
+std::optional<ConfigError> load_operator_config(const std::string& path, OperatorConfig* out) {
+  return load_text_config(path, &validate_operator_config, out);
+}
+
+std::string resolve_relative_to(const std::string& config_path, const std::string& path) {
+  if (path.empty()) return path;
+  std::filesystem::path p(path);
+  if (p.is_absolute()) return path;
+  return (std::filesystem::path(config_path).parent_path() / p).lexically_normal().string();
+}
+
+}  // namespace hemm::config

@@ -1,0 +1,103 @@
+#include "common/config/config.h"
+
+#include <gtest/gtest.h>
+
+#include "config_operator.pb.h"
+#include "config_robot.pb.h"
+
+namespace hemm::config {
+namespace {
+
+TEST(ConfigTest, EmptyTextGivesSchemaDefaults) {
+  RobotConfig c;
+  auto err = parse_text_config("", "robot.pbtxt", &validate_robot_config, &c);
+  ASSERT_FALSE(err) << err->to_string();
+  EXPECT_EQ(c.net().session_port(), 47000u);
+  EXPECT_EQ(c.safety().watchdog_ms(), 250u);
+  EXPECT_EQ(c.laser().beams(), 181u);
+}
+
+TEST(ConfigTest, ParsesNestedValues) {
+  OperatorConfig c;
+  auto err = parse_text_config("net { robot_address: \"10.0.0.2\" session_port: 5000 }\n", "op.pbtxt",
+                               &validate_operator_config, &c);
+  ASSERT_FALSE(err) << err->to_string();
+  EXPECT_EQ(c.net().robot_address(), "10.0.0.2");
+  EXPECT_EQ(c.net().session_port(), 5000u);
+}
+
+TEST(ConfigTest, SyntaxErrorReportsFileLineAndLeavesOutputUnchanged) {
+  RobotConfig c;
+  c.mutable_net()->set_session_port(1234);
+  auto err = parse_text_config("net {\n  session_port: 5\n  bogus_field: 3\n}\n", "robot.pbtxt",
+                               &validate_robot_config, &c);
+  ASSERT_TRUE(err);
+  EXPECT_EQ(err->file, "robot.pbtxt");
+  EXPECT_EQ(err->line, 3);
+  EXPECT_NE(err->message.find("bogus_field"), std::string::npos) << err->message;
+  EXPECT_EQ(c.net().session_port(), 1234u);
+}
+
+TEST(ConfigTest, TypeErrorReportsLine) {
+  RobotConfig c;
+  auto err = parse_text_config("sim {\n  timestep_s: \"fast\"\n}\n", "r.pbtxt", &validate_robot_config, &c);
+  ASSERT_TRUE(err);
+  EXPECT_EQ(err->line, 2);
+}
+
+TEST(ConfigTest, SemanticErrorReportsFieldAndItsLine) {
+  RobotConfig c;
+  auto err = parse_text_config("link { station_name: \"r\" }\nnet {\n  state_rate_hz: 50\n}\n", "r.pbtxt",
+                               &validate_robot_config, &c);
+  ASSERT_TRUE(err);
+  EXPECT_EQ(err->field, "net.state_rate_hz");
+  EXPECT_EQ(err->line, 3);
+  EXPECT_EQ(err->column, 3);
+  EXPECT_NE(err->to_string().find("r.pbtxt:3:3: net.state_rate_hz:"), std::string::npos) << err->to_string();
+  EXPECT_FALSE(c.has_net());
+}
+
+TEST(ConfigTest, OperatorDeviceTypeIsChecked) {
+  OperatorConfig c;
+  auto err = parse_text_config("device { type: \"phantom\" }", "o.pbtxt", &validate_operator_config, &c);
+  ASSERT_TRUE(err);
+  EXPECT_EQ(err->field, "device.type");
+  EXPECT_EQ(err->line, 1);
+}
+
+TEST(ConfigTest, RuleBrokenByDefaultHasNoLine) {
+  // heartbeat 400 ms with the default 500 ms link timeout breaks the 2x rule;
+  // the offending field (link_timeout_ms) was never written.
+  OperatorConfig c;
+  auto err = parse_text_config("link { heartbeat_period_ms: 400 }", "o.pbtxt", &validate_operator_config, &c);
+  ASSERT_TRUE(err);
+  EXPECT_EQ(err->field, "link.link_timeout_ms");
+  EXPECT_EQ(err->line, 1);  // located at the enclosing "link" block
+}
+
+TEST(ConfigTest, MissingFileIsAnError) {
+  RobotConfig c;
+  auto err = load_robot_config("/nonexistent/robot.pbtxt", &c);
+  ASSERT_TRUE(err);
+  EXPECT_NE(err->message.find("cannot open"), std::string::npos);
+}
+
+TEST(ConfigTest, ShippedConfigsLoad) {
+  const std::string src = HEMM_SOURCE_DIR;
+  RobotConfig r;
+  auto e1 = load_robot_config(src + "/deploy/configs/robot.pbtxt", &r);
+  EXPECT_FALSE(e1) << e1->to_string();
+  OperatorConfig o;
+  auto e2 = load_operator_config(src + "/deploy/configs/operator.pbtxt", &o);
+  EXPECT_FALSE(e2) << e2->to_string();
+}
+
+TEST(ConfigTest, ResolveRelative) {
+  EXPECT_EQ(resolve_relative_to("/a/b/c.pbtxt", "k.key"), "/a/b/k.key");
+  EXPECT_EQ(resolve_relative_to("/a/b/c.pbtxt", "/k.key"), "/k.key");
+  EXPECT_EQ(resolve_relative_to("/a/b/c.pbtxt", "../s/x.xml"), "/a/s/x.xml");
+  EXPECT_EQ(resolve_relative_to("/a/b/c.pbtxt", ""), "");
+}
+
+}  // namespace
+}  // namespace hemm::config
