@@ -1,0 +1,20 @@
+#!/usr/bin/env bash
+# Runs every benchmark binary of a release build (tests/bench/*), one after
+# the other, and saves their output under out/bench/.
+# Usage: deploy/bench.sh BUILD_DIR [benchmark-name-filter]
+set -euo pipefail
+build="${1:?usage: deploy/bench.sh BUILD_DIR [filter]}"
+filter="${2:-}"
+root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+out="$root/out/bench"
+mkdir -p "$out"
+shopt -s nullglob
+ran=0
+for b in "$build"/bin/bench_*; do
+  name="$(basename "$b")"
+  [[ -n "$filter" && "$name" != *"$filter"* ]] && continue
+  echo "== $name"
+  "$b" 2>&1 | tee "$out/$name.txt"
+  ran=$((ran + 1))
+done
+echo "== $ran benchmark(s); output in $out"
