@@ -10,7 +10,7 @@ out="$root/out/bench"
 mkdir -p "$out"
 shopt -s nullglob
 ran=0
-for b in "$build"/bin/bench_*; do
+for b in "$build"/bin/bench/*; do
   name="$(basename "$b")"
   [[ -n "$filter" && "$name" != *"$filter"* ]] && continue
   echo "== $name"
