@@ -1,0 +1,104 @@
+#include "operator/device/simulated_omni.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace hemm::device {
+
+const char* check_model(const SimulatedOmniModel& m) {
+  auto pos = [](double v) { return std::isfinite(v) && v > 0.0; };
+  auto nonneg = [](double v) { return std::isfinite(v) && v >= 0.0; };
+  if (!pos(m.device_mass) || !nonneg(m.hand_mass)) return "masses must be finite, device_mass > 0";
+  if (!nonneg(m.device_damping) || !nonneg(m.hand_damping) || !nonneg(m.end_stop_damping))
+    return "damping must be finite and >= 0";
+  if (!nonneg(m.hand_stiffness) || !pos(m.end_stop_stiffness))
+    return "stiffness must be finite, end_stop_stiffness > 0";
+  if (!pos(m.dt_s) || m.substeps < 1 || m.substeps > 1000) return "dt_s > 0, 1 <= substeps <= 1000";
+  if (!pos(m.thermal_time_constant_s)) return "thermal_time_constant_s must be > 0";
+  if (!pos(m.limits.peak_force) || !pos(m.limits.max_continuous_force) ||
+      m.limits.max_continuous_force > m.limits.peak_force)
+    return "need 0 < max_continuous_force <= peak_force";
+  if (!m.limits.workspace_min_H.allFinite() || !m.limits.workspace_max_H.allFinite() ||
+      !(m.limits.workspace_min_H.array() < m.limits.workspace_max_H.array()).all())
+    return "workspace box must be finite with min < max";
+  return nullptr;
+}
+
+Eigen::Vector3d limit_force(const SimulatedOmniModel& m, SimulatedOmniData& d,
+                            const Eigen::Vector3d& force_cmd_H) {
+  Eigen::Vector3d f = force_cmd_H;
+  if (!f.allFinite()) {
+    f.setZero();
+    ++d.nonfinite_commands;
+  }
+  // Exact discretisation of the first-order thermal filter over one period:
+  // E' = a E + (1 - a) |F|^2. Keeping E' <= Fc^2 bounds |F|^2 by the budget.
+  const double a = std::exp(-m.dt_s / m.thermal_time_constant_s);
+  const double fc2 = m.limits.max_continuous_force * m.limits.max_continuous_force;
+  const double budget2 = std::max(0.0, (fc2 - a * d.mean_square_force) / (1.0 - a));
+  const double peak2 = m.limits.peak_force * m.limits.peak_force;
+  const double allowed2 = std::min(budget2, peak2);
+  const double n2 = f.squaredNorm();
+  if (n2 > allowed2) f *= std::sqrt(allowed2 / n2);
+  d.mean_square_force = a * d.mean_square_force + (1.0 - a) * f.squaredNorm();
+  return f;
+}
+
+void simulated_omni_step(const SimulatedOmniModel& m, SimulatedOmniData& d,
+                         const HandTarget& target, const Eigen::Vector3d& force_cmd_H) {
+  d.applied_force_H = limit_force(m, d, force_cmd_H);
+  const double h = m.dt_s / m.substeps;
+  const double inv_mass = 1.0 / m.total_mass();
+  const double b = m.hand_damping + m.device_damping;
+  const Eigen::Vector3d& lo = m.limits.workspace_min_H;
+  const Eigen::Vector3d& hi = m.limits.workspace_max_H;
+  for (int s = 0; s < m.substeps; ++s) {
+    Eigen::Vector3d f =
+        m.hand_stiffness * (target.position_H - d.position_H) - b * d.velocity_H + d.applied_force_H;
+    for (int i = 0; i < 3; ++i) {
+      // One-sided: the stop pushes back into the box and never pulls.
+      if (d.position_H[i] > hi[i]) {
+        const double stop = -m.end_stop_stiffness * (d.position_H[i] - hi[i]) -
+                            m.end_stop_damping * d.velocity_H[i];
+        f[i] += std::min(stop, 0.0);
+      } else if (d.position_H[i] < lo[i]) {
+        const double stop = m.end_stop_stiffness * (lo[i] - d.position_H[i]) -
+                            m.end_stop_damping * d.velocity_H[i];
+        f[i] += std::max(stop, 0.0);
+      }
+    }
+    d.velocity_H += (h * inv_mass) * f;  // velocity first: semi-implicit Euler
+    d.position_H += h * d.velocity_H;
+  }
+  d.orientation_H = target.orientation_H;
+  d.buttons = target.buttons;
+  d.t_s += m.dt_s;
+  ++d.steps;
+}
+
+SimulatedOmni::SimulatedOmni(const SimulatedOmniModel& model,
+                             std::shared_ptr<const HandScript> script)
+    : model_(model), script_(std::move(script)) {
+  if (const char* why = check_model(model_))
+    throw std::invalid_argument(std::string("SimulatedOmni: ") + why);
+  if (!script_) throw std::invalid_argument("SimulatedOmni: null hand script");
+  const HandTarget t0 = script_->at(0.0);
+  data_.position_H = t0.position_H;
+  data_.orientation_H = t0.orientation_H;
+  data_.buttons = t0.buttons;
+}
+
+void SimulatedOmni::read(DeviceSample& out) noexcept {
+  out.position_H = data_.position_H;
+  out.orientation_H = data_.orientation_H;
+  out.velocity_H = data_.velocity_H;
+  out.buttons = data_.buttons;
+}
+
+void SimulatedOmni::write(const Eigen::Vector3d& force_H) noexcept {
+  // The target at the end of the period: the hand reacts within the step.
+  simulated_omni_step(model_, data_, script_->at(data_.t_s + model_.dt_s), force_H);
+}
+
+}  // namespace hemm::device

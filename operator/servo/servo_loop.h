@@ -1,0 +1,144 @@
+// The operator station's 1 kHz servo loop (DESIGN.md principle 2: the servo
+// thread is sacred). One thread wakes on an absolute deadline grid
+// (clock_nanosleep TIMER_ABSTIME, CLOCK_MONOTONIC) and each tick:
+//   reads the device -> takes the newest model snapshot -> ServoTask::tick ->
+//   writes the force -> puts the setpoint into a newest-wins mailbox for the
+//   network thread -> pushes a log record into a ring -> records timing.
+// Inside the loop there is no allocation, no lock, no logging and no system
+// call but the sleep (clock_gettime goes through the vDSO). Real-time setup
+// (SCHED_FIFO, mlockall, CPU pinning) is tried in start() and reported in a
+// RealtimeStatus for the caller to log; anything refused falls back to a
+// normal thread. A tick that ends after the next deadline is an overrun: the
+// missed deadlines are skipped (counted), keeping the original grid, rather
+// than run back to back.
+#pragma once
+
+#include <atomic>
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "operator/device/haptic_device.h"
+#include "operator/servo/latest_mailbox.h"
+#include "operator/servo/servo_log.h"
+#include "operator/servo/snapshot_channel.h"
+#include "operator/servo/timing_stats.h"
+
+namespace hemm::servo {
+
+// Base of the immutable model snapshots the model thread publishes for the
+// servo thread. The operator's local model derives from it; its tick casts.
+struct ModelSnapshot {
+  virtual ~ModelSnapshot() = default;
+  std::int64_t stamp_ns = 0;  // steady-clock time the model data stands for
+  std::uint64_t version = 0;  // 0: the empty snapshot used before any publish
+};
+using ModelChannel = SnapshotChannel<ModelSnapshot>;
+
+// What the servo thread hands the network side each tick (frame H).
+struct ServoSetpoint {
+  std::int64_t t_ns = 0;
+  std::uint64_t tick = 0;
+  Eigen::Vector3d position_H = Eigen::Vector3d::Zero();
+  Eigen::Quaterniond orientation_H = Eigen::Quaterniond::Identity();
+  Eigen::Vector3d velocity_H = Eigen::Vector3d::Zero();
+  std::uint32_t buttons = 0;
+  std::uint32_t mode = 0;
+};
+
+// Filled by the task. Before tick() the loop resets it: zero force, the
+// setpoint copied from the device sample, proxy and interaction point at the
+// device position, mode 0, publish_setpoint true.
+struct TickOutput {
+  Eigen::Vector3d force_H = Eigen::Vector3d::Zero();
+  ServoSetpoint setpoint;
+  bool publish_setpoint = true;
+  Eigen::Vector3d proxy_position_H = Eigen::Vector3d::Zero();      // logged
+  Eigen::Vector3d interaction_point_H = Eigen::Vector3d::Zero();   // logged
+  std::uint32_t mode = 0;                                          // logged
+};
+
+class ServoTask {
+ public:
+  virtual ~ServoTask() = default;
+  // On the servo thread, before the first tick and after the last.
+  virtual void on_servo_start() noexcept {}
+  virtual void on_servo_stop() noexcept {}
+  // The force law. Runs at 1 kHz on the servo thread: must not allocate,
+  // lock, log, block or make system calls. `model` is the newest published
+  // snapshot (version 0 before the first publish).
+  virtual void tick(const device::DeviceSample& in, const ModelSnapshot& model,
+                    TickOutput& out) noexcept = 0;
+};
+
+struct ServoConfig {
+  std::int64_t period_ns = 1'000'000;
+  bool realtime = true;  // try SCHED_FIFO
+  int fifo_priority = 80;
+  // mlockall(MCL_CURRENT | MCL_FUTURE), only with CAP_IPC_LOCK or an unlimited
+  // RLIMIT_MEMLOCK (a finite limit would make later allocations fail);
+  // skipped under sanitizers.
+  bool lock_memory = true;
+  int cpu = -1;             // pin to this CPU if >= 0
+  bool prefault_stack = true;  // touch kStackPrefaultBytes of stack before the loop
+  std::int64_t late_wake_threshold_ns = 500'000;  // a later wake is a deadline miss
+};
+
+inline constexpr std::size_t kStackPrefaultBytes = 256 * 1024;
+
+struct RealtimeStatus {
+  bool fifo = false;
+  bool memory_locked = false;
+  bool pinned = false;
+  std::vector<std::string> warnings;  // one line each, for the caller to log
+};
+
+class ServoLoop {
+ public:
+  // All references must outlive the loop. `log` may be null (no log).
+  // Throws std::invalid_argument on a bad config.
+  ServoLoop(device::HapticDevice& device, ServoTask& task, ModelChannel& snapshots,
+            const ServoConfig& config, ServoLogger* log = nullptr);
+  ~ServoLoop();
+  ServoLoop(const ServoLoop&) = delete;
+  ServoLoop& operator=(const ServoLoop&) = delete;
+
+  // Starts the servo thread. Throws std::logic_error if already running.
+  // May be called again after stop(); statistics keep accumulating.
+  RealtimeStatus start();
+  // Stops and joins; undoes mlockall if start() did it. Idempotent.
+  void stop();
+  bool running() const noexcept { return thread_.joinable(); }
+
+  const TimingStats& stats() const noexcept { return *stats_; }
+  TimingSummary summary() const { return summarize(*stats_); }
+  // Consumer side (one thread, e.g. the network thread).
+  LatestMailbox<ServoSetpoint>& setpoints() noexcept { return setpoints_; }
+  // From the network side: copied into each log record.
+  void set_link_stats(std::int64_t rtt_ns, std::int64_t offset_ns) noexcept {
+    link_rtt_ns_.store(rtt_ns, std::memory_order_relaxed);
+    link_offset_ns_.store(offset_ns, std::memory_order_relaxed);
+  }
+  const ServoConfig& config() const noexcept { return config_; }
+
+ private:
+  void thread_main() noexcept;
+
+  device::HapticDevice& device_;
+  ServoTask& task_;
+  ModelChannel& snapshots_;
+  ServoConfig config_;
+  ServoLogger* log_;
+  std::unique_ptr<TimingStats> stats_;  // ~120 kB: on the heap, allocated here
+  LatestMailbox<ServoSetpoint> setpoints_;
+  ModelSnapshot empty_snapshot_;
+  std::atomic<std::int64_t> link_rtt_ns_{-1}, link_offset_ns_{0};
+  std::atomic<bool> stop_{false};
+  std::atomic<bool> go_{false};
+  bool locked_memory_ = false;
+  std::thread thread_;
+};
+
+}  // namespace hemm::servo
