@@ -180,6 +180,8 @@ std::vector<FieldIssue> validate_robot_config(const pb::Message& m) {
   check_positive(c.base().max_yaw_rate_rps(), "base.max_yaw_rate_rps", out);
   check_positive(c.base().max_accel_mps2(), "base.max_accel_mps2", out);
   check_positive(c.base().max_yaw_accel_rps2(), "base.max_yaw_accel_rps2", out);
+  if (!(c.base().skid_slip_factor() >= 1 && c.base().skid_slip_factor() <= 5))
+    out.push_back({"base.skid_slip_factor", "must be within [1, 5]"});
   check_positive(c.arm().max_joint_speed_rps(), "arm.max_joint_speed_rps", out);
   check_positive(c.arm().max_joint_torque_nm(), "arm.max_joint_torque_nm", out);
   if (!(c.arm().kp() >= 0)) out.push_back({"arm.kp", "must be non-negative"});
@@ -187,6 +189,8 @@ std::vector<FieldIssue> validate_robot_config(const pb::Message& m) {
   if (!in_range(c.safety().watchdog_ms(), 10, 10000)) out.push_back({"safety.watchdog_ms", "must be 10..10000"});
   if (!(c.safety().collision_margin_m() >= 0 && c.safety().collision_margin_m() < 5))
     out.push_back({"safety.collision_margin_m", "must be within [0, 5)"});
+  if (!(c.safety().guard_reaction_time_s() >= 0 && c.safety().guard_reaction_time_s() <= 1))
+    out.push_back({"safety.guard_reaction_time_s", "must be within [0, 1]"});
   return out;
 }
 

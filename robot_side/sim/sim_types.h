@@ -1,0 +1,81 @@
+// Value types of the SIMULATED robot station: commands in, state and range
+// scans out. Plain data; conversions to/from hemm::wire are in wire_convert.h.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "common/kinematics/arm5.h"
+#include "wire.pb.h"
+
+namespace hemm::robot {
+
+// Planar pose T_W_R: position (m) and heading (rad, CCW from +x).
+struct Pose2 {
+  double x = 0.0;
+  double y = 0.0;
+  double theta = 0.0;
+};
+
+// What the operator asks for (see hemm.wire.Command).
+struct BaseArmCommand {
+  int64_t stamp_ns = 0;  // operator clock at sending (informational)
+  uint64_t seq = 0;      // stream sequence number, reported back as last_command_seq
+  wire::Mode mode = wire::MODE_IDLE;
+  double v = 0.0;        // m/s, frame R
+  double omega = 0.0;    // rad/s
+  Eigen::Vector3d arm_target_R = Eigen::Vector3d::Zero();  // end-effector position, frame R
+  double wrist_pitch = 0.0;  // tool pitch, rad
+  double wrist_roll = 0.0;   // forearm roll q4, rad
+  bool deadman = false;
+};
+
+struct RobotStateSim {
+  int64_t stamp_ns = 0;
+  Pose2 T_W_R_odom;   // from wheel odometry (drifts)
+  Pose2 T_W_R_truth;  // SIMULATION ONLY: MuJoCo's pose, for evaluation
+  double v = 0.0;       // m/s, forward speed from wheel odometry (what a real robot knows)
+  double omega = 0.0;   // rad/s, yaw rate from wheel odometry
+  double v_truth = 0.0;      // SIMULATION ONLY: MuJoCo's forward speed
+  double omega_truth = 0.0;  // SIMULATION ONLY: MuJoCo's yaw rate
+  double wheel_left = 0.0;   // measured wheel surface speed, m/s
+  double wheel_right = 0.0;
+  kinematics::Arm5Vector q = kinematics::Arm5Vector::Zero();
+  kinematics::Arm5Vector qd = kinematics::Arm5Vector::Zero();
+  kinematics::Arm5Vector tau = kinematics::Arm5Vector::Zero();
+  Eigen::Isometry3d T_R_E = Eigen::Isometry3d::Identity();
+  uint32_t safety = 0;  // OR of hemm::wire::SafetyFlags
+  wire::Mode mode = wire::MODE_IDLE;
+  uint64_t last_command_seq = 0;
+};
+
+enum class RangeSensorKind { kLaser, kSonar };
+
+// One complete scan. Beam i points at angle_min + i * angle_step in frame S
+// (rotation about z_S); its range is measured from the origin of S. A beam with
+// valid[i] == 0 is a dropout or has no return within the limits: its range is
+// set to range_max and carries no information (never an obstacle at 0 m).
+struct RangeScanData {
+  int64_t stamp_ns = 0;
+  uint32_t scan_id = 0;
+  RangeSensorKind kind = RangeSensorKind::kLaser;
+  std::string sensor_name;
+  Pose2 T_W_R_odom;   // odometry pose at acquisition
+  Pose2 T_W_R_truth;  // SIMULATION ONLY
+  Eigen::Isometry3d T_R_S = Eigen::Isometry3d::Identity();
+  double angle_min = 0.0;
+  double angle_step = 0.0;
+  double range_min = 0.0;
+  double range_max = 0.0;
+  double beam_width = 0.0;  // rad, full cone (sonar), 0 for the laser
+  std::vector<float> ranges;
+  std::vector<uint8_t> valid;  // 1 valid, 0 invalid
+
+  size_t size() const { return ranges.size(); }
+};
+
+}  // namespace hemm::robot

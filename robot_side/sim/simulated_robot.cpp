@@ -1,0 +1,600 @@
+#include "robot_side/sim/simulated_robot.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <deque>
+#include <filesystem>
+#include <numbers>
+#include <random>
+
+#include <mujoco/mujoco.h>
+
+#include "common/config/config.h"
+#include "config_robot.pb.h"
+#include "robot_side/control/arm_control.h"
+#include "robot_side/control/safety.h"
+
+namespace hemm::robot {
+namespace {
+
+constexpr double kDeg = std::numbers::pi / 180.0;
+constexpr size_t kMaxQueuedScans = 64;
+constexpr int kRobotGeomGroup = 3;  // robot.xml puts every robot geom here
+
+struct ModelDeleter {
+  void operator()(mjModel* m) const { mj_deleteModel(m); }
+};
+struct DataDeleter {
+  void operator()(mjData* d) const { mj_deleteData(d); }
+};
+
+class MujocoRayCaster final : public RayCaster {
+ public:
+  MujocoRayCaster(const mjModel* m, const mjData* d) : m_(m), d_(d) {
+    for (int i = 0; i < mjNGROUP; ++i) groups_[static_cast<size_t>(i)] = i == kRobotGeomGroup ? 0 : 1;
+  }
+  double cast(const Eigen::Vector3d& o, const Eigen::Vector3d& dir) const override {
+    int geom = -1;
+    const mjtNum pnt[3] = {o.x(), o.y(), o.z()};
+    const mjtNum vec[3] = {dir.x(), dir.y(), dir.z()};
+    return mj_ray(m_, d_, pnt, vec, groups_.data(), 1, -1, &geom);
+  }
+
+ private:
+  const mjModel* m_;
+  const mjData* d_;
+  std::array<mjtByte, mjNGROUP> groups_{};
+};
+
+Eigen::Isometry3d pose_from(const mjtNum* pos, const mjtNum* quat) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.translation() << pos[0], pos[1], pos[2];
+  T.linear() = Eigen::Quaterniond(quat[0], quat[1], quat[2], quat[3]).normalized().toRotationMatrix();
+  return T;
+}
+
+Eigen::Isometry3d xpose(const mjtNum* xpos, const mjtNum* xmat) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.translation() << xpos[0], xpos[1], xpos[2];
+  T.linear() << xmat[0], xmat[1], xmat[2], xmat[3], xmat[4], xmat[5], xmat[6], xmat[7], xmat[8];
+  return T;
+}
+
+Pose2 planar(const Eigen::Isometry3d& T) {
+  return {T.translation().x(), T.translation().y(), std::atan2(T.linear()(1, 0), T.linear()(0, 0))};
+}
+
+bool finite_command(const BaseArmCommand& c) {
+  return std::isfinite(c.v) && std::isfinite(c.omega) && c.arm_target_R.allFinite() && std::isfinite(c.wrist_pitch) &&
+         std::isfinite(c.wrist_roll);
+}
+
+}  // namespace
+
+SimLaserParams laser_params_from_config(const config::RobotConfig& c) {
+  const auto& l = c.laser();
+  SimLaserParams p;
+  p.beams = static_cast<int>(l.beams());
+  p.fov = l.fov_deg() * kDeg;
+  p.range_min = l.range_min_m();
+  p.range_max = l.range_max_m();
+  p.sigma = l.sigma_m();
+  p.rate_hz = l.rate_hz();
+  p.dropout_probability = l.dropout_probability();
+  p.T_R_S = Eigen::Isometry3d::Identity();
+  p.T_R_S.translation() << l.mount_x_m(), 0.0, l.mount_z_m();
+  return p;
+}
+
+SimSonarParams sonar_params_from_config(const config::RobotConfig& c) {
+  const auto& s = c.sonar();
+  SimSonarParams p;
+  p.count = static_cast<int>(s.count());
+  p.cone = s.cone_deg() * kDeg;
+  p.rays_per_cone = static_cast<int>(s.rays_per_cone());
+  p.range_min = s.range_min_m();
+  p.range_max = s.range_max_m();
+  p.sigma = s.sigma_m();
+  p.rate_hz = s.rate_hz();
+  p.dropout_probability = s.dropout_probability();
+  p.T_R_S = Eigen::Isometry3d::Identity();
+  p.T_R_S.translation() << 0.0, 0.0, 0.20;  // ring centre at bumper height
+  return p;
+}
+
+struct SimulatedRobot::Impl {
+  std::unique_ptr<mjModel, ModelDeleter> m;
+  std::unique_ptr<mjData, DataDeleter> d;
+
+  // Model indices.
+  int base_body = -1, arm_base_body = -1, floor_geom = -1, ee_site = -1;
+  int base_qpos = 0, base_qvel = 0;
+  std::array<int, 5> arm_qpos{}, arm_qvel{}, arm_act{};
+  std::array<int, 4> wheel_qvel{}, wheel_act{};  // fl, rl, fr, rr
+
+  kinematics::Arm5Model arm;
+  Eigen::Isometry3d T_R_A = Eigen::Isometry3d::Identity();
+  SkidSteerGeometry geometry;
+  BaseLimits base_limits;
+  ArmControlParams arm_params;
+  CollisionGuardParams guard;
+  SimLaserParams laser;
+  SimSonarParams sonar;
+  bool laser_on = true, sonar_on = true;
+  int laser_period = 33, sonar_period = 100;
+
+  // Clock.
+  int64_t origin_ns = 0, dt_ns = 1'000'000;
+  int64_t steps = 0;
+
+  // Command and safety state.
+  Watchdog watchdog;
+  BaseArmCommand command;
+  bool have_arm_goal = false;
+  kinematics::Arm5Vector arm_goal = kinematics::Arm5Vector::Zero();
+  bool arm_goal_flagged = false;
+  bool arm_holding = true;
+  bool operator_in_control = false, estop = false, link_lost = false;
+  uint64_t rejected = 0;
+  uint32_t safety = 0;
+
+  // Controllers.
+  BaseSetpoint setpoint;
+  ArmControlState arm_state;
+  Odometry odom;
+  WheelSpeeds wheels_measured;
+
+  // Sensors.
+  std::mt19937_64 rng{1};
+  uint32_t scan_id = 0;
+  std::deque<RangeScanData> scans;
+  std::vector<Eigen::Vector2d> laser_points_W, sonar_points_W;  // odometry world frame
+  std::vector<Eigen::Vector2d> guard_points_R;                  // scratch
+
+  int64_t now() const { return origin_ns + steps * dt_ns; }
+
+  Eigen::Isometry3d base_pose() const {
+    return pose_from(d->qpos + base_qpos, d->qpos + base_qpos + 3);
+  }
+
+  kinematics::Arm5Vector q() const {
+    kinematics::Arm5Vector v;
+    for (int i = 0; i < 5; ++i) v(i) = d->qpos[arm_qpos[static_cast<size_t>(i)]];
+    return v;
+  }
+  kinematics::Arm5Vector qd() const {
+    kinematics::Arm5Vector v;
+    for (int i = 0; i < 5; ++i) v(i) = d->qvel[arm_qvel[static_cast<size_t>(i)]];
+    return v;
+  }
+
+  WheelSpeeds measure_wheels() const {
+    const double r = geometry.wheel_radius;
+    return {0.5 * r * (d->qvel[wheel_qvel[0]] + d->qvel[wheel_qvel[1]]),
+            0.5 * r * (d->qvel[wheel_qvel[2]] + d->qvel[wheel_qvel[3]])};
+  }
+
+  bool is_robot_geom(int g) const { return g >= 0 && m->body_rootid[m->geom_bodyid[g]] == base_body; }
+
+  void reset_dynamics_state() {
+    setpoint = {};
+    odom = {};
+    const Pose2 p = planar(base_pose());
+    odom.x = p.x;
+    odom.y = p.y;
+    odom.theta = p.theta;
+    laser_points_W.clear();
+    sonar_points_W.clear();
+    reset_arm(arm_state, q());
+    arm_holding = true;
+    have_arm_goal = false;
+  }
+
+  void store_guard_points(const RangeScanData& s, std::vector<Eigen::Vector2d>& out) const {
+    out.clear();
+    const double c = std::cos(odom.theta), sn = std::sin(odom.theta);
+    for (size_t i = 0; i < s.size(); ++i) {
+      if (!s.valid[i]) continue;
+      const double a = s.angle_min + static_cast<double>(i) * s.angle_step;
+      const Eigen::Vector3d p_R = s.T_R_S * Eigen::Vector3d(s.ranges[i] * std::cos(a), s.ranges[i] * std::sin(a), 0);
+      out.emplace_back(odom.x + c * p_R.x() - sn * p_R.y(), odom.y + sn * p_R.x() + c * p_R.y());
+    }
+  }
+
+  void take_scan(bool is_laser) {
+    MujocoRayCaster caster(m.get(), d.get());
+    const Eigen::Isometry3d T_W_R = base_pose();
+    RangeScanData s = is_laser ? simulate_laser_scan(laser, caster, T_W_R * laser.T_R_S, rng)
+                               : simulate_sonar_scan(sonar, caster, T_W_R * sonar.T_R_S, rng);
+    s.stamp_ns = now();
+    s.scan_id = scan_id++;
+    s.T_W_R_odom = {odom.x, odom.y, odom.theta};
+    s.T_W_R_truth = planar(T_W_R);
+    store_guard_points(s, is_laser ? laser_points_W : sonar_points_W);
+    scans.push_back(std::move(s));
+    while (scans.size() > kMaxQueuedScans) scans.pop_front();
+  }
+
+  // The guard's footprint grows with the arm when it reaches out.
+  GuardLimit guard_limit() {
+    CollisionGuardParams g = guard;
+    for (const Eigen::Vector3d& p_A : kinematics::arm_points(arm, q())) {
+      const Eigen::Vector3d p = T_R_A * p_A;
+      g.front_x = std::max(g.front_x, p.x() + 0.04);
+      g.rear_x = std::min(g.rear_x, p.x() - 0.04);
+      g.half_width = std::max(g.half_width, std::abs(p.y()) + 0.04);
+    }
+    guard_points_R.clear();
+    const double c = std::cos(odom.theta), sn = std::sin(odom.theta);
+    for (const auto* pts : {&laser_points_W, &sonar_points_W}) {
+      for (const Eigen::Vector2d& w : *pts) {
+        const Eigen::Vector2d dlt = w - Eigen::Vector2d(odom.x, odom.y);
+        guard_points_R.emplace_back(c * dlt.x() + sn * dlt.y(), -sn * dlt.x() + c * dlt.y());
+      }
+    }
+    return collision_guard(g, guard_points_R);
+  }
+
+  void control_step() {
+    const double dt = m->opt.timestep;
+    const int64_t t = now();
+    wheels_measured = measure_wheels();
+    integrate_odometry(geometry, wheels_measured, dt, odom);
+
+    uint32_t flags = 0;
+    if (!operator_in_control) flags |= wire::SAFETY_NO_OPERATOR;
+    const bool expired = watchdog_expired(watchdog, t);
+    if (expired && operator_in_control) flags |= wire::SAFETY_WATCHDOG;
+    if (estop) flags |= wire::SAFETY_ESTOP;
+    if (link_lost) flags |= wire::SAFETY_LINK_LOST;
+    const bool may_move = operator_in_control && !expired && !estop && !link_lost && command.deadman;
+
+    // Base.
+    double v_cmd = 0.0, w_cmd = 0.0;
+    if (may_move && command.mode == wire::MODE_NAVIGATION) {
+      v_cmd = command.v;
+      w_cmd = command.omega;
+    }
+    const GuardLimit gl = guard_limit();
+    const double v_guarded = std::clamp(v_cmd, -gl.max_backward, gl.max_forward);
+    if (v_guarded != v_cmd || setpoint.v > gl.max_forward || -setpoint.v > gl.max_backward)
+      flags |= wire::SAFETY_COLLISION_GUARD;
+    if (estop) {
+      setpoint = {};
+    } else {
+      setpoint = slew_setpoint(base_limits, setpoint, v_guarded, w_cmd, dt);
+      // Braking for the guard may exceed the comfort slew: never run faster
+      // than the guard allows.
+      setpoint.v = std::clamp(setpoint.v, -gl.max_backward, gl.max_forward);
+    }
+    const WheelSpeeds ws = wheel_speeds(geometry, setpoint);
+    const double r = geometry.wheel_radius;
+    d->ctrl[wheel_act[0]] = d->ctrl[wheel_act[1]] = ws.left / r;
+    d->ctrl[wheel_act[2]] = d->ctrl[wheel_act[3]] = ws.right / r;
+
+    // Arm.
+    const bool arm_moves = may_move && command.mode == wire::MODE_MANIPULATION && have_arm_goal;
+    if (arm_moves) {
+      arm_state.q_goal = arm_goal;
+      arm_holding = false;
+    } else if (!arm_holding) {
+      hold_arm(arm_state);
+      arm_holding = true;
+    }
+    if (arm_goal_flagged) flags |= wire::SAFETY_JOINT_LIMIT;
+    kinematics::Arm5Vector bias;
+    for (int i = 0; i < 5; ++i) bias(i) = d->qfrc_bias[arm_qvel[static_cast<size_t>(i)]];
+    const kinematics::Arm5Vector tau = arm_control_step(arm_params, arm_state, q(), qd(), bias, dt);
+    for (int i = 0; i < 5; ++i) d->ctrl[arm_act[static_cast<size_t>(i)]] = tau(i);
+    safety = flags;
+  }
+
+  void step_once() {
+    // qfrc_bias must match the current state: mj_step1 computes it (and the
+    // rest of the position/velocity stages) before the controller reads it.
+    mj_step1(m.get(), d.get());
+    control_step();
+    mj_step2(m.get(), d.get());
+    ++steps;
+    if (laser_on && steps % laser_period == 0) take_scan(true);
+    if (sonar_on && steps % sonar_period == 0) take_scan(false);
+  }
+};
+
+SimulatedRobot::SimulatedRobot() = default;
+SimulatedRobot::~SimulatedRobot() = default;
+SimulatedRobot::SimulatedRobot(SimulatedRobot&&) noexcept = default;
+SimulatedRobot& SimulatedRobot::operator=(SimulatedRobot&&) noexcept = default;
+
+std::optional<std::string> SimulatedRobot::load(const config::RobotConfig& cfg, const std::string& scene_path) {
+  if (scene_path.empty() || !std::filesystem::is_regular_file(scene_path))
+    return "scene file not found: " + scene_path;
+  if (const auto issues = config::validate_robot_config(cfg); !issues.empty())
+    return "config: " + issues.front().field + ": " + issues.front().message;
+  auto impl = std::make_unique<Impl>();
+  char err[1024] = "";
+  impl->m.reset(mj_loadXML(scene_path.c_str(), nullptr, err, sizeof err));
+  if (!impl->m) return "MuJoCo could not load " + scene_path + ": " + err;
+  mjModel* m = impl->m.get();
+  m->opt.timestep = cfg.sim().timestep_s();
+  impl->d.reset(mj_makeData(m));
+  if (!impl->d) return "MuJoCo could not allocate data";
+
+  auto id = [&](int type, const char* name) { return mj_name2id(m, type, name); };
+  impl->base_body = id(mjOBJ_BODY, "base_link");
+  impl->arm_base_body = id(mjOBJ_BODY, "arm_base");
+  impl->ee_site = id(mjOBJ_SITE, "ee");
+  impl->floor_geom = id(mjOBJ_GEOM, "floor");
+  if (impl->base_body < 0 || impl->arm_base_body < 0 || impl->ee_site < 0)
+    return "scene lacks the robot (base_link, arm_base, ee): does it include robot.xml?";
+  const int free_jnt = m->body_jntadr[impl->base_body];
+  if (free_jnt < 0 || m->jnt_type[free_jnt] != mjJNT_FREE) return "base_link needs a free joint";
+  impl->base_qpos = m->jnt_qposadr[free_jnt];
+  impl->base_qvel = m->jnt_dofadr[free_jnt];
+  if (m->body_parentid[impl->arm_base_body] != impl->base_body) return "arm_base must be a child of base_link";
+
+  // The arm: joints, actuators, and the link lengths of Eq. 3 read from the
+  // MJCF; the chain must have the structure the kinematics assumes.
+  const char* link_names[5] = {"arm_link1", "arm_link2", "arm_link3", "arm_link4", "arm_link5"};
+  const Eigen::Vector3d axes[5] = {{0, 0, 1}, {0, -1, 0}, {0, -1, 0}, {-1, 0, 0}, {0, 1, 0}};
+  double offsets[5] = {};
+  for (int i = 0; i < 5; ++i) {
+    const auto k = static_cast<size_t>(i);
+    const std::string jn = "arm_q" + std::to_string(i + 1);
+    const std::string an = "arm_tau" + std::to_string(i + 1);
+    const int j = id(mjOBJ_JOINT, jn.c_str());
+    const int a = id(mjOBJ_ACTUATOR, an.c_str());
+    const int b = id(mjOBJ_BODY, link_names[i]);
+    if (j < 0 || a < 0 || b < 0) return "robot.xml lacks " + jn + ", " + an + " or " + link_names[i];
+    if (m->jnt_type[j] != mjJNT_HINGE || !m->jnt_limited[j] || m->jnt_bodyid[j] != b)
+      return jn + " must be a limited hinge of " + link_names[i];
+    const Eigen::Vector3d ax(m->jnt_axis[3 * j], m->jnt_axis[3 * j + 1], m->jnt_axis[3 * j + 2]);
+    const mjtNum* bp = m->body_pos + 3 * b;
+    const mjtNum* bq = m->body_quat + 4 * b;
+    if ((ax - axes[i]).norm() > 1e-9 || std::abs(bp[1]) > 1e-12 || std::abs(bp[2]) > 1e-12 ||
+        std::abs(bq[0] - 1) > 1e-12)
+      return std::string("robot.xml: ") + link_names[i] + " does not follow the chain of Eq. 2-4";
+    offsets[i] = bp[0];
+    impl->arm_qpos[k] = m->jnt_qposadr[j];
+    impl->arm_qvel[k] = m->jnt_dofadr[j];
+    impl->arm_act[k] = a;
+    impl->arm.q_min(i) = m->jnt_range[2 * j];
+    impl->arm.q_max(i) = m->jnt_range[2 * j + 1];
+  }
+  if (std::abs(offsets[0]) > 1e-12 || std::abs(offsets[4]) > 1e-12) return "robot.xml: arm_link1/5 must sit at 0";
+  const mjtNum* sp = m->site_pos + 3 * impl->ee_site;
+  if (m->site_bodyid[impl->ee_site] != id(mjOBJ_BODY, "arm_link5") || std::abs(sp[1]) > 1e-12 ||
+      std::abs(sp[2]) > 1e-12)
+    return "robot.xml: site ee must lie on the x axis of arm_link5";
+  impl->arm.A1 = offsets[1];
+  impl->arm.A2 = offsets[2];
+  impl->arm.A4 = offsets[3];
+  impl->arm.A5 = sp[0];
+  if (auto e = kinematics::validate(impl->arm)) return "robot.xml arm: " + *e;
+  impl->T_R_A = pose_from(m->body_pos + 3 * impl->arm_base_body, m->body_quat + 4 * impl->arm_base_body);
+
+  const char* wheels[4] = {"wheel_fl", "wheel_rl", "wheel_fr", "wheel_rr"};
+  for (int i = 0; i < 4; ++i) {
+    const int j = id(mjOBJ_JOINT, wheels[i]);
+    const int a = id(mjOBJ_ACTUATOR, (std::string(wheels[i]) + "_vel").c_str());
+    const int g = id(mjOBJ_GEOM, wheels[i]);
+    if (j < 0 || a < 0 || g < 0) return std::string("robot.xml lacks wheel ") + wheels[i];
+    impl->wheel_qvel[static_cast<size_t>(i)] = m->jnt_dofadr[j];
+    impl->wheel_act[static_cast<size_t>(i)] = a;
+    if (i == 0) impl->geometry.wheel_radius = m->geom_size[3 * g];
+  }
+  {
+    const int fl = id(mjOBJ_BODY, "wheel_fl"), fr = id(mjOBJ_BODY, "wheel_fr");
+    impl->geometry.track_width = m->body_pos[3 * fl + 1] - m->body_pos[3 * fr + 1];
+  }
+
+  // Config.
+  impl->base_limits = {cfg.base().max_speed_mps(), cfg.base().max_yaw_rate_rps(), cfg.base().max_accel_mps2(),
+                       cfg.base().max_yaw_accel_rps2()};
+  impl->arm_params = {cfg.arm().kp(), cfg.arm().kd(), cfg.arm().max_joint_speed_rps(),
+                      cfg.arm().max_joint_torque_nm()};
+  impl->guard.margin = cfg.safety().collision_margin_m();
+  impl->guard.reaction_time = cfg.safety().guard_reaction_time_s();
+  impl->geometry.slip_factor = cfg.base().skid_slip_factor();
+  impl->guard.max_decel = cfg.base().max_accel_mps2();
+  impl->watchdog.timeout_ns = static_cast<int64_t>(cfg.safety().watchdog_ms()) * 1'000'000;
+  impl->laser = laser_params_from_config(cfg);
+  impl->sonar = sonar_params_from_config(cfg);
+  impl->laser_on = cfg.laser().enabled();
+  impl->sonar_on = cfg.sonar().enabled();
+  impl->dt_ns = std::llround(m->opt.timestep * 1e9);
+  impl->laser_period = std::max(1, static_cast<int>(std::lround(1.0 / (impl->laser.rate_hz * m->opt.timestep))));
+  impl->sonar_period = std::max(1, static_cast<int>(std::lround(1.0 / (impl->sonar.rate_hz * m->opt.timestep))));
+  impl->rng.seed(cfg.sim().seed());
+
+  // Start pose: the scene's site "robot_start", else the origin.
+  mj_resetData(m, impl->d.get());
+  Pose2 start;
+  const int start_site = id(mjOBJ_SITE, "robot_start");
+  if (start_site >= 0) start = planar(pose_from(m->site_pos + 3 * start_site, m->site_quat + 4 * start_site));
+  impl_ = std::move(impl);
+  set_base_pose_sim(start);
+  // The arm starts folded over the base (inside the footprint).
+  set_arm_q_sim(kinematics::clamp_to_limits(impl_->arm, (kinematics::Arm5Vector() << 0, 1.2, -2.2, 0, 0).finished()));
+  return std::nullopt;
+}
+
+bool SimulatedRobot::loaded() const { return impl_ != nullptr; }
+
+void SimulatedRobot::set_time_origin_ns(int64_t o) {
+  if (impl_) impl_->origin_ns = o - impl_->steps * impl_->dt_ns;
+}
+int64_t SimulatedRobot::time_ns() const { return impl_ ? impl_->now() : 0; }
+int64_t SimulatedRobot::timestep_ns() const { return impl_ ? impl_->dt_ns : 0; }
+
+void SimulatedRobot::step(int n) {
+  if (!impl_) return;
+  for (int i = 0; i < n; ++i) impl_->step_once();
+}
+
+int SimulatedRobot::step_until(int64_t t_ns, int max_steps) {
+  int n = 0;
+  while (impl_ && n < max_steps && impl_->now() < t_ns) {
+    impl_->step_once();
+    ++n;
+  }
+  return n;
+}
+
+std::optional<std::string> SimulatedRobot::set_command(const BaseArmCommand& c, int64_t now_ns) {
+  if (!impl_) return "robot not loaded";
+  Impl& s = *impl_;
+  const auto reject = [&](std::string why) -> std::optional<std::string> {
+    ++s.rejected;
+    return why;
+  };
+  if (!finite_command(c)) return reject("command has non-finite values");
+  if (c.mode < wire::MODE_IDLE || c.mode > wire::MODE_EXPLORATION) return reject("command has an unknown mode");
+  if (c.arm_target_R.norm() > 10.0) return reject("arm target farther than 10 m");
+  if (std::abs(c.wrist_pitch) > 10.0 || std::abs(c.wrist_roll) > 10.0) return reject("wrist angles out of range");
+  if (c.mode == wire::MODE_MANIPULATION) {
+    const kinematics::Arm5Target t{s.T_R_A.inverse() * c.arm_target_R, c.wrist_pitch, c.wrist_roll};
+    const kinematics::Arm5Vector seed = s.have_arm_goal ? s.arm_goal : s.arm_state.q_ref;
+    const kinematics::IkResult ik = kinematics::inverse_kinematics(s.arm, t, seed);
+    if (ik.status == kinematics::IkStatus::kInvalidInput) return reject("arm target rejected by IK");
+    s.arm_goal = ik.q;
+    s.have_arm_goal = true;
+    s.arm_goal_flagged = ik.status != kinematics::IkStatus::kConverged;
+  }
+  s.command = c;
+  watchdog_feed(s.watchdog, now_ns);
+  return std::nullopt;
+}
+
+uint64_t SimulatedRobot::rejected_commands() const { return impl_ ? impl_->rejected : 0; }
+void SimulatedRobot::set_operator_in_control(bool b) {
+  if (impl_) impl_->operator_in_control = b;
+}
+void SimulatedRobot::set_estop(bool b) {
+  if (impl_) impl_->estop = b;
+}
+bool SimulatedRobot::estop() const { return impl_ && impl_->estop; }
+void SimulatedRobot::set_link_lost(bool b) {
+  if (impl_) impl_->link_lost = b;
+}
+
+RobotStateSim SimulatedRobot::state() const {
+  RobotStateSim st;
+  if (!impl_) return st;
+  const Impl& s = *impl_;
+  st.stamp_ns = s.now();
+  st.T_W_R_odom = {s.odom.x, s.odom.y, s.odom.theta};
+  const Eigen::Isometry3d T_W_R = s.base_pose();
+  st.T_W_R_truth = planar(T_W_R);
+  // Free joint: linear velocity in the world frame, angular in the body frame.
+  const mjtNum* qv = s.d->qvel + s.base_qvel;
+  const Eigen::Vector3d lin(qv[0], qv[1], qv[2]);
+  const Eigen::Vector3d ang = T_W_R.linear() * Eigen::Vector3d(qv[3], qv[4], qv[5]);
+  st.v_truth = lin.dot(T_W_R.linear().col(0));
+  st.omega_truth = ang.z();
+  const WheelSpeeds w = s.measure_wheels();
+  const BaseSetpoint odo = body_motion(s.geometry, w);
+  st.v = odo.v;
+  st.omega = odo.omega;
+  st.wheel_left = w.left;
+  st.wheel_right = w.right;
+  st.q = s.q();
+  st.qd = s.qd();
+  for (int i = 0; i < 5; ++i) st.tau(i) = s.d->actuator_force[s.arm_act[static_cast<size_t>(i)]];
+  st.T_R_E = s.T_R_A * kinematics::forward_kinematics(s.arm, st.q);
+  st.safety = s.safety;
+  st.mode = s.command.mode;
+  st.last_command_seq = s.command.seq;
+  return st;
+}
+
+std::vector<RangeScanData> SimulatedRobot::take_scans() {
+  std::vector<RangeScanData> out;
+  if (!impl_) return out;
+  out.reserve(impl_->scans.size());
+  for (auto& s : impl_->scans) out.push_back(std::move(s));
+  impl_->scans.clear();
+  return out;
+}
+
+const kinematics::Arm5Model& SimulatedRobot::arm_model() const {
+  static const kinematics::Arm5Model kDefault;
+  return impl_ ? impl_->arm : kDefault;
+}
+Eigen::Isometry3d SimulatedRobot::T_R_A() const { return impl_ ? impl_->T_R_A : Eigen::Isometry3d::Identity(); }
+const SimLaserParams& SimulatedRobot::laser_params() const {
+  static const SimLaserParams kDefault;
+  return impl_ ? impl_->laser : kDefault;
+}
+const SimSonarParams& SimulatedRobot::sonar_params() const {
+  static const SimSonarParams kDefault;
+  return impl_ ? impl_->sonar : kDefault;
+}
+const SkidSteerGeometry& SimulatedRobot::base_geometry() const {
+  static const SkidSteerGeometry kDefault;
+  return impl_ ? impl_->geometry : kDefault;
+}
+void SimulatedRobot::enable_sensors(bool laser, bool sonar) {
+  if (!impl_) return;
+  impl_->laser_on = laser;
+  impl_->sonar_on = sonar;
+}
+
+void SimulatedRobot::set_base_pose_sim(const Pose2& p) {
+  if (!impl_ || !std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.theta)) return;
+  Impl& s = *impl_;
+  mjtNum* qp = s.d->qpos + s.base_qpos;
+  qp[0] = p.x;
+  qp[1] = p.y;
+  qp[2] = 0.0;
+  qp[3] = std::cos(0.5 * p.theta);
+  qp[4] = 0.0;
+  qp[5] = 0.0;
+  qp[6] = std::sin(0.5 * p.theta);
+  for (int i = 0; i < 6; ++i) s.d->qvel[s.base_qvel + i] = 0.0;
+  for (int w : s.wheel_qvel) s.d->qvel[w] = 0.0;
+  mj_forward(s.m.get(), s.d.get());
+  s.reset_dynamics_state();
+}
+
+void SimulatedRobot::set_arm_q_sim(const kinematics::Arm5Vector& q) {
+  if (!impl_ || !q.allFinite()) return;
+  Impl& s = *impl_;
+  for (int i = 0; i < 5; ++i) {
+    s.d->qpos[s.arm_qpos[static_cast<size_t>(i)]] = q(i);
+    s.d->qvel[s.arm_qvel[static_cast<size_t>(i)]] = 0.0;
+  }
+  mj_forward(s.m.get(), s.d.get());
+  reset_arm(s.arm_state, q);
+  s.arm_holding = true;
+  s.have_arm_goal = false;
+}
+
+Eigen::Isometry3d SimulatedRobot::mujoco_T_A_E_sim() const {
+  if (!impl_) return Eigen::Isometry3d::Identity();
+  const Impl& s = *impl_;
+  // Kinematics only: the site and body poses of the current qpos.
+  mj_kinematics(s.m.get(), s.d.get());
+  const Eigen::Isometry3d T_W_A = xpose(s.d->xpos + 3 * s.arm_base_body, s.d->xmat + 9 * s.arm_base_body);
+  const Eigen::Isometry3d T_W_E = xpose(s.d->site_xpos + 3 * s.ee_site, s.d->site_xmat + 9 * s.ee_site);
+  return T_W_A.inverse() * T_W_E;
+}
+
+int SimulatedRobot::robot_contacts_sim(const std::string& world_geom) const {
+  if (!impl_) return 0;
+  const Impl& s = *impl_;
+  const int target = world_geom.empty() ? -1 : mj_name2id(s.m.get(), mjOBJ_GEOM, world_geom.c_str());
+  if (!world_geom.empty() && target < 0) return 0;
+  int n = 0;
+  for (int i = 0; i < s.d->ncon; ++i) {
+    const mjContact& c = s.d->contact[i];
+    const bool r1 = s.is_robot_geom(c.geom1), r2 = s.is_robot_geom(c.geom2);
+    if (r1 == r2) continue;
+    const int other = r1 ? c.geom2 : c.geom1;
+    if (target >= 0 ? other == target : other != s.floor_geom) ++n;
+  }
+  return n;
+}
+
+}  // namespace hemm::robot

@@ -1,0 +1,110 @@
+// SimulatedRobot: the SIMULATED mobile manipulator the robot station drives.
+// MuJoCo 2.2.2 steps the scene at the config's timestep (1 kHz); each step
+// runs the controllers (arm PD + gravity compensation tracking the IK of the
+// commanded end-effector target, base (v, omega) -> wheel speeds with
+// acceleration limits), odometry, and the safety layer; the laser and sonar
+// scan at their rates.
+//
+// Safety, in order of precedence:
+//   * e-stop: wheel servos commanded to 0 at once (they brake at their torque
+//     limit), the arm holds;
+//   * no operator in control, watchdog expired (no valid command for
+//     watchdog_ms), or the command's deadman released: the base decelerates
+//     to a stop within its acceleration limits, the arm holds;
+//   * collision guard: the base's forward/backward speed is limited so that
+//     its stopping distance plus collision_margin_m fits in the free range of
+//     its swept corridor, from its own laser and sonar data.
+//
+// Time is the simulation's: time_ns() = origin + steps * timestep. In real-time
+// mode the station sets the origin to its steady clock and steps to it (see
+// realtime.h), so sim time and station time agree; tests just step.
+//
+// Not thread-safe: one thread owns it. MuJoCo stays behind the pimpl.
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "robot_side/control/base_control.h"
+#include "robot_side/sim/range_sensors.h"
+#include "robot_side/sim/sim_types.h"
+
+namespace hemm::config {
+class RobotConfig;
+}
+
+namespace hemm::robot {
+
+class SimulatedRobot {
+ public:
+  SimulatedRobot();
+  ~SimulatedRobot();
+  SimulatedRobot(SimulatedRobot&&) noexcept;
+  SimulatedRobot& operator=(SimulatedRobot&&) noexcept;
+  SimulatedRobot(const SimulatedRobot&) = delete;
+  SimulatedRobot& operator=(const SimulatedRobot&) = delete;
+
+  // Loads an MJCF scene (which includes robot.xml) and applies the config
+  // (sim.timestep_s and sim.seed; laser, sonar, base, arm, safety). On error
+  // returns why and leaves this object as it was.
+  std::optional<std::string> load(const config::RobotConfig& config, const std::string& scene_path);
+  bool loaded() const;
+
+  // Simulation time. set_time_origin_ns() shifts the clock (no stepping).
+  void set_time_origin_ns(int64_t origin_ns);
+  int64_t time_ns() const;
+  int64_t timestep_ns() const;
+
+  // Advances n steps (faster than real time; n <= 0 does nothing).
+  void step(int n = 1);
+  // Steps until time_ns() >= t_ns, at most max_steps; returns steps taken.
+  int step_until(int64_t t_ns, int max_steps);
+
+  // A command received at robot time now_ns (the watchdog's clock). Invalid
+  // commands (non-finite numbers, unknown mode, absurd targets) are rejected
+  // with a reason and change nothing. A manipulation command's target is
+  // solved by IK at once; an unreachable one is replaced by the nearest
+  // reachable pose and flagged SAFETY_JOINT_LIMIT.
+  std::optional<std::string> set_command(const BaseArmCommand& command, int64_t now_ns);
+  uint64_t rejected_commands() const;
+
+  void set_operator_in_control(bool in_control);  // set by the authenticated session
+  void set_estop(bool engaged);
+  bool estop() const;
+  void set_link_lost(bool lost);  // reported as SAFETY_LINK_LOST (the session stops the robot itself)
+
+  RobotStateSim state() const;
+  // Scans completed since the last call, oldest first (at most 64 kept).
+  std::vector<RangeScanData> take_scans();
+
+  const kinematics::Arm5Model& arm_model() const;
+  Eigen::Isometry3d T_R_A() const;  // arm base frame in the robot base frame
+  const SimLaserParams& laser_params() const;
+  const SimSonarParams& sonar_params() const;
+  const SkidSteerGeometry& base_geometry() const;
+  void enable_sensors(bool laser, bool sonar);  // benchmarks; default from config
+
+  // ---- SIMULATION ONLY (tests, evaluation) ----
+  // Teleports the base (zero velocity); odometry restarts at the same pose.
+  void set_base_pose_sim(const Pose2& T_W_R);
+  // Teleports the arm (zero velocity) and holds it there.
+  void set_arm_q_sim(const kinematics::Arm5Vector& q);
+  // The end-effector site pose in the arm base frame, from MuJoCo's own
+  // kinematics of the current state.
+  Eigen::Isometry3d mujoco_T_A_E_sim() const;
+  // Number of active contacts between robot geoms and the named world geom
+  // (or any non-robot geom but the floor when the name is empty).
+  int robot_contacts_sim(const std::string& world_geom = "") const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+// Sensor parameters from the config (also used by the station to describe them).
+SimLaserParams laser_params_from_config(const config::RobotConfig& config);
+SimSonarParams sonar_params_from_config(const config::RobotConfig& config);
+
+}  // namespace hemm::robot

@@ -1,0 +1,260 @@
+// The SIMULATED robot in the home scene: the arm's kinematics against
+// MuJoCo's own site pose, the laser and sonar against known geometry (a wall
+// at a known distance, the bin of known radius), dropouts, loading errors.
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <random>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "config_robot.pb.h"
+#include "robot_side/sim/realtime.h"
+#include "robot_side/sim/simulated_robot.h"
+
+namespace hr = hemm::robot;
+namespace hk = hemm::kinematics;
+
+namespace {
+
+const std::string kScene = std::string(HEMM_SOURCE_DIR) + "/deploy/scenes/home.xml";
+
+// Beam i of a scan as a point in the world, placed with the truth pose.
+Eigen::Vector2d beam_point_W(const hr::RangeScanData& s, size_t i) {
+  const double a = s.angle_min + static_cast<double>(i) * s.angle_step;
+  const Eigen::Vector3d p_R = s.T_R_S * Eigen::Vector3d(s.ranges[i] * std::cos(a), s.ranges[i] * std::sin(a), 0.0);
+  const double c = std::cos(s.T_W_R_truth.theta), sn = std::sin(s.T_W_R_truth.theta);
+  return {s.T_W_R_truth.x + c * p_R.x() - sn * p_R.y(), s.T_W_R_truth.y + sn * p_R.x() + c * p_R.y()};
+}
+
+std::vector<hr::RangeScanData> collect(hr::SimulatedRobot& r, hr::RangeSensorKind kind, int steps) {
+  r.take_scans();
+  r.step(steps);
+  std::vector<hr::RangeScanData> out;
+  for (auto& s : r.take_scans()) {
+    if (s.kind == kind) out.push_back(std::move(s));
+  }
+  return out;
+}
+
+// Geometric (orthogonal distance) circle fit by Gauss-Newton from the
+// algebraic (Kasa) fit.
+Eigen::Vector3d fit_circle(const std::vector<Eigen::Vector2d>& pts) {
+  Eigen::MatrixXd A(pts.size(), 3);
+  Eigen::VectorXd b(pts.size());
+  for (size_t i = 0; i < pts.size(); ++i) {
+    const auto k = static_cast<Eigen::Index>(i);
+    A(k, 0) = 2 * pts[i].x();
+    A(k, 1) = 2 * pts[i].y();
+    A(k, 2) = 1.0;
+    b(k) = pts[i].squaredNorm();
+  }
+  const Eigen::Vector3d s = A.colPivHouseholderQr().solve(b);
+  Eigen::Vector3d c(s(0), s(1), std::sqrt(s(2) + s(0) * s(0) + s(1) * s(1)));
+  for (int it = 0; it < 20; ++it) {
+    Eigen::MatrixXd J(pts.size(), 3);
+    Eigen::VectorXd e(pts.size());
+    for (size_t i = 0; i < pts.size(); ++i) {
+      const auto k = static_cast<Eigen::Index>(i);
+      const Eigen::Vector2d d = pts[i] - c.head<2>();
+      const double n = d.norm();
+      e(k) = n - c(2);
+      J(k, 0) = -d.x() / n;
+      J(k, 1) = -d.y() / n;
+      J(k, 2) = -1.0;
+    }
+    c -= J.colPivHouseholderQr().solve(e);
+  }
+  return c;
+}
+
+}  // namespace
+
+TEST(SimulatedRobot, ForwardKinematicsMatchesMujocoSitePose) {
+  hr::SimulatedRobot r;
+  ASSERT_FALSE(r.load(hemm::config::RobotConfig(), kScene));
+  const hk::Arm5Model& m = r.arm_model();
+  EXPECT_NEAR(m.reach(), 0.50, 1e-12);
+  std::mt19937_64 rng(3);
+  double worst_p = 0.0, worst_r = 0.0;
+  for (int k = 0; k < 1000; ++k) {
+    hk::Arm5Vector q;
+    for (int i = 0; i < 5; ++i) q(i) = std::uniform_real_distribution<double>(m.q_min(i), m.q_max(i))(rng);
+    r.set_arm_q_sim(q);
+    const Eigen::Isometry3d Tm = r.mujoco_T_A_E_sim();
+    const Eigen::Isometry3d Tk = hk::forward_kinematics(m, q);
+    worst_p = std::max(worst_p, (Tm.translation() - Tk.translation()).norm());
+    worst_r = std::max(worst_r, (Tm.linear() - Tk.linear()).cwiseAbs().maxCoeff());
+    ASSERT_NEAR(Tk.linear().determinant(), 1.0, 1e-12);
+  }
+  std::printf("FK vs MuJoCo over 1000 configurations: position %.2e m, rotation %.2e\n", worst_p, worst_r);
+  EXPECT_LT(worst_p, 1e-9);
+  EXPECT_LT(worst_r, 1e-9);
+}
+
+TEST(SimulatedRobot, LoadErrorsLeaveTheRobotUnloaded) {
+  hr::SimulatedRobot r;
+  EXPECT_TRUE(r.load(hemm::config::RobotConfig(), "/nonexistent/scene.xml"));
+  EXPECT_FALSE(r.loaded());
+  const std::string bad = std::string(HEMM_BINARY_DIR) + "/no_robot_scene.xml";
+  std::ofstream(bad) << "<mujoco><worldbody><geom type='plane' size='1 1 0.1'/></worldbody></mujoco>";
+  const auto err = r.load(hemm::config::RobotConfig(), bad);
+  ASSERT_TRUE(err);
+  EXPECT_NE(err->find("robot"), std::string::npos) << *err;
+  EXPECT_FALSE(r.loaded());
+  hemm::config::RobotConfig bad_cfg;
+  bad_cfg.mutable_laser()->set_beams(0);
+  const auto cfg_err = r.load(bad_cfg, kScene);
+  ASSERT_TRUE(cfg_err);
+  EXPECT_NE(cfg_err->find("laser.beams"), std::string::npos) << *cfg_err;
+  EXPECT_FALSE(r.loaded());
+  r.step(10);  // harmless when unloaded
+  EXPECT_EQ(r.time_ns(), 0);
+}
+
+TEST(RangeSensors, LaserAndSonarReadAWallAtAKnownDistance) {
+  hemm::config::RobotConfig cfg;
+  cfg.mutable_laser()->set_dropout_probability(0.0);
+  cfg.mutable_sonar()->set_dropout_probability(0.0);
+  hr::SimulatedRobot r;
+  ASSERT_FALSE(r.load(cfg, kScene));
+  // Facing the west wall (inner face x = -0.95) from the origin.
+  r.set_base_pose_sim({0.0, 0.0, M_PI});
+  r.step(100);
+  const hr::Pose2 p = r.state().T_W_R_truth;
+  const auto& lp = r.laser_params();
+  const double sensor_x = p.x + std::cos(p.theta) * lp.T_R_S.translation().x();
+  const double d_wall = sensor_x - (-0.95);
+  const auto scans = collect(r, hr::RangeSensorKind::kLaser, 1000);
+  ASSERT_GE(scans.size(), 25u);
+  const double sigma = cfg.laser().sigma_m();
+  double sum = 0.0, worst = 0.0;
+  int n = 0;
+  for (const auto& s : scans) {
+    for (size_t i = 0; i < s.size(); ++i) {
+      const double a = s.angle_min + static_cast<double>(i) * s.angle_step;
+      if (std::abs(a) > 0.8) continue;  // the west wall fills +-46 deg and more
+      ASSERT_TRUE(s.valid[i]);
+      const double expected = d_wall / std::cos(a + p.theta - M_PI);
+      const double e = s.ranges[i] - expected;
+      sum += e;
+      worst = std::max(worst, std::abs(e));
+      ++n;
+    }
+  }
+  const double mean = sum / n;
+  std::printf("laser on the wall at %.3f m: %d beams, mean error %.5f m, worst %.4f m (sigma %.3f)\n", d_wall, n, mean,
+              worst, sigma);
+  EXPECT_LT(std::abs(mean), 4 * sigma / std::sqrt(n) + 1e-4);
+  EXPECT_LT(worst, 5.5 * sigma);
+
+  // Sonar beam 0 looks forward too; its range is measured from the ring centre.
+  const auto sonar = collect(r, hr::RangeSensorKind::kSonar, 1000);
+  ASSERT_GE(sonar.size(), 9u);
+  const double d_sonar = p.x + std::cos(p.theta) * r.sonar_params().T_R_S.translation().x() - (-0.95);
+  for (const auto& s : sonar) {
+    ASSERT_TRUE(s.valid[0]);
+    EXPECT_NEAR(s.ranges[0], d_sonar, 5.5 * cfg.sonar().sigma_m());
+    EXPECT_NEAR(s.beam_width, cfg.sonar().cone_deg() * M_PI / 180, 1e-12);
+    EXPECT_EQ(s.size(), cfg.sonar().count());
+  }
+}
+
+TEST(RangeSensors, BinRadiusRecoveredFromLaserScansWithinOneCentimetre) {
+  hr::SimulatedRobot r;
+  ASSERT_FALSE(r.load(hemm::config::RobotConfig(), kScene));
+  r.set_base_pose_sim({0.5, -1.2, 0.0});  // facing the bin at (1.5, -1.2), r = 0.15
+  r.step(100);
+  std::vector<Eigen::Vector2d> pts;
+  for (const auto& s : collect(r, hr::RangeSensorKind::kLaser, 400)) {
+    for (size_t i = 0; i < s.size(); ++i) {
+      if (!s.valid[i]) continue;
+      // Segment: the bin is the only object within 1.2 m and +-23 deg ahead
+      // (it spans +-10.5 deg; the sofa to the right is farther round).
+      const double a = s.angle_min + static_cast<double>(i) * s.angle_step;
+      if (s.ranges[i] < 1.2 && std::abs(a) < 0.4) pts.push_back(beam_point_W(s, i));
+    }
+  }
+  ASSERT_GE(pts.size(), 50u);
+  const Eigen::Vector3d c = fit_circle(pts);
+  std::printf("bin fit from %zu points: centre (%.4f, %.4f), radius %.4f m\n", pts.size(), c.x(), c.y(), c.z());
+  EXPECT_NEAR(c.z(), 0.15, 0.01);
+  EXPECT_NEAR(c.x(), 1.5, 0.01);
+  EXPECT_NEAR(c.y(), -1.2, 0.01);
+}
+
+TEST(RangeSensors, DropoutsAreFlaggedNeverZero) {
+  hemm::config::RobotConfig cfg;
+  cfg.mutable_laser()->set_dropout_probability(0.3);
+  cfg.mutable_sonar()->set_dropout_probability(0.3);
+  hr::SimulatedRobot r;
+  ASSERT_FALSE(r.load(cfg, kScene));
+  r.set_base_pose_sim({0.0, 0.0, M_PI});
+  int total = 0, dropped = 0;
+  for (const auto& s : collect(r, hr::RangeSensorKind::kLaser, 1000)) {
+    for (size_t i = 0; i < s.size(); ++i) {
+      const double a = s.angle_min + static_cast<double>(i) * s.angle_step;
+      EXPECT_GT(s.ranges[i], 0.0f);
+      if (std::abs(a) > 0.8) continue;  // beams that surely hit the wall
+      ++total;
+      if (!s.valid[i]) {
+        ++dropped;
+        EXPECT_EQ(s.ranges[i], static_cast<float>(s.range_max));
+      }
+    }
+  }
+  const double rate = static_cast<double>(dropped) / total;
+  const double sd = std::sqrt(0.3 * 0.7 / total);
+  std::printf("dropouts: %d of %d (%.3f, expected 0.3 +- %.3f)\n", dropped, total, rate, sd);
+  EXPECT_NEAR(rate, 0.3, 5 * sd);
+  // A wall beyond the maximum range is no return: invalid, not zero.
+  hemm::config::RobotConfig short_cfg;
+  short_cfg.mutable_laser()->set_range_max_m(0.5);
+  hr::SimulatedRobot r2;
+  ASSERT_FALSE(r2.load(short_cfg, kScene));
+  r2.set_base_pose_sim({0.0, 0.0, M_PI});
+  for (const auto& s : collect(r2, hr::RangeSensorKind::kLaser, 100)) {
+    const size_t mid = s.size() / 2;
+    EXPECT_FALSE(s.valid[mid]);
+    EXPECT_EQ(s.ranges[mid], 0.5f);
+  }
+}
+
+TEST(RangeSensors, ScansCarryStampsPosesAndRates) {
+  hr::SimulatedRobot r;
+  ASSERT_FALSE(r.load(hemm::config::RobotConfig(), kScene));
+  r.set_time_origin_ns(1'000'000'000);
+  r.take_scans();
+  r.step(1000);
+  int lasers = 0, sonars = 0;
+  uint32_t last_id = 0;
+  bool first = true;
+  for (const auto& s : r.take_scans()) {
+    (s.kind == hr::RangeSensorKind::kLaser ? lasers : sonars)++;
+    EXPECT_GT(s.stamp_ns, 1'000'000'000);
+    EXPECT_LE(s.stamp_ns, r.time_ns());
+    if (!first) {
+      EXPECT_GT(s.scan_id, last_id);
+    }
+    last_id = s.scan_id;
+    first = false;
+    EXPECT_NEAR(s.T_W_R_odom.x, s.T_W_R_truth.x, 1e-3);  // standing still
+  }
+  EXPECT_NEAR(lasers, 30, 1);
+  EXPECT_NEAR(sonars, 10, 1);
+}
+
+TEST(SimulatedRobot, PacedSteppingNeverRunsAheadOfTheClock) {
+  hr::SimulatedRobot r;
+  ASSERT_FALSE(r.load(hemm::config::RobotConfig(), kScene));
+  const int64_t t0 = hr::steady_now_ns();
+  const hr::PacingStats st = hr::step_realtime(r, 100);
+  const int64_t wall = hr::steady_now_ns() - t0;
+  EXPECT_EQ(st.steps, 100);
+  // 100 steps at 1 kHz: step 99 starts no earlier than 99 ms after the first
+  // (a lower bound only: the shared machine may stall us for longer).
+  EXPECT_GE(wall, 99'000'000);
+  // The robot's clock is the steady clock now.
+  EXPECT_LE(std::llabs(r.time_ns() - hr::steady_now_ns()), 1'000'000'000);
+}
