@@ -1,0 +1,66 @@
+#include "common/haptics/proxy/virtual_proxy.h"
+
+#include <cmath>
+
+#include "common/haptics/proxy/proxy_core.h"
+
+namespace hemm::haptics {
+
+namespace {
+
+// Scene adapter over the map snapshot: segments as capsules.
+struct SnapshotScene {
+  const mapping::MapSnapshot& map;
+  std::size_t gather(const Eigen::Vector2d& c, double r, std::uint32_t* out, std::size_t cap) const {
+    return mapping::query_segments(map, c, r, out, cap);
+  }
+  detail::Surface closest(std::uint32_t id, const Eigen::Vector2d& x) const {
+    const mapping::Segment2& s = map.segments[id];
+    return detail::segment_surface(s.a, s.b, s.normal, x);
+  }
+  double sweep(std::uint32_t id, const Eigen::Vector2d& x, const Eigen::Vector2d& dx, double rho) const {
+    const mapping::Segment2& s = map.segments[id];
+    return detail::segment_sweep(s.a, s.b, x, dx, rho);
+  }
+};
+
+}  // namespace
+
+std::string validate(const ProxyModel& m) {
+  const double v[] = {m.probe_radius, m.stiffness, m.damping, m.period, m.force_peak, m.force_continuous,
+                      m.continuous_time_constant, m.device_max_stiffness, m.assumed_device_damping};
+  for (double x : v)
+    if (!std::isfinite(x) || x < 0.0) return "proxy: parameters must be finite and >= 0";
+  if (!(m.probe_radius > 0.0) || !(m.period > 0.0) || !(m.continuous_time_constant > 0.0))
+    return "proxy: probe_radius, period, continuous_time_constant must be > 0";
+  if (!(m.force_continuous > 0.0) || m.force_peak < m.force_continuous)
+    return "proxy: need 0 < force_continuous <= force_peak";
+  if (m.stiffness > m.device_max_stiffness) return "proxy: stiffness above the device's maximum";
+  if (m.stiffness >= colgate_max_stiffness(m.assumed_device_damping, m.damping, m.period))
+    return "proxy: stiffness violates Colgate's bound b > k T / 2 + |B|";
+  if (m.max_candidates < 1 || m.max_candidates > (1u << 20)) return "proxy: max_candidates in [1, 2^20]";
+  if (m.max_iterations < 1 || m.max_iterations > 64) return "proxy: max_iterations in [1, 64]";
+  return {};
+}
+
+ProxyData make_proxy_data(const ProxyModel& m) {
+  ProxyData d;
+  d.candidates.assign(std::max<std::size_t>(1, m.max_candidates), 0u);
+  return d;
+}
+
+void proxy_reset(ProxyData& d, const Eigen::Vector2d& at_W) {
+  d.initialized = true;
+  d.proxy_W = at_W;
+  d.spring_prev.setZero();
+  d.force_W.setZero();
+  d.force_filtered = 0.0;
+  d.contact_count = 0;
+}
+
+void proxy_tick(const ProxyModel& m, const mapping::MapSnapshot& map, ProxyData& d,
+                const Eigen::Vector3d& device_W, double scale) {
+  detail::god_object_tick(m, SnapshotScene{map}, d, device_W, scale);
+}
+
+}  // namespace hemm::haptics

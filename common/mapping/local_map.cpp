@@ -1,0 +1,318 @@
+#include "common/mapping/local_map.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "common/math/geometry2.h"
+
+namespace hemm::mapping {
+
+using Eigen::Vector2d;
+
+std::string validate(const RangeScan2D& s) {
+  if (!math::is_finite(s.T_W_R)) return "scan: T_W_R not finite";
+  if (!math::is_finite(s.T_R_S)) return "scan: T_R_S not finite";
+  if (s.kind != SensorKind::kLaser && s.kind != SensorKind::kSonar) return "scan: unknown sensor kind";
+  if (s.ranges.size() != s.valid.size()) return "scan: ranges and valid differ in length";
+  if (s.ranges.size() > 100000) return "scan: more than 100000 beams";
+  if (!std::isfinite(s.range_min) || !std::isfinite(s.range_max) || s.range_min < 0.0 ||
+      !(s.range_max > s.range_min) || s.range_max > 1000.0)
+    return "scan: need 0 <= range_min < range_max <= 1000 m";
+  if (s.beam_angles.empty()) {
+    if (!std::isfinite(s.angle_min) || !std::isfinite(s.angle_step) || !(s.angle_step > 0.0))
+      return "scan: need finite angle_min and angle_step > 0";
+    if (std::abs(s.angle_min) > 4.0 * math::kPi ||
+        static_cast<double>(s.ranges.size()) * s.angle_step > 2.0 * math::kPi + 1e-6)
+      return "scan: beams span more than one turn";
+  } else {
+    if (s.beam_angles.size() != s.ranges.size()) return "scan: beam_angles and ranges differ in length";
+    for (std::size_t i = 0; i < s.beam_angles.size(); ++i) {
+      if (!std::isfinite(s.beam_angles[i]) || std::abs(s.beam_angles[i]) > 4.0 * math::kPi)
+        return "scan: beam_angles not finite";
+      if (i > 0 && !(s.beam_angles[i] > s.beam_angles[i - 1])) return "scan: beam_angles not ascending";
+    }
+    if (s.beam_angles.back() - s.beam_angles.front() >= 2.0 * math::kPi) return "scan: beams span more than one turn";
+  }
+  if (s.kind == SensorKind::kSonar) {
+    if (!std::isfinite(s.beam_width) || !(s.beam_width > 0.0) || s.beam_width > math::kPi)
+      return "scan: sonar needs 0 < beam_width <= pi";
+  } else if (!std::isfinite(s.beam_width) || s.beam_width < 0.0) {
+    return "scan: beam_width must be finite and >= 0";
+  }
+  return {};
+}
+
+std::string validate(const MapParams& p) {
+  const double vals[] = {p.jump_ratio,  p.jump_abs,       p.min_view_angle,  p.max_segment_length,
+                         p.min_point_spacing, p.normal_window, p.range_noise, p.sonar_merge_ratio, p.sonar_merge_abs, p.sonar_max_gap,
+                         p.window_age_s, p.window_radius, p.cell_size};
+  for (double v : vals)
+    if (!std::isfinite(v) || v < 0.0) return "map params: values must be finite and >= 0";
+  if (p.max_segment_length <= 0.0 || p.cell_size <= 0.0 || p.window_radius <= 0.0)
+    return "map params: max_segment_length, cell_size, window_radius must be > 0";
+  if (p.max_bridged_dropouts < 0) return "map params: max_bridged_dropouts must be >= 0";
+  if (p.sonar_arc_pieces < 1 || p.sonar_arc_pieces > 64) return "map params: sonar_arc_pieces in [1, 64]";
+  if (p.max_segments == 0 || p.max_cells == 0) return "map params: max_segments and max_cells must be > 0";
+  return {};
+}
+
+namespace {
+
+// Segment with its normal turned toward the viewpoint (the sensor).
+Segment2 make_segment(const Vector2d& a, const Vector2d& b, const Vector2d& view_W, std::int64_t stamp,
+                      SensorKind kind, bool interpolated) {
+  Segment2 s;
+  s.a = a;
+  s.b = b;
+  Vector2d n = math::perp(b - a);
+  const double len = n.norm();
+  n = len > 0.0 ? Vector2d(n / len) : Vector2d((view_W - a).normalized());
+  const Vector2d mid = 0.5 * (a + b);
+  if (n.dot(view_W - mid) < 0.0) n = -n;
+  s.normal = n;
+  s.stamp_ns = stamp;
+  s.kind = kind;
+  s.interpolated = interpolated;
+  return s;
+}
+
+// Emits the segments of one polyline. Each segment's normal is the normal of
+// the least-squares line (PCA) through the polyline's points within
+// normal_window / 2 of the segment's midpoint: a single noisy pair of points
+// gives a poor normal when the points are dense.
+void emit_polyline(const MapParams& p, const std::vector<Vector2d>& run, const Vector2d& o_W, std::int64_t stamp,
+                   std::vector<Segment2>& out) {
+  const std::size_t m = run.size();
+  if (m < 2) return;
+  const double half = 0.5 * p.normal_window;
+  for (std::size_t k = 0; k + 1 < m; ++k) {
+    Segment2 seg = make_segment(run[k], run[k + 1], o_W, stamp, SensorKind::kLaser, false);
+    const Vector2d mid = 0.5 * (run[k] + run[k + 1]);
+    std::size_t j0 = k, j1 = k + 1;
+    while (j0 > 0 && (run[j0 - 1] - mid).norm() <= half) --j0;
+    while (j1 + 1 < m && (run[j1 + 1] - mid).norm() <= half) ++j1;
+    if (j1 - j0 >= 2) {
+      Vector2d mean = Vector2d::Zero();
+      for (std::size_t j = j0; j <= j1; ++j) mean += run[j];
+      mean /= static_cast<double>(j1 - j0 + 1);
+      double sxx = 0, sxy = 0, syy = 0;
+      for (std::size_t j = j0; j <= j1; ++j) {
+        const Vector2d q = run[j] - mean;
+        sxx += q.x() * q.x();
+        sxy += q.x() * q.y();
+        syy += q.y() * q.y();
+      }
+      const double phi = 0.5 * std::atan2(2.0 * sxy, sxx - syy);  // principal direction
+      Vector2d n(-std::sin(phi), std::cos(phi));
+      if (n.dot(o_W - mid) < 0.0) n = -n;
+      seg.normal = n;
+    }
+    out.push_back(seg);
+  }
+}
+
+void extract_laser(const MapParams& p, const RangeScan2D& scan, const math::Pose2& T_W_S,
+                   std::vector<Segment2>& out) {
+  const Vector2d o_W = math::translation(T_W_S);
+  const double sin_min_view = std::sin(p.min_view_angle);
+  bool have_prev = false;
+  int dropped = 0;  // invalid beams since the last kept return
+  double prev_r = 0.0;
+  Vector2d prev_W = Vector2d::Zero();
+  std::vector<Vector2d> run;  // the current polyline
+  for (std::size_t i = 0; i < scan.ranges.size(); ++i) {
+    if (!beam_is_return(scan, i)) {
+      ++dropped;
+      continue;
+    }
+    const double r = scan.ranges[i];
+    const double a = beam_angle(scan, i);
+    const Vector2d p_W = math::apply(T_W_S, Vector2d(r * std::cos(a), r * std::sin(a)));
+    bool join = false;
+    if (have_prev) {
+      const Vector2d d = p_W - prev_W;
+      const double len = d.norm();
+      join = dropped <= p.max_bridged_dropouts;
+      join = join && std::abs(r - prev_r) <= p.jump_ratio * std::min(r, prev_r) + p.jump_abs;
+      join = join && len <= p.max_segment_length && len > 0.0;
+      // The edge-on test only for range steps above the noise: between dense
+      // noisy points every segment can look edge-on.
+      if (join && std::abs(r - prev_r) > p.range_noise) {
+        const Vector2d ray = 0.5 * (p_W + prev_W) - o_W;
+        const double rn = ray.norm();
+        // |sin| of the angle between segment and beam: small means edge-on.
+        join = rn > 0.0 && std::abs(math::cross2(d, ray)) / (len * rn) >= sin_min_view;
+      }
+      if (join && len < p.min_point_spacing) continue;  // down-sample: keep prev, skip this one
+    }
+    if (!join) {  // windowing: the surface breaks here
+      emit_polyline(p, run, o_W, scan.stamp_ns, out);
+      run.clear();
+    }
+    run.push_back(p_W);
+    have_prev = true;
+    dropped = 0;
+    prev_r = r;
+    prev_W = p_W;
+  }
+  emit_polyline(p, run, o_W, scan.stamp_ns, out);
+}
+
+void extract_sonar(const MapParams& p, const RangeScan2D& scan, const math::Pose2& T_W_S,
+                   std::vector<Segment2>& out) {
+  const Vector2d o_W = math::translation(T_W_S);
+  const double half = 0.5 * scan.beam_width;
+  const int pieces = p.sonar_arc_pieces;
+  auto at = [&](double r, double ang) { return math::apply(T_W_S, Vector2d(r * std::cos(ang), r * std::sin(ang))); };
+  const std::size_t n = scan.ranges.size();
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!beam_is_return(scan, i)) continue;
+    const double r = scan.ranges[i];
+    const double a = beam_angle(scan, i);
+    Vector2d prev = at(r, a - half);
+    for (int k = 1; k <= pieces; ++k) {
+      const Vector2d q = at(r, a - half + scan.beam_width * k / pieces);
+      out.push_back(make_segment(prev, q, o_W, scan.stamp_ns, SensorKind::kSonar, true));
+      prev = q;
+    }
+  }
+  // Bridges between neighbouring cones (by angle, wrapping for a full ring)
+  // whose ranges agree: the surface most likely continues between them.
+  for (std::size_t i = 0; i < n && n > 1; ++i) {
+    const std::size_t j = (i + 1) % n;
+    if (j == 0 && n < 3) break;
+    if (!beam_is_return(scan, i) || !beam_is_return(scan, j)) continue;
+    const double ri = scan.ranges[i], rj = scan.ranges[j];
+    if (std::abs(ri - rj) > p.sonar_merge_ratio * std::min(ri, rj) + p.sonar_merge_abs) continue;
+    const double ai = beam_angle(scan, i), aj = beam_angle(scan, j);
+    const double gap = math::wrap_angle(aj - ai) - scan.beam_width;  // between cone edges
+    if (math::wrap_angle(aj - ai) <= 0.0 || gap > p.sonar_max_gap || gap <= 0.0) continue;
+    const Vector2d from = at(ri, ai + half), to = at(rj, aj - half);
+    if ((to - from).norm() > p.max_segment_length) continue;
+    out.push_back(make_segment(from, to, o_W, scan.stamp_ns, SensorKind::kSonar, true));
+  }
+}
+
+}  // namespace
+
+std::string extract_segments(const MapParams& p, const RangeScan2D& scan, std::vector<Segment2>& out) {
+  if (std::string e = validate(p); !e.empty()) return e;
+  if (std::string e = validate(scan); !e.empty()) return e;
+  const math::Pose2 T_W_S = math::compose(scan.T_W_R, scan.T_R_S);
+  std::vector<Segment2> found;
+  if (scan.kind == SensorKind::kSonar) {
+    extract_sonar(p, scan, T_W_S, found);
+  } else {
+    extract_laser(p, scan, T_W_S, found);
+  }
+  out.insert(out.end(), found.begin(), found.end());
+  return {};
+}
+
+std::string add_scan(const MapParams& p, LocalMap& map, const RangeScan2D& scan) {
+  std::string e = extract_segments(p, scan, map.segments);
+  if (e.empty()) map.newest_stamp_ns = std::max(map.newest_stamp_ns, scan.stamp_ns);
+  return e;
+}
+
+void slide_window(const MapParams& p, LocalMap& map, std::int64_t now_ns, const Eigen::Vector2d& centre_W) {
+  const double age_ns = p.window_age_s * 1e9;
+  auto drop = [&](const Segment2& s) {
+    const double age = static_cast<double>(now_ns) - static_cast<double>(s.stamp_ns);
+    return age > age_ns || math::distance_to_segment(s.a, s.b, centre_W) > p.window_radius;
+  };
+  map.segments.erase(std::remove_if(map.segments.begin(), map.segments.end(), drop), map.segments.end());
+  if (map.segments.size() > p.max_segments) {
+    // Stable order means the front holds the oldest.
+    map.segments.erase(map.segments.begin(),
+                       map.segments.begin() + static_cast<std::ptrdiff_t>(map.segments.size() - p.max_segments));
+  }
+}
+
+MapSnapshot build_snapshot(const MapParams& p, const LocalMap& map) {
+  MapSnapshot s;
+  s.stamp_ns = map.newest_stamp_ns == std::numeric_limits<std::int64_t>::min() ? 0 : map.newest_stamp_ns;
+  // Split long segments so that each piece lies within half a cell of its
+  // midpoint: then bucketing by midpoint never misses one at query time.
+  s.segments.reserve(map.segments.size());
+  for (const Segment2& seg : map.segments) {
+    const double len = (seg.b - seg.a).norm();
+    const int pieces = std::max(1, static_cast<int>(std::ceil(len / p.cell_size)));
+    for (int k = 0; k < pieces; ++k) {
+      Segment2 piece = seg;
+      piece.a = seg.a + (seg.b - seg.a) * (static_cast<double>(k) / pieces);
+      piece.b = seg.a + (seg.b - seg.a) * (static_cast<double>(k + 1) / pieces);
+      s.max_half_length = std::max(s.max_half_length, 0.5 * (piece.b - piece.a).norm());
+      s.segments.push_back(piece);
+    }
+  }
+  if (s.segments.empty()) {
+    s.nx = s.ny = 0;
+    s.cell_start.assign(1, 0);
+    return s;
+  }
+  Vector2d lo = 0.5 * (s.segments[0].a + s.segments[0].b), hi = lo;
+  for (const Segment2& seg : s.segments) {
+    const Vector2d m = 0.5 * (seg.a + seg.b);
+    lo = lo.cwiseMin(m);
+    hi = hi.cwiseMax(m);
+  }
+  s.cell = p.cell_size;
+  // Coarsen the grid if the area is too large for max_cells.
+  for (;;) {
+    const double fx = std::floor((hi.x() - lo.x()) / s.cell) + 1.0;
+    const double fy = std::floor((hi.y() - lo.y()) / s.cell) + 1.0;
+    if (fx * fy <= static_cast<double>(p.max_cells)) {
+      s.nx = static_cast<int>(fx);
+      s.ny = static_cast<int>(fy);
+      break;
+    }
+    s.cell *= 2.0;
+  }
+  s.origin = lo;
+  const std::size_t ncell = static_cast<std::size_t>(s.nx) * static_cast<std::size_t>(s.ny);
+  auto cell_of = [&](const Segment2& seg) {
+    const Vector2d m = 0.5 * (seg.a + seg.b);
+    const int ix = std::clamp(static_cast<int>((m.x() - s.origin.x()) / s.cell), 0, s.nx - 1);
+    const int iy = std::clamp(static_cast<int>((m.y() - s.origin.y()) / s.cell), 0, s.ny - 1);
+    return static_cast<std::size_t>(iy) * static_cast<std::size_t>(s.nx) + static_cast<std::size_t>(ix);
+  };
+  s.cell_start.assign(ncell + 1, 0);
+  for (const Segment2& seg : s.segments) ++s.cell_start[cell_of(seg) + 1];
+  for (std::size_t c = 0; c < ncell; ++c) s.cell_start[c + 1] += s.cell_start[c];
+  s.items.resize(s.segments.size());
+  std::vector<std::uint32_t> fill(s.cell_start.begin(), s.cell_start.end() - 1);
+  for (std::size_t i = 0; i < s.segments.size(); ++i) s.items[fill[cell_of(s.segments[i])]++] = static_cast<std::uint32_t>(i);
+  return s;
+}
+
+std::size_t query_segments(const MapSnapshot& s, const Eigen::Vector2d& p, double r, std::uint32_t* out,
+                           std::size_t cap) {
+  if (s.nx <= 0 || s.ny <= 0 || !p.allFinite() || !std::isfinite(r) || r < 0.0) return 0;
+  const double R = r + s.max_half_length;
+  const double gx0 = (p.x() - R - s.origin.x()) / s.cell, gx1 = (p.x() + R - s.origin.x()) / s.cell;
+  const double gy0 = (p.y() - R - s.origin.y()) / s.cell, gy1 = (p.y() + R - s.origin.y()) / s.cell;
+  // Every midpoint lies inside the grid, so a disc off the grid finds nothing.
+  if (gx1 < 0.0 || gy1 < 0.0 || gx0 >= s.nx || gy0 >= s.ny) return 0;
+  const int ix0 = static_cast<int>(std::clamp(std::floor(gx0), 0.0, static_cast<double>(s.nx - 1)));
+  const int ix1 = static_cast<int>(std::clamp(std::floor(gx1), 0.0, static_cast<double>(s.nx - 1)));
+  const int iy0 = static_cast<int>(std::clamp(std::floor(gy0), 0.0, static_cast<double>(s.ny - 1)));
+  const int iy1 = static_cast<int>(std::clamp(std::floor(gy1), 0.0, static_cast<double>(s.ny - 1)));
+  const double r2 = r * r;
+  std::size_t count = 0;
+  for (int iy = iy0; iy <= iy1; ++iy) {
+    for (int ix = ix0; ix <= ix1; ++ix) {
+      const std::size_t c = static_cast<std::size_t>(iy) * static_cast<std::size_t>(s.nx) + static_cast<std::size_t>(ix);
+      for (std::uint32_t k = s.cell_start[c]; k < s.cell_start[c + 1]; ++k) {
+        const std::uint32_t idx = s.items[k];
+        const Segment2& seg = s.segments[idx];
+        if ((p - math::closest_point_on_segment(seg.a, seg.b, p)).squaredNorm() > r2) continue;
+        if (count < cap) out[count] = idx;
+        ++count;
+      }
+    }
+  }
+  return count;
+}
+
+}  // namespace hemm::mapping

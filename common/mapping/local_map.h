@@ -1,0 +1,121 @@
+#pragma once
+// The local model (HEMM Sec. 3.2): a 2D map in the world frame W built from
+// range scans. Each scan is placed by the robot pose stamped in it
+// (T_W_S = T_W_R(acquisition) * T_R_S), so latency does not smear it.
+//
+// Surfaces: consecutive returns are joined into polyline segments; windowing
+// breaks the polyline at range discontinuities (range jump, or a segment seen
+// edge-on by the beam), so a near object is never joined to the wall behind
+// it; invalid beams are never obstacles. Sparse sonar data are interpolated:
+// an arc across each sonar cone at the measured range (nothing is closer
+// inside the cone), and a bridging segment between neighbouring cones whose
+// ranges agree. Every segment carries a unit normal pointing to its free side
+// (toward the sensor that saw it).
+//
+// PCL is deliberately not used here: measured on a 10k-point scan
+// (tests/bench/proxy/bench_map_pcl), a k-d tree radius search costs ~7x the
+// midpoint-grid query and allocates; VoxelGrid loses the beam order the
+// polylines need; PCA normal estimation is 100-1000x slower than the polyline
+// fit for a few degrees less error. Down-sampling is min_point_spacing.
+//
+// Threads: add_scan / slide_window / build_snapshot run on the model thread
+// and allocate; the servo thread only reads an immutable MapSnapshot through
+// query_segments, which never allocates.
+#include <cstdint>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "common/mapping/range_scan.h"
+
+namespace hemm::mapping {
+
+struct Segment2 {
+  Eigen::Vector2d a = Eigen::Vector2d::Zero();       // endpoints in W [m]
+  Eigen::Vector2d b = Eigen::Vector2d::Zero();
+  Eigen::Vector2d normal = Eigen::Vector2d::UnitX(); // unit, toward the free side
+  std::int64_t stamp_ns = 0;                         // scan acquisition time
+  SensorKind kind = SensorKind::kLaser;
+  bool interpolated = false;  // sonar arc / bridge: inferred, not a measured point pair
+};
+
+struct MapParams {
+  // Windowing (laser polylines). Consecutive returns i, j are NOT joined when
+  //   |r_i - r_j| > jump_ratio * min(r_i, r_j) + jump_abs, or
+  //   the segment makes less than min_view_angle with the beam (seen edge-on)
+  //     while |r_i - r_j| > range_noise, or
+  //   more than max_bridged_dropouts invalid beams lie between them, or
+  //   the segment is longer than max_segment_length.
+  double jump_ratio = 0.15;
+  double jump_abs = 0.05;         // m
+  double min_view_angle = 0.14;   // rad (~8 deg)
+  int max_bridged_dropouts = 1;
+  double range_noise = 0.03;      // m, ~3 sigma of the range noise
+  double max_segment_length = 1.0;  // m
+  // Down-sampling of dense laser scans: a return closer than this to the last
+  // kept return of the same polyline is skipped (0 = keep all). Also keeps
+  // the windowing's edge-on test meaningful: on points closer together than
+  // the range noise every segment looks edge-on.
+  double min_point_spacing = 0.02;  // m
+  // Laser segment normals: PCA line fit over the polyline's points within this
+  // window around each segment (noise-robust on dense scans; 0 = each
+  // segment's own perpendicular).
+  double normal_window = 0.20;     // m
+  // Sonar interpolation.
+  int sonar_arc_pieces = 4;        // straight pieces per cone arc
+  double sonar_merge_ratio = 0.10; // neighbours joined when |r_i - r_j| <= ratio * min + abs
+  double sonar_merge_abs = 0.10;   // m
+  double sonar_max_gap = 0.45;     // rad: largest angular gap between cone edges to bridge
+  // Sliding window: keep only what the probe can reach.
+  double window_age_s = 3.0;       // drop segments older than this
+  double window_radius = 6.0;      // m, drop segments farther than this from the centre
+  std::size_t max_segments = 20000;  // hard bound; the oldest go first
+  // Snapshot index (uniform grid on segment midpoints).
+  double cell_size = 0.25;         // m; longer segments are split into pieces <= this
+  std::size_t max_cells = 1u << 18;
+};
+
+// Empty when usable; otherwise what is wrong.
+std::string validate(const MapParams& p);
+
+// Model-thread state: segments in arrival order (oldest first).
+struct LocalMap {
+  std::vector<Segment2> segments;
+  std::int64_t newest_stamp_ns = std::numeric_limits<std::int64_t>::min();
+};
+
+// Surfaces of one scan, appended to out. A bad scan returns an error and
+// leaves out untouched.
+std::string extract_segments(const MapParams& p, const RangeScan2D& scan, std::vector<Segment2>& out);
+
+// extract_segments into the map; on error the map is unchanged.
+std::string add_scan(const MapParams& p, LocalMap& map, const RangeScan2D& scan);
+
+// Drops segments older than window_age_s before now_ns, or farther than
+// window_radius from centre_W, then the oldest beyond max_segments.
+void slide_window(const MapParams& p, LocalMap& map, std::int64_t now_ns, const Eigen::Vector2d& centre_W);
+
+// Immutable snapshot read by the servo thread.
+struct MapSnapshot {
+  std::vector<Segment2> segments;    // pieces, each no longer than max_piece_length
+  std::vector<std::uint32_t> cell_start;  // CSR: items of cell c are items[cell_start[c] .. cell_start[c+1])
+  std::vector<std::uint32_t> items;       // segment indices, bucketed by midpoint cell
+  Eigen::Vector2d origin = Eigen::Vector2d::Zero();
+  double cell = 1.0;
+  int nx = 0;
+  int ny = 0;
+  double max_half_length = 0.0;
+  std::int64_t stamp_ns = 0;  // newest scan in it
+};
+
+MapSnapshot build_snapshot(const MapParams& p, const LocalMap& map);
+
+// Indices of all snapshot segments within distance r of p (exact test), written
+// to out[0 .. min(count, cap)). Returns the count, which may exceed cap (then
+// the result is truncated: the caller must shrink its query). Never allocates.
+std::size_t query_segments(const MapSnapshot& s, const Eigen::Vector2d& p, double r, std::uint32_t* out,
+                           std::size_t cap);
+
+}  // namespace hemm::mapping
