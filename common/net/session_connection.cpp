@@ -1,0 +1,132 @@
+#include "common/net/session_connection.h"
+
+#include <algorithm>
+#include <chrono>
+
+namespace hemm::net {
+
+int64_t steady_now_ns() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
+
+SessionConnection::SessionConnection(asio::ip::tcp::socket socket, size_t max_frame_bytes)
+    : socket_(std::move(socket)),
+      max_frame_bytes_(max_frame_bytes),
+      decoder_(std::min(max_frame_bytes, kMaxHandshakeFrameBytes)) {
+  asio::error_code ec;
+  auto ep = socket_.remote_endpoint(ec);
+  peer_ = ec ? std::string("?") : ep.address().to_string() + ":" + std::to_string(ep.port());
+  socket_.set_option(asio::ip::tcp::no_delay(true), ec);
+}
+
+void SessionConnection::start(RawHandler on_raw, FrameHandler on_frame, CloseHandler on_close) {
+  on_raw_ = std::move(on_raw);
+  on_frame_ = std::move(on_frame);
+  on_close_ = std::move(on_close);
+  read();
+}
+
+void SessionConnection::set_handlers(RawHandler on_raw, FrameHandler on_frame, CloseHandler on_close) {
+  on_raw_ = std::move(on_raw);
+  on_frame_ = std::move(on_frame);
+  on_close_ = std::move(on_close);
+}
+
+void SessionConnection::secure(SessionSecrets secrets) {
+  tx_ = std::move(secrets.tx);
+  rx_ = std::move(secrets.rx);
+  decoder_.set_max_frame_bytes(max_frame_bytes_ + kTagBytes);
+}
+
+void SessionConnection::read() {
+  auto self = shared_from_this();
+  socket_.async_read_some(asio::buffer(rbuf_), [this, self](const asio::error_code& ec, size_t n) {
+    if (closed_) return;
+    if (ec) {
+      fail(ec == asio::error::eof ? "peer closed the connection" : "read error: " + ec.message());
+      return;
+    }
+    decoder_.feed(std::span<const uint8_t>(rbuf_.data(), n));
+    std::vector<uint8_t> payload;
+    for (;;) {
+      const auto st = decoder_.next(&payload);
+      if (st == FrameDecoder::Status::kNeedMore) break;
+      if (st == FrameDecoder::Status::kError) {
+        fail("bad frame: " + decoder_.error());
+        return;
+      }
+      if (rx_) {
+        wire::SessionFrame f;
+        if (!open_session_frame(*rx_, payload, &f)) {
+          fail("session frame failed authentication");
+          return;
+        }
+        if (on_frame_) on_frame_(f);
+      } else if (on_raw_) {
+        on_raw_(payload);
+      }
+      if (closed_) return;  // a handler closed us
+    }
+    read();
+  });
+}
+
+void SessionConnection::send_raw(std::vector<uint8_t> payload) {
+  if (closed_) return;
+  std::vector<uint8_t> frame;
+  encode_frame(payload, &frame);
+  wq_.push_back(std::move(frame));
+  if (!writing_) write_next();
+}
+
+void SessionConnection::send(const wire::SessionFrame& f) {
+  if (closed_ || !tx_) return;
+  send_raw(seal_session_frame(*tx_, f));
+}
+
+void SessionConnection::write_next() {
+  if (closed_) return;
+  if (wq_.empty()) {
+    writing_ = false;
+    if (close_when_drained_) close();
+    return;
+  }
+  writing_ = true;
+  auto self = shared_from_this();
+  asio::async_write(socket_, asio::buffer(wq_.front()), [this, self](const asio::error_code& ec, size_t) {
+    if (closed_) return;
+    if (ec) {
+      fail("write error: " + ec.message());
+      return;
+    }
+    wq_.pop_front();
+    write_next();
+  });
+}
+
+void SessionConnection::close_after_send() {
+  if (closed_) return;
+  close_when_drained_ = true;
+  if (!writing_) close();
+}
+
+void SessionConnection::close() {
+  if (closed_) return;
+  closed_ = true;
+  asio::error_code ec;
+  socket_.shutdown(asio::ip::tcp::socket::shutdown_both, ec);
+  socket_.close(ec);
+  wq_.clear();
+}
+
+void SessionConnection::fail(const std::string& reason) {
+  if (closed_) return;
+  close();
+  if (on_close_) {
+    auto cb = std::move(on_close_);
+    cb(reason);
+  }
+}
+
+}  // namespace hemm::net

@@ -1,0 +1,44 @@
+#include "common/net/station_cli.h"
+
+#include <google/protobuf/stubs/logging.h>
+#include <spdlog/sinks/stdout_sinks.h>
+#include <spdlog/spdlog.h>
+
+#include <cstdio>
+#include <fstream>
+
+namespace hemm::net {
+
+bool setup_station_logging(const std::string& station, const std::string& level) {
+  const auto lvl = spdlog::level::from_str(level);
+  if (lvl == spdlog::level::off && level != "off") return false;
+  auto logger = spdlog::stderr_logger_mt("hemm");
+  logger->set_pattern("%Y-%m-%dT%H:%M:%S.%e level=%l station=" + station + " %v");
+  logger->set_level(lvl);
+  logger->flush_on(spdlog::level::trace);
+  spdlog::set_default_logger(logger);
+  // Protobuf complains (e.g. invalid UTF-8 from a hostile peer) through its own
+  // logger; route it into ours at debug level so peers cannot flood the log.
+  google::protobuf::SetLogHandler([](google::protobuf::LogLevel, const char*, int, const std::string& msg) {
+    spdlog::debug("event=protobuf_log message=\"{}\"", msg);
+  });
+  return true;
+}
+
+bool write_text_file(const std::string& path, const std::string& text, std::string* error) {
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::trunc);
+    if (!out || !(out << text) || !out.flush()) {
+      if (error) *error = "cannot write " + tmp;
+      return false;
+    }
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    if (error) *error = "cannot rename " + tmp + " to " + path;
+    return false;
+  }
+  return true;
+}
+
+}  // namespace hemm::net

@@ -1,0 +1,99 @@
+// The operator station's side of the link: connects to the robot's session
+// port, runs the client handshake, opens the UDP stream link, and re-opens
+// the session for up to reconnect_for_ms when the TCP connection drops.
+// Runs on one io_context (the network thread); link_up(), has_control() and
+// statistics() may be called from other threads.
+//
+// Later features plug in by registering handlers: streams().on(kind, ...)
+// for StreamMessage kinds and on_session_frame(kind, ...) for SessionFrames.
+#pragma once
+
+#include <asio.hpp>
+#include <atomic>
+#include <functional>
+#include <map>
+#include <memory>
+#include <string>
+
+#include "common/net/exit_codes.h"
+#include "common/net/handshake.h"
+#include "common/net/session_connection.h"
+#include "common/net/stream_link.h"
+
+namespace hemm::op {
+
+struct OperatorClientOptions {
+  std::string station_name = "operator";
+  std::string robot_address = "127.0.0.1";
+  uint16_t session_port = 47000;
+  uint16_t stream_port = 0;  // 0: the port announced in Welcome
+  std::string bind_address = "0.0.0.0";
+  uint16_t local_stream_port = 0;
+  bool want_control = true;
+  net::Key psk{};
+  uint32_t protocol_version = net::kProtocolVersion;
+  uint32_t heartbeat_period_ms = 50;
+  uint32_t ping_period_ms = 50;
+  uint32_t link_timeout_ms = 500;
+  uint32_t connect_timeout_ms = 3000;
+  uint32_t handshake_timeout_ms = 3000;
+  uint32_t max_frame_bytes = 1 << 20;
+  uint32_t replay_window = 1024;
+  uint32_t reconnect_for_ms = 30000;
+};
+
+class OperatorClient {
+ public:
+  using SessionHandler = std::function<void(const wire::SessionFrame&)>;
+  // Called once when the client gives up: an ExitCode and why.
+  using FatalHandler = std::function<void(int exit_code, const std::string& reason)>;
+
+  OperatorClient(asio::io_context& io, OperatorClientOptions o);
+  ~OperatorClient();
+
+  // Binds the UDP socket and starts connecting. False with *error on failure.
+  bool start(FatalHandler on_fatal, std::string* error);
+  // Says Bye and closes everything.
+  void stop(const std::string& reason);
+
+  bool session_open() const { return streams_.session_open(); }
+  bool link_up() const { return streams_.link_up(); }
+  bool has_control() const { return has_control_.load(std::memory_order_acquire); }
+  net::LinkStatistics statistics() const { return streams_.statistics(); }
+
+  net::StreamLink& streams() { return streams_; }
+  void on_session_frame(wire::SessionFrame::BodyCase kind, SessionHandler h) { handlers_[kind] = std::move(h); }
+  void send_session_frame(const wire::SessionFrame& f);
+
+ private:
+  void connect();
+  void retry_or_fail(int code, const std::string& reason);
+  void on_handshake_frame(uint64_t attempt, std::span<const uint8_t> payload);
+  void on_open();
+  void on_session_frame_in(const wire::SessionFrame& f);
+  void session_lost(const std::string& reason);
+  void fatal(int code, const std::string& reason);
+
+  asio::io_context& io_;
+  OperatorClientOptions o_;
+  net::StreamLink streams_;
+  asio::steady_timer timer_;  // connect/handshake deadline and retry delay
+  asio::ip::address robot_addr_;
+  FatalHandler on_fatal_;
+
+  uint64_t attempt_ = 0;
+  std::shared_ptr<asio::ip::tcp::socket> connecting_;
+  std::shared_ptr<net::SessionConnection> conn_;
+  std::unique_ptr<net::ClientHandshake> hs_;
+  bool ever_open_ = false;
+  bool open_ = false;
+  int64_t trying_since_ns_ = 0;
+  std::atomic<bool> has_control_{false};
+  std::map<wire::SessionFrame::BodyCase, SessionHandler> handlers_;
+  bool stopped_ = false;
+};
+
+// Maps a refusal's ErrorCode to the process exit code.
+int exit_code_for(wire::ErrorCode code);
+
+}  // namespace hemm::op

@@ -1,0 +1,100 @@
+// The robot station's side of the link: listens for operator sessions on TCP,
+// runs the server handshake, keeps at most one controlling operator, and runs
+// the UDP stream link. Runs on one io_context (the network thread); only
+// link_up(), operator_in_control() and statistics() may be called from other
+// threads.
+//
+// Later features plug in by registering handlers: streams().on(kind, ...)
+// for StreamMessage kinds and on_session_frame(kind, ...) for SessionFrames.
+#pragma once
+
+#include <asio.hpp>
+#include <atomic>
+#include <functional>
+#include <map>
+#include <memory>
+#include <string>
+
+#include "common/net/handshake.h"
+#include "common/net/session_connection.h"
+#include "common/net/stream_link.h"
+
+namespace hemm::robot {
+
+struct RobotServerOptions {
+  std::string station_name = "robot";
+  std::string listen_address = "127.0.0.1";
+  uint16_t session_port = 47000;  // 0: any free port
+  uint16_t stream_port = 47001;   // 0: any free port
+  net::Key psk{};
+  uint32_t protocol_version = net::kProtocolVersion;
+  uint32_t heartbeat_period_ms = 50;
+  uint32_t ping_period_ms = 50;
+  uint32_t link_timeout_ms = 500;
+  uint32_t handshake_timeout_ms = 3000;
+  uint32_t max_frame_bytes = 1 << 20;
+  uint32_t replay_window = 1024;
+  size_t max_pending_handshakes = 8;
+};
+
+class RobotServer {
+ public:
+  using SessionHandler = std::function<void(const wire::SessionFrame&)>;
+
+  RobotServer(asio::io_context& io, RobotServerOptions o);
+  ~RobotServer();
+
+  // Binds TCP and UDP and starts accepting. False with *error on failure.
+  bool start(std::string* error);
+  // Says Bye to the operator and closes everything.
+  void stop(const std::string& reason);
+
+  uint16_t session_port() const { return session_port_; }
+  uint16_t stream_port() const { return stream_port_; }
+
+  // True while authenticated datagrams arrive within link_timeout. The robot
+  // must not move when this is false.
+  bool link_up() const { return streams_.link_up(); }
+  bool operator_in_control() const { return in_control_.load(std::memory_order_acquire); }
+  net::LinkStatistics statistics() const { return streams_.statistics(); }
+
+  net::StreamLink& streams() { return streams_; }
+  void on_session_frame(wire::SessionFrame::BodyCase kind, SessionHandler h) { handlers_[kind] = std::move(h); }
+  // Sends a sealed frame to the active operator (no-op without one).
+  void send_session_frame(const wire::SessionFrame& f);
+
+ private:
+  struct Pending {
+    std::shared_ptr<net::SessionConnection> conn;
+    std::unique_ptr<net::ServerHandshake> hs;
+    std::unique_ptr<asio::steady_timer> timer;
+  };
+
+  void accept();
+  void on_pending_frame(uint64_t id, std::span<const uint8_t> payload);
+  void drop_pending(uint64_t id);
+  void activate(Pending p);
+  void on_active_frame(const wire::SessionFrame& f);
+  void end_active(const std::string& reason, bool send_bye);
+
+  asio::io_context& io_;
+  RobotServerOptions o_;
+  asio::ip::tcp::acceptor acceptor_;
+  net::StreamLink streams_;
+  uint16_t session_port_ = 0;
+  uint16_t stream_port_ = 0;
+
+  uint64_t next_pending_id_ = 1;
+  std::map<uint64_t, Pending> pending_;
+
+  std::shared_ptr<net::SessionConnection> active_;
+  uint64_t active_session_ = 0;
+  int64_t active_since_ns_ = 0;
+  std::string active_name_;
+  bool active_control_ = false;
+  std::atomic<bool> in_control_{false};
+  std::map<wire::SessionFrame::BodyCase, SessionHandler> handlers_;
+  bool stopped_ = false;
+};
+
+}  // namespace hemm::robot

@@ -1,0 +1,108 @@
+#include "common/net/stream_receiver.h"
+
+#include <gtest/gtest.h>
+
+namespace hemm::net {
+namespace {
+
+const Key kKey = [] {
+  Key k{};
+  k.fill(0x33);
+  return k;
+}();
+constexpr uint64_t kSession = 99;
+
+std::vector<uint8_t> dgram(uint64_t seq, bool ping, const Key& k = kKey, uint64_t sid = kSession) {
+  wire::StreamMessage m;
+  if (ping) {
+    m.mutable_ping()->set_id(seq);
+  } else {
+    m.mutable_heartbeat()->set_period_ms(50);
+  }
+  const std::string p = m.SerializeAsString();
+  std::vector<uint8_t> d;
+  encode_datagram(k, DatagramHeader{sid, seq, 1}, std::span(reinterpret_cast<const uint8_t*>(p.data()), p.size()),
+                  &d);
+  return d;
+}
+
+using V = StreamReceiver::Verdict;
+
+TEST(StreamReceiverTest, CountsLossReorderLateAndDuplicates) {
+  StreamReceiver r(64);
+  r.open(kSession, kKey);
+  DatagramHeader h;
+  wire::StreamMessage m;
+  EXPECT_EQ(r.receive(dgram(1, true), &h, &m), V::kDeliver);
+  EXPECT_TRUE(m.has_ping());
+  EXPECT_EQ(r.receive(dgram(2, false), &h, &m), V::kDeliver);
+  // 3, 4 missing.
+  EXPECT_EQ(r.receive(dgram(5, true), &h, &m), V::kDeliver);
+  EXPECT_EQ(r.counters().lost, 2u);
+  // 3 is a heartbeat: reordered but newer than the newest heartbeat (2): delivered.
+  EXPECT_EQ(r.receive(dgram(3, false), &h, &m), V::kDeliver);
+  EXPECT_EQ(r.counters().lost, 1u);
+  // 4 is a ping older than ping 5: late, not delivered.
+  EXPECT_EQ(r.receive(dgram(4, true), &h, &m), V::kLate);
+  EXPECT_EQ(r.counters().lost, 0u);
+  EXPECT_EQ(r.receive(dgram(5, true), &h, &m), V::kDuplicate);
+  const auto& c = r.counters();
+  EXPECT_EQ(c.received, 6u);
+  EXPECT_EQ(c.delivered, 4u);
+  EXPECT_EQ(c.reordered, 2u);
+  EXPECT_EQ(c.late, 1u);
+  EXPECT_EQ(c.duplicated, 1u);
+  EXPECT_EQ(c.rejected_total(), 0u);
+}
+
+TEST(StreamReceiverTest, RejectionsAreCountedByCauseAndChangeNoState) {
+  StreamReceiver r(64);
+  r.open(kSession, kKey);
+  DatagramHeader h;
+  wire::StreamMessage m;
+  ASSERT_EQ(r.receive(dgram(100, true), &h, &m), V::kDeliver);
+  Key other = kKey;
+  other[0] ^= 1;
+  // A forged datagram with a fresh sequence number must not advance the window.
+  EXPECT_EQ(r.receive(dgram(101, true, other), &h, &m), V::kRejected);
+  EXPECT_EQ(r.receive(dgram(101, true, kKey, kSession + 1), &h, &m), V::kRejected);
+  EXPECT_EQ(r.receive(dgram(20, true), &h, &m), V::kRejected);  // behind the 64 window
+  auto bad_version = dgram(102, true);
+  bad_version[2] = 9;
+  EXPECT_EQ(r.receive(bad_version, &h, &m), V::kRejected);
+  EXPECT_EQ(r.receive(std::vector<uint8_t>(10, 0), &h, &m), V::kRejected);
+  auto bad_magic = dgram(102, true);
+  bad_magic[0] = 0;
+  EXPECT_EQ(r.receive(bad_magic, &h, &m), V::kRejected);
+  // Authenticated but not a StreamMessage.
+  std::vector<uint8_t> junk;
+  const uint8_t garbage[3] = {0xff, 0xff, 0xff};
+  encode_datagram(kKey, DatagramHeader{kSession, 103, 0}, garbage, &junk);
+  EXPECT_EQ(r.receive(junk, &h, &m), V::kRejected);
+  const auto& c = r.counters();
+  EXPECT_EQ(c.rejected_bad_tag, 1u);
+  EXPECT_EQ(c.rejected_unknown_session, 1u);
+  EXPECT_EQ(c.rejected_replay, 1u);
+  EXPECT_EQ(c.rejected_bad_version, 1u);
+  EXPECT_EQ(c.rejected_bad_size, 1u);
+  EXPECT_EQ(c.rejected_bad_magic, 1u);
+  EXPECT_EQ(c.rejected_bad_payload, 1u);
+  EXPECT_EQ(c.delivered, 1u);
+  // 101 is still fresh: the forgeries did not consume it.
+  EXPECT_EQ(r.receive(dgram(101, false), &h, &m), V::kDeliver);
+}
+
+TEST(StreamReceiverTest, ClosedReceiverAcceptsNothing) {
+  StreamReceiver r(64);
+  DatagramHeader h;
+  wire::StreamMessage m;
+  EXPECT_EQ(r.receive(dgram(1, true), &h, &m), V::kRejected);
+  r.open(kSession, kKey);
+  EXPECT_EQ(r.receive(dgram(1, true), &h, &m), V::kDeliver);
+  r.close();
+  EXPECT_EQ(r.receive(dgram(2, true), &h, &m), V::kRejected);
+  EXPECT_EQ(r.counters().rejected_unknown_session, 2u);
+}
+
+}  // namespace
+}  // namespace hemm::net
