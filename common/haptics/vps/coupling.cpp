@@ -1,0 +1,91 @@
+#include "common/haptics/vps/coupling.h"
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+
+namespace hemm::vps {
+
+namespace {
+double min_principal_inertia(const Eigen::Matrix3d& I) {
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(I);
+  return std::max(es.eigenvalues().minCoeff(), 1e-12);
+}
+Eigen::Vector3d rotation_error(const Eigen::Quaterniond& q_target, const Eigen::Quaterniond& q) {
+  Eigen::Quaterniond e = q_target * q.conjugate();
+  if (e.w() < 0) e.coeffs() = -e.coeffs();  // shortest way round
+  const Eigen::AngleAxisd aa(e);
+  return aa.angle() * aa.axis();
+}
+}  // namespace
+
+CouplingParams design_coupling(double mass, const Eigen::Matrix3d& inertia_body, double dt,
+                               double device_max_stiffness, double device_max_rot_stiffness, double omega_dt) {
+  CouplingParams p;
+  p.dt = dt;
+  p.mass = mass;
+  p.inertia_body = inertia_body;
+  const double w = omega_dt / dt;
+  p.k_lin = std::min(device_max_stiffness, mass * w * w);
+  p.b_lin = 2.0 * std::sqrt(p.k_lin * mass);
+  const double Imin = min_principal_inertia(inertia_body);
+  p.k_rot = std::min(device_max_rot_stiffness, Imin * w * w);
+  p.b_rot = 2.0 * std::sqrt(p.k_rot * Imin);
+  return p;
+}
+
+double max_contact_stiffness(const CouplingParams& p, double omega_dt) {
+  const double w = omega_dt / p.dt;
+  return std::max(0.0, p.mass * w * w - p.k_lin);
+}
+
+void step_virtual_coupling(const CouplingParams& p, const Eigen::Isometry3d& T_W_D, const Eigen::Vector3d& v_D,
+                           const Eigen::Vector3d& w_D, const Wrench& contact, RigidBodyState* s,
+                           Wrench* device_wrench, Wrench* coupling_wrench) {
+  const double dt = p.dt;
+  // Translation: springs explicit, damping implicit.
+  const Eigen::Vector3d spring = p.k_lin * (T_W_D.translation() - s->position);
+  const Eigen::Vector3d v_new = (p.mass * s->linear_velocity + dt * (spring + p.b_lin * v_D + contact.force)) /
+                                (p.mass + dt * (p.b_lin + p.linear_damping));
+  const Eigen::Vector3d f_c = spring + p.b_lin * (v_D - v_new);
+  // Rotation: world inertia, gyroscopic term explicit, damping implicit.
+  const Eigen::Matrix3d R = s->orientation.toRotationMatrix();
+  const Eigen::Matrix3d Iw = R * p.inertia_body * R.transpose();
+  const Eigen::Quaterniond q_D(T_W_D.linear());
+  const Eigen::Vector3d rot_spring = p.k_rot * rotation_error(q_D, s->orientation);
+  const Eigen::Vector3d w = s->angular_velocity;
+  const Eigen::Vector3d rhs = Iw * w + dt * (rot_spring + p.b_rot * w_D + contact.torque - w.cross(Iw * w));
+  const Eigen::Matrix3d A = Iw + dt * (p.b_rot + p.angular_damping) * Eigen::Matrix3d::Identity();
+  const Eigen::Vector3d w_new = A.ldlt().solve(rhs);
+  const Eigen::Vector3d tau_c = rot_spring + p.b_rot * (w_D - w_new);
+  s->linear_velocity = v_new;
+  s->position += dt * v_new;
+  s->angular_velocity = w_new;
+  const double angle = w_new.norm() * dt;
+  if (angle > 0.0) {
+    s->orientation = Eigen::Quaterniond(Eigen::AngleAxisd(angle, w_new.normalized())) * s->orientation;
+  }
+  s->orientation.normalize();
+  if (device_wrench != nullptr) {
+    device_wrench->force = -f_c;
+    device_wrench->torque = -tau_c;
+  }
+  if (coupling_wrench != nullptr) {
+    coupling_wrench->force = f_c;
+    coupling_wrench->torque = tau_c;
+  }
+}
+
+double kinetic_energy(const CouplingParams& p, const RigidBodyState& s) {
+  const Eigen::Matrix3d R = s.orientation.toRotationMatrix();
+  const Eigen::Matrix3d Iw = R * p.inertia_body * R.transpose();
+  return 0.5 * p.mass * s.linear_velocity.squaredNorm() + 0.5 * s.angular_velocity.dot(Iw * s.angular_velocity);
+}
+
+double coupling_potential(const CouplingParams& p, const RigidBodyState& s, const Eigen::Isometry3d& T_W_D) {
+  const Eigen::Vector3d e = T_W_D.translation() - s.position;
+  const Eigen::Vector3d r = rotation_error(Eigen::Quaterniond(T_W_D.linear()), s.orientation);
+  return 0.5 * p.k_lin * e.squaredNorm() + 0.5 * p.k_rot * r.squaredNorm();
+}
+
+}  // namespace hemm::vps
