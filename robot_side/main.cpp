@@ -1,6 +1,8 @@
-// hemm-robot: the robot station. For now (foundation): listens for an
-// operator, authenticates it, exchanges heartbeats and ping/pong, reports
-// link loss, and prints link statistics at exit.
+// hemm-robot: the robot station. Runs the SIMULATED robot (MuJoCo scene,
+// 1 kHz, real time) behind the link: listens for an operator, authenticates
+// it, streams robot state and range scans, applies the controlling operator's
+// commands, mode changes and e-stop, stops the robot when the link is lost,
+// and prints link and robot statistics at exit.
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
 
@@ -13,14 +15,24 @@
 #include "common/net/station_cli.h"
 #include "config_robot.pb.h"
 #include "robot_side/server/robot_server.h"
+#include "robot_side/station/robot_station.h"
 
 namespace {
 
 using namespace hemm;
 
+// The link statistics' JSON object with a "robot" object added.
+std::string with_robot_json(std::string link_json, const robot::RobotStationStatistics& rs) {
+  const size_t close = link_json.rfind('}');
+  if (close == std::string::npos) return link_json;
+  std::string out = link_json.substr(0, close);
+  while (!out.empty() && (out.back() == '\n' || out.back() == ' ')) out.pop_back();
+  return out + ",\n  \"robot\": " + robot::to_json(rs, "  ") + "\n}\n";
+}
+
 int run(int argc, char** argv) {
-  CLI::App app{"hemm-robot: the robot station of hemm (link foundation: authenticated session, heartbeats, "
-               "ping/pong, link statistics)."};
+  CLI::App app{"hemm-robot: the robot station of hemm: the SIMULATED robot (MuJoCo) behind the link "
+               "(authenticated session, state and scan streams, commands, e-stop, link statistics)."};
   app.footer(net::kExitCodeHelp);
   std::string config_path, key_path, listen, log_level = "info", stats_json;
   int session_port = -1, stream_port = -1;
@@ -37,7 +49,13 @@ int run(int argc, char** argv) {
   app.add_option("--log-level", log_level, "trace, debug, info, warn, error, critical, off");
   app.add_option("--stats-period", stats_period_s, "log link statistics every this many seconds (0: never)")
       ->check(CLI::NonNegativeNumber);
-  app.add_option("--stats-json", stats_json, "write the final link statistics as JSON to this file");
+  app.add_option("--stats-json", stats_json,
+                 "write the final link statistics (with a \"robot\" object) as JSON to this file");
+  std::string scene_path;
+  bool no_realtime = false;
+  app.add_option("--scene", scene_path, "MJCF scene of the SIMULATED robot (overrides sim.scene)");
+  app.add_flag("--no-realtime", no_realtime,
+               "step the simulation as fast as possible instead of in real time (stamps are simulation time)");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -86,13 +104,40 @@ int run(int argc, char** argv) {
   o.max_frame_bytes = link.max_frame_bytes();
   o.replay_window = link.replay_window();
 
+  // The SIMULATED robot: the scene relative to the config file unless given.
+  if (scene_path.empty()) scene_path = config::resolve_relative_to(config_path, cfg.sim().scene());
+  robot::RobotStationOptions so;
+  so.realtime = cfg.sim().realtime() && !no_realtime;
+  so.state_rate_hz = cfg.net().state_rate_hz();
+
   asio::io_context io;
   robot::RobotServer server(io, o);
+  robot::RobotStation station(io, server, so);
+  if (auto err = station.load(cfg, scene_path)) {
+    std::cerr << "hemm-robot: cannot load scene '" << scene_path << "': " << *err << "\n";
+    spdlog::error("event=bad_scene scene=\"{}\" error=\"{}\"", scene_path, *err);
+    return net::kExitUsage;
+  }
+  {
+    const auto& lp = station.laser_params();
+    const auto& sp = station.sonar_params();
+    spdlog::info("event=robot_sim scene=\"{}\" timestep_ms={} realtime={} state_rate_hz={} watchdog_ms={}", scene_path,
+                 station.timestep_ns() * 1e-6, so.realtime, so.state_rate_hz, cfg.safety().watchdog_ms());
+    spdlog::info("event=sensor name=laser enabled={} beams={} rate_hz={} range_m={}..{}", station.laser_enabled(),
+                 lp.beams, lp.rate_hz, lp.range_min, lp.range_max);
+    spdlog::info("event=sensor name=sonar enabled={} count={} rays_per_cone={} rate_hz={} range_m={}..{}",
+                 station.sonar_enabled(), sp.count, sp.rays_per_cone, sp.rate_hz, sp.range_min, sp.range_max);
+  }
   std::string error;
   if (!server.start(&error)) {
     std::cerr << "hemm-robot: " << error << "\n";
     spdlog::error("event=start_failed error=\"{}\"", error);
     return net::kExitUsage;
+  }
+  if (!station.start(&error)) {
+    std::cerr << "hemm-robot: " << error << "\n";
+    spdlog::error("event=start_failed error=\"{}\"", error);
+    return net::kExitInternal;
   }
 
   bool stopping = false;
@@ -101,6 +146,7 @@ int run(int argc, char** argv) {
     if (stopping) return;
     stopping = true;
     spdlog::info("event=shutdown reason=\"{}\"", why);
+    station.stop();  // the robot stops being simulated before the operator is told Bye
     server.stop(why);
     // Let the Bye reach the socket, then leave.
     grace.expires_after(std::chrono::milliseconds(200));
@@ -124,18 +170,21 @@ int run(int argc, char** argv) {
     stats_timer.async_wait([&](const asio::error_code& ec) {
       if (ec || stopping) return;
       spdlog::info("event=stats {}", net::to_log_fields(server.statistics()));
+      spdlog::info("event=robot_stats {}", robot::to_log_fields(station.statistics()));
       stats_tick();
     });
   };
   stats_tick();
 
-  // This thread is the network thread for now; later the simulation and
-  // controllers run on their own threads and read server.link_up().
+  // This thread is the network thread; the simulation runs on the station's
+  // own thread and reads server.link_up() / operator_in_control().
   io.run();
+  station.stop();
 
   const net::LinkStatistics st = server.statistics();
-  std::cout << net::to_summary(st) << std::flush;
-  if (!stats_json.empty() && !net::write_text_file(stats_json, net::to_json(st), &error)) {
+  const robot::RobotStationStatistics rs = station.statistics();
+  std::cout << net::to_summary(st) << robot::to_summary(rs) << std::flush;
+  if (!stats_json.empty() && !net::write_text_file(stats_json, with_robot_json(net::to_json(st), rs), &error)) {
     std::cerr << "hemm-robot: " << error << "\n";
     return net::kExitInternal;
   }

@@ -1,0 +1,472 @@
+#include "robot_side/station/robot_station.h"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <mutex>
+#include <sstream>
+#include <vector>
+
+#include "common/net/mailbox.h"
+#include "config_robot.pb.h"
+#include "robot_side/sim/realtime.h"
+
+namespace hemm::robot {
+namespace {
+
+// Requests from the session channel, applied by the simulation thread.
+struct Request {
+  enum class Kind { kMode, kEStop } kind = Kind::kMode;
+  wire::Mode mode = wire::MODE_UNSPECIFIED;
+  uint64_t request_id = 0;
+  bool engaged = false;
+  std::string reason;
+};
+
+// A bound on queued session requests: a flooding peer gets refusals, not memory.
+constexpr size_t kMaxQueuedRequests = 64;
+
+// Peer text goes back into frames and logs: printable ASCII, bounded.
+std::string printable(const std::string& s) {
+  std::string out;
+  for (char c : s.substr(0, 200)) out.push_back((c >= 0x20 && c <= 0x7e && c != '"') ? c : '_');
+  return out;
+}
+
+bool is_power_of_two(uint64_t n) { return n != 0 && (n & (n - 1)) == 0; }
+
+wire::SessionFrame make_ack(uint64_t request_id, bool ok, const std::string& reason) {
+  wire::SessionFrame f;
+  auto* a = f.mutable_ack();
+  a->set_request_id(request_id);
+  a->set_ok(ok);
+  a->set_reason(reason);
+  return f;
+}
+
+}  // namespace
+
+struct RobotStation::Shared {
+  RobotServer* server = nullptr;
+  asio::io_context* io = nullptr;
+  net::NewestMailbox<BaseArmCommand> commands;  // network thread -> simulation thread
+  std::mutex req_mu;
+  std::vector<Request> requests;  // guarded by req_mu
+  std::atomic<bool> stop{false};
+
+  mutable std::mutex state_mu;
+  RobotStateSim latest;  // guarded by state_mu
+
+  std::atomic<uint64_t> sim_steps{0}, late_steps{0}, resyncs{0};
+  std::atomic<int64_t> max_lateness_ns{0}, lateness_sum_ns{0};
+  std::atomic<uint64_t> lateness_n{0};
+  std::atomic<uint64_t> commands_received{0}, commands_without_control{0}, commands_malformed{0},
+      commands_mode_mismatch{0}, commands_applied{0}, commands_rejected{0};
+  std::atomic<uint64_t> states_sent{0}, scans_sent{0}, scan_chunks_sent{0}, send_failures{0};
+  std::atomic<uint64_t> mode_changes{0}, estop_changes{0}, requests_refused{0};
+  std::atomic<bool> estop{false};
+  std::atomic<int> mode{0};
+  std::atomic<uint32_t> safety{0};
+};
+
+namespace {
+
+using SharedPtr = std::shared_ptr<RobotStation::Shared>;
+
+// Network thread only.
+void send_now(RobotStation::Shared& sh, const wire::SessionFrame& f) { sh.server->send_session_frame(f); }
+
+void post_frame(const SharedPtr& sh, wire::SessionFrame f) {
+  asio::post(*sh->io, [sh, f = std::move(f)] { send_now(*sh, f); });
+}
+
+void refuse(RobotStation::Shared& sh, uint64_t request_id, const std::string& why) {
+  ++sh.requests_refused;
+  spdlog::warn("event=request_refused request_id={} reason=\"{}\"", request_id, why);
+}
+
+// Network thread: queue a request for the simulation thread, or refuse it.
+void queue_request(const SharedPtr& sh, Request r) {
+  std::lock_guard<std::mutex> lk(sh->req_mu);
+  if (sh->requests.size() >= kMaxQueuedRequests) {
+    refuse(*sh, r.request_id, "too many pending requests");
+    send_now(*sh, make_ack(r.request_id, false, "too many pending requests"));
+    return;
+  }
+  sh->requests.push_back(std::move(r));
+}
+
+}  // namespace
+
+std::string to_json(const RobotStationStatistics& s, const std::string& indent) {
+  std::ostringstream os;
+  os << "{";
+  bool first = true;
+  auto f = [&](const char* k, auto v) {
+    os << (first ? "\n" : ",\n") << indent << "  \"" << k << "\": " << v;
+    first = false;
+  };
+  f("sim_steps", s.sim_steps);
+  f("late_steps", s.late_steps);
+  f("resyncs", s.resyncs);
+  f("max_lateness_ns", s.max_lateness_ns);
+  f("mean_lateness_ns", s.mean_lateness_ns);
+  f("commands_received", s.commands_received);
+  f("commands_without_control", s.commands_without_control);
+  f("commands_malformed", s.commands_malformed);
+  f("commands_mode_mismatch", s.commands_mode_mismatch);
+  f("commands_applied", s.commands_applied);
+  f("commands_rejected", s.commands_rejected);
+  f("states_sent", s.states_sent);
+  f("scans_sent", s.scans_sent);
+  f("scan_chunks_sent", s.scan_chunks_sent);
+  f("send_failures", s.send_failures);
+  f("mode_changes", s.mode_changes);
+  f("estop_changes", s.estop_changes);
+  f("requests_refused", s.requests_refused);
+  f("estop", s.estop ? "true" : "false");
+  f("mode", s.mode);
+  f("safety", s.safety);
+  os << "\n" << indent << "}";
+  return os.str();
+}
+
+std::string to_log_fields(const RobotStationStatistics& s) {
+  std::ostringstream os;
+  os << "sim_steps=" << s.sim_steps << " late_steps=" << s.late_steps << " resyncs=" << s.resyncs
+     << " max_lateness_us=" << s.max_lateness_ns / 1000 << " mean_lateness_us=" << s.mean_lateness_ns / 1000.0
+     << " commands_received=" << s.commands_received << " commands_applied=" << s.commands_applied
+     << " commands_rejected=" << s.commands_rejected << " commands_without_control=" << s.commands_without_control
+     << " commands_malformed=" << s.commands_malformed << " commands_mode_mismatch=" << s.commands_mode_mismatch
+     << " states_sent=" << s.states_sent << " scans_sent=" << s.scans_sent
+     << " scan_chunks_sent=" << s.scan_chunks_sent << " send_failures=" << s.send_failures
+     << " mode_changes=" << s.mode_changes << " estop_changes=" << s.estop_changes
+     << " requests_refused=" << s.requests_refused << " estop=" << s.estop << " mode=" << s.mode
+     << " safety=" << s.safety;
+  return os.str();
+}
+
+std::string to_summary(const RobotStationStatistics& s) {
+  std::ostringstream os;
+  os << "robot (SIMULATED): " << s.sim_steps << " sim steps, " << s.late_steps << " late (>1 period), "
+     << s.resyncs << " resyncs, lateness mean " << s.mean_lateness_ns / 1000.0 << " us max "
+     << s.max_lateness_ns / 1000 << " us\n"
+     << "  commands: " << s.commands_received << " received, " << s.commands_applied << " applied, "
+     << s.commands_rejected << " rejected by the robot, " << s.commands_without_control << " without control, "
+     << s.commands_malformed << " malformed, " << s.commands_mode_mismatch << " wrong mode\n"
+     << "  sent: " << s.states_sent << " states, " << s.scans_sent << " scans (" << s.scan_chunks_sent
+     << " chunks), " << s.send_failures << " send failures\n"
+     << "  session: " << s.mode_changes << " mode changes, " << s.estop_changes << " e-stop changes, "
+     << s.requests_refused << " requests refused; e-stop " << (s.estop ? "engaged" : "released") << "\n";
+  return os.str();
+}
+
+RobotStation::RobotStation(asio::io_context& io, RobotServer& server, RobotStationOptions o)
+    : io_(io), server_(server), o_(o), shared_(std::make_shared<Shared>()) {
+  shared_->server = &server_;
+  shared_->io = &io_;
+}
+
+RobotStation::~RobotStation() { stop(); }
+
+std::optional<std::string> RobotStation::load(const config::RobotConfig& config, const std::string& scene_path) {
+  if (running()) return "the station is running";
+  if (o_.state_rate_hz == 0 || o_.state_rate_hz > 10000) return "state rate must be in 1..10000 Hz";
+  if (auto err = robot_.load(config, scene_path)) return err;
+  laser_on_ = config.laser().enabled();
+  sonar_on_ = config.sonar().enabled();
+  return std::nullopt;
+}
+
+bool RobotStation::start(std::string* error) {
+  if (!robot_.loaded()) {
+    *error = "robot station: no scene loaded";
+    return false;
+  }
+  if (running() || attached_) {
+    *error = "robot station: already started";
+    return false;
+  }
+  attached_ = true;
+  const SharedPtr sh = shared_;
+
+  server_.streams().on(wire::StreamMessage::kCommand,
+                       [sh](const net::DatagramHeader& h, int64_t, const wire::StreamMessage& m) {
+                         ++sh->commands_received;
+                         // The server only delivers datagrams of the authenticated
+                         // session; that session must also hold control.
+                         if (!sh->server->operator_in_control()) {
+                           const uint64_t n = ++sh->commands_without_control;
+                           if (is_power_of_two(n)) {
+                             spdlog::warn("event=command_dropped why=no_control count={}", n);
+                           }
+                           return;
+                         }
+                         BaseArmCommand c;
+                         if (auto err = from_wire(m.command(), h.seq, &c)) {
+                           const uint64_t n = ++sh->commands_malformed;
+                           if (is_power_of_two(n)) {
+                             spdlog::warn("event=command_malformed count={} error=\"{}\"", n, *err);
+                           }
+                           return;
+                         }
+                         sh->commands.publish(c);
+                       });
+
+  server_.on_session_frame(wire::SessionFrame::kModeChange, [sh](const wire::SessionFrame& f) {
+    const wire::ModeChange& mc = f.mode_change();
+    if (!sh->server->operator_in_control()) {
+      refuse(*sh, mc.request_id(), "mode change without control");
+      send_now(*sh, make_ack(mc.request_id(), false, "not the controlling operator"));
+      return;
+    }
+    if (mc.mode() < wire::MODE_IDLE || mc.mode() > wire::MODE_EXPLORATION) {
+      refuse(*sh, mc.request_id(), "unknown mode");
+      send_now(*sh, make_ack(mc.request_id(), false, "unknown mode " + std::to_string(static_cast<int>(mc.mode()))));
+      return;
+    }
+    Request r;
+    r.kind = Request::Kind::kMode;
+    r.mode = mc.mode();
+    r.request_id = mc.request_id();
+    queue_request(sh, std::move(r));
+  });
+
+  server_.on_session_frame(wire::SessionFrame::kEstop, [sh](const wire::SessionFrame& f) {
+    const wire::EStop& e = f.estop();
+    // Anyone authenticated may stop the robot; only the controller may release it.
+    if (!e.engaged() && !sh->server->operator_in_control()) {
+      refuse(*sh, 0, "e-stop release without control");
+      send_now(*sh, make_ack(0, false, "only the controlling operator may release the e-stop"));
+      return;
+    }
+    Request r;
+    r.kind = Request::Kind::kEStop;
+    r.engaged = e.engaged();
+    r.reason = printable(e.reason());
+    queue_request(sh, std::move(r));
+  });
+
+  shared_->stop.store(false, std::memory_order_release);
+  thread_ = std::thread([this] { run(); });
+  return true;
+}
+
+void RobotStation::stop() {
+  shared_->stop.store(true, std::memory_order_release);
+  if (thread_.joinable()) thread_.join();
+}
+
+RobotStationStatistics RobotStation::statistics() const {
+  const Shared& sh = *shared_;
+  RobotStationStatistics s;
+  s.sim_steps = sh.sim_steps.load();
+  s.late_steps = sh.late_steps.load();
+  s.resyncs = sh.resyncs.load();
+  s.max_lateness_ns = sh.max_lateness_ns.load();
+  const uint64_t n = sh.lateness_n.load();
+  s.mean_lateness_ns = n ? static_cast<double>(sh.lateness_sum_ns.load()) / static_cast<double>(n) : 0.0;
+  s.commands_received = sh.commands_received.load();
+  s.commands_without_control = sh.commands_without_control.load();
+  s.commands_malformed = sh.commands_malformed.load();
+  s.commands_mode_mismatch = sh.commands_mode_mismatch.load();
+  s.commands_applied = sh.commands_applied.load();
+  s.commands_rejected = sh.commands_rejected.load();
+  s.states_sent = sh.states_sent.load();
+  s.scans_sent = sh.scans_sent.load();
+  s.scan_chunks_sent = sh.scan_chunks_sent.load();
+  s.send_failures = sh.send_failures.load();
+  s.mode_changes = sh.mode_changes.load();
+  s.estop_changes = sh.estop_changes.load();
+  s.requests_refused = sh.requests_refused.load();
+  s.estop = sh.estop.load();
+  s.mode = sh.mode.load();
+  s.safety = sh.safety.load();
+  return s;
+}
+
+RobotStateSim RobotStation::latest_state() const {
+  std::lock_guard<std::mutex> lk(shared_->state_mu);
+  return shared_->latest;
+}
+
+void RobotStation::run() {
+  Shared& sh = *shared_;
+  const SharedPtr sp = shared_;
+  RobotServer& server = server_;
+  const int64_t dt = robot_.timestep_ns();
+  const int64_t state_period = std::max<int64_t>(1, 1'000'000'000 / static_cast<int64_t>(o_.state_rate_hz));
+
+  int64_t anchor = steady_now_ns();
+  robot_.set_time_origin_ns(anchor);
+  int64_t k = 0;  // steps since the anchor
+  int64_t next_state_ns = robot_.time_ns();
+  wire::Mode session_mode = wire::MODE_UNSPECIFIED;
+  wire::Mode exec_mode = wire::MODE_IDLE;  // mode of the last command applied
+  uint64_t last_seq = 0;
+  bool was_in_control = false;
+  std::vector<Request> requests;
+
+  while (!sh.stop.load(std::memory_order_acquire)) {
+    if (o_.realtime) {
+      // Step k simulates [anchor + k dt, anchor + (k+1) dt]: it runs once that
+      // interval is over, so no state is stamped later than it is sent.
+      const int64_t deadline = anchor + (k + 1) * dt;
+      std::this_thread::sleep_until(std::chrono::steady_clock::time_point(std::chrono::nanoseconds(deadline)));
+      int64_t late = steady_now_ns() - deadline;
+      if (late > o_.max_catch_up_ns) {
+        // A long stall: catching up step by step would only replay the past
+        // faster than real time. Skip ahead; the clock jumps forward.
+        anchor = steady_now_ns() - dt;
+        k = 0;
+        robot_.set_time_origin_ns(anchor);
+        ++sh.resyncs;
+        spdlog::warn("event=sim_resync late_ms={}", late / 1'000'000);
+      }
+      if (late > dt) ++sh.late_steps;
+      if (late > sh.max_lateness_ns.load(std::memory_order_relaxed)) sh.max_lateness_ns.store(late);
+      late = std::max<int64_t>(late, 0);
+      sh.lateness_sum_ns.fetch_add(late, std::memory_order_relaxed);
+      sh.lateness_n.fetch_add(1, std::memory_order_relaxed);
+    }
+
+    // Link and control first: a request or command must see the current state.
+    const bool link_up = server.link_up();
+    const bool in_control = link_up && server.operator_in_control();
+    robot_.set_operator_in_control(in_control);
+    robot_.set_link_lost(!link_up);
+    if (!in_control && was_in_control) {
+      session_mode = wire::MODE_UNSPECIFIED;
+      sh.mode.store(session_mode);
+    }
+    was_in_control = in_control;
+
+    // Session requests (never block on the network thread's lock).
+    if (sh.req_mu.try_lock()) {
+      requests.swap(sh.requests);
+      sh.req_mu.unlock();
+    }
+    for (const Request& r : requests) {
+      if (r.kind == Request::Kind::kMode) {
+        if (!in_control) {
+          refuse(sh, r.request_id, "mode change without control");
+          post_frame(sp, make_ack(r.request_id, false, "not the controlling operator"));
+          continue;
+        }
+        if (r.mode != exec_mode) {
+          // Stop what the old mode was doing until a command of the new one.
+          BaseArmCommand neutral;
+          neutral.mode = wire::MODE_IDLE;
+          neutral.seq = last_seq;
+          if (!robot_.set_command(neutral, robot_.time_ns())) exec_mode = wire::MODE_IDLE;
+        }
+        if (r.mode != session_mode) ++sh.mode_changes;
+        session_mode = r.mode;
+        sh.mode.store(session_mode);
+        spdlog::info("event=mode_change mode={} request_id={}", wire::Mode_Name(r.mode), r.request_id);
+        post_frame(sp, make_ack(r.request_id, true, "mode " + wire::Mode_Name(r.mode)));
+      } else {
+        if (!r.engaged && !in_control) {
+          refuse(sh, r.request_id, "e-stop release without control");
+          post_frame(sp, make_ack(r.request_id, false, "only the controlling operator may release the e-stop"));
+          continue;
+        }
+        const bool was = robot_.estop();
+        robot_.set_estop(r.engaged);
+        sh.estop.store(r.engaged);
+        post_frame(sp, make_ack(r.request_id, true, r.engaged ? "e-stop engaged" : "e-stop released"));
+        if (was != r.engaged) {
+          ++sh.estop_changes;
+          spdlog::warn("event=estop engaged={} reason=\"{}\"", r.engaged, r.reason);
+          // Report the new state (the operator may not be the one who asked).
+          wire::SessionFrame rep;
+          rep.mutable_estop()->set_engaged(r.engaged);
+          rep.mutable_estop()->set_reason((r.engaged ? "engaged by operator: " : "released by operator: ") + r.reason);
+          post_frame(sp, std::move(rep));
+        }
+      }
+    }
+    requests.clear();
+
+    // The newest command (older ones were superseded in the mailbox).
+    if (const BaseArmCommand* c = sh.commands.take()) {
+      if (!in_control) {
+        ++sh.commands_without_control;  // arrived before control or the link was lost
+      } else if (session_mode != wire::MODE_UNSPECIFIED && c->mode != session_mode) {
+        const uint64_t n = ++sh.commands_mode_mismatch;
+        if (is_power_of_two(n)) {
+          spdlog::warn("event=command_dropped why=mode_mismatch mode={} session_mode={} count={}",
+                       wire::Mode_Name(c->mode), wire::Mode_Name(session_mode), n);
+        }
+      } else if (auto err = robot_.set_command(*c, robot_.time_ns())) {
+        const uint64_t n = ++sh.commands_rejected;
+        if (is_power_of_two(n)) spdlog::warn("event=command_rejected count={} error=\"{}\"", n, *err);
+      } else {
+        ++sh.commands_applied;
+        exec_mode = c->mode;
+        last_seq = c->seq;
+      }
+    }
+
+    robot_.step(1);
+    ++k;
+    sh.sim_steps.fetch_add(1, std::memory_order_relaxed);
+
+    // Streams go out while the link is up: the peer's endpoint is known
+    // (learned from its datagrams) and someone is listening.
+    const bool streaming = link_up;
+    const int64_t now = robot_.time_ns();
+    if (now >= next_state_ns) {
+      next_state_ns += state_period;
+      if (next_state_ns <= now) next_state_ns = now + state_period;  // after a resync
+      const RobotStateSim st = robot_.state();
+      {
+        std::lock_guard<std::mutex> lk(sh.state_mu);
+        sh.latest = st;
+      }
+      sh.safety.store(st.safety);
+      if (streaming) {
+        wire::StreamMessage m;
+        to_wire(st, m.mutable_robot_state());
+        asio::post(io_, [sp, m = std::move(m)] {
+          Shared& s = *sp;
+          if (!s.server->link_up()) return;
+          if (s.server->streams().send(m)) {
+            ++s.states_sent;
+          } else {
+            ++s.send_failures;
+          }
+        });
+      }
+    }
+
+    std::vector<RangeScanData> scans = robot_.take_scans();
+    if (streaming) {
+      for (const RangeScanData& scan : scans) {
+        std::vector<wire::StreamMessage> msgs;
+        for (wire::RangeScan& chunk : to_wire_chunks(scan, o_.max_scan_payload_bytes)) {
+          msgs.emplace_back();
+          *msgs.back().mutable_range_scan() = std::move(chunk);
+        }
+        asio::post(io_, [sp, msgs = std::move(msgs)] {
+          Shared& s = *sp;
+          if (!s.server->link_up()) return;
+          bool all = true;
+          for (const wire::StreamMessage& m : msgs) {
+            if (s.server->streams().send(m)) {
+              ++s.scan_chunks_sent;
+            } else {
+              ++s.send_failures;
+              all = false;
+            }
+          }
+          if (all) ++s.scans_sent;
+        });
+      }
+    }
+  }
+}
+
+}  // namespace hemm::robot

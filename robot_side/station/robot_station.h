@@ -1,0 +1,133 @@
+// RobotStation: the SIMULATED robot (SimulatedRobot, MuJoCo) joined to the
+// link server (RobotServer). Two threads:
+//   * the simulation thread owns the SimulatedRobot and steps it at 1 kHz to
+//     absolute deadlines of the steady clock (or as fast as it can with
+//     realtime = false); each tick it applies the newest command, the
+//     session's requests (mode, e-stop) and the link/control state, steps,
+//     and hands robot states (at state_rate_hz) and new scans (chunked) to
+//     the network thread with asio::post;
+//   * the network thread (whoever runs the io_context) owns the RobotServer:
+//     it validates commands and publishes them into a newest-wins mailbox,
+//     queues ModeChange/EStop requests, and does every send.
+//
+// Safety: commands only count from the authenticated controlling operator
+// while its link is up; without one the robot reports SAFETY_NO_OPERATOR and
+// decelerates; with the link down it also reports SAFETY_LINK_LOST. Mode
+// changes need control; engaging the e-stop does not (any authenticated
+// session may stop the robot), releasing it does.
+//
+// Session mode: until the controlling operator sends a ModeChange, commands
+// carry their own mode. After one, a command in another mode is dropped
+// (counted as commands_mode_mismatch: it was sent before the change), and a
+// real change stops motion at once (a neutral IDLE command) until the first
+// command of the new mode. Losing control forgets the session mode.
+//
+// Lifetime: the RobotServer and the io_context must outlive the station; the
+// handlers the station registers on the server and the work it posts hold
+// only shared state, so they stay valid after the station is destroyed.
+#pragma once
+
+#include <asio.hpp>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <thread>
+
+#include "robot_side/server/robot_server.h"
+#include "robot_side/sim/sim_types.h"
+#include "robot_side/sim/simulated_robot.h"
+#include "robot_side/sim/wire_convert.h"
+
+namespace hemm::config {
+class RobotConfig;
+}
+
+namespace hemm::robot {
+
+struct RobotStationOptions {
+  bool realtime = true;           // false: step back to back, faster than real time
+  uint32_t state_rate_hz = 250;   // RobotState stream rate (robot/simulation time)
+  size_t max_scan_payload_bytes = kMaxScanPayloadBytes;
+  // Further behind schedule than this (a stall of the VM): skip ahead instead
+  // of catching up step by step; the robot's clock jumps with the wall clock.
+  int64_t max_catch_up_ns = 100'000'000;
+};
+
+struct RobotStationStatistics {
+  uint64_t sim_steps = 0;
+  uint64_t late_steps = 0;          // steps started more than one period after their deadline
+  uint64_t resyncs = 0;             // skips ahead after a stall (max_catch_up_ns)
+  int64_t max_lateness_ns = 0;      // worst start of a step after its deadline
+  double mean_lateness_ns = 0.0;
+  uint64_t commands_received = 0;        // authenticated Command datagrams
+  uint64_t commands_without_control = 0; // dropped: sender not the controlling operator / link down
+  uint64_t commands_malformed = 0;       // dropped: failed wire validation
+  uint64_t commands_mode_mismatch = 0;   // dropped: not in the session's mode
+  uint64_t commands_applied = 0;
+  uint64_t commands_rejected = 0;        // rejected by the robot (limits, IK)
+  uint64_t states_sent = 0;
+  uint64_t scans_sent = 0;               // scans whose every chunk was sent
+  uint64_t scan_chunks_sent = 0;
+  uint64_t send_failures = 0;            // StreamLink::send returned false with the link up
+  uint64_t mode_changes = 0;
+  uint64_t estop_changes = 0;
+  uint64_t requests_refused = 0;         // ModeChange/EStop answered with Ack ok=false
+  bool estop = false;
+  int mode = 0;                          // session mode (wire::Mode; 0: commands choose)
+  uint32_t safety = 0;                   // newest state's SafetyFlags
+};
+
+// {"sim_steps": ..., ...} on one line per field, no trailing newline.
+std::string to_json(const RobotStationStatistics& s, const std::string& indent = "  ");
+// key=value fields on one line.
+std::string to_log_fields(const RobotStationStatistics& s);
+// A human-readable multi-line summary (ends with a newline).
+std::string to_summary(const RobotStationStatistics& s);
+
+class RobotStation {
+ public:
+  RobotStation(asio::io_context& io, RobotServer& server, RobotStationOptions o);
+  ~RobotStation();  // stop()
+  RobotStation(const RobotStation&) = delete;
+  RobotStation& operator=(const RobotStation&) = delete;
+
+  // Loads the scene and config into the simulated robot (before start()).
+  std::optional<std::string> load(const config::RobotConfig& config, const std::string& scene_path);
+
+  // Registers the station's handlers on the server and starts the simulation
+  // thread. Call before the io_context runs or on its thread. False with
+  // *error if not loaded or already started.
+  bool start(std::string* error);
+  // Stops and joins the simulation thread (idempotent; any thread, also the
+  // network thread). The server keeps running: stop it (Bye) afterwards.
+  void stop();
+  bool running() const { return thread_.joinable(); }
+
+  RobotStationStatistics statistics() const;  // any thread
+  RobotStateSim latest_state() const;         // any thread; updated at the state rate
+
+  // Sensor description (valid after load(); constant afterwards).
+  const SimLaserParams& laser_params() const { return robot_.laser_params(); }
+  const SimSonarParams& sonar_params() const { return robot_.sonar_params(); }
+  bool laser_enabled() const { return laser_on_; }
+  bool sonar_enabled() const { return sonar_on_; }
+  int64_t timestep_ns() const { return robot_.timestep_ns(); }
+  const RobotStationOptions& options() const { return o_; }
+
+  struct Shared;  // state shared with the network thread (robot_station.cpp)
+
+ private:
+  void run();
+
+  asio::io_context& io_;
+  RobotServer& server_;
+  RobotStationOptions o_;
+  SimulatedRobot robot_;
+  bool laser_on_ = false, sonar_on_ = false;
+  std::shared_ptr<Shared> shared_;
+  std::thread thread_;
+  bool attached_ = false;
+};
+
+}  // namespace hemm::robot

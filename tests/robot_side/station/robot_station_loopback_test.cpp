@@ -1,0 +1,670 @@
+// The networked SIMULATED robot station over real loopback sockets: a
+// RobotStation (MuJoCo home scene, real time, 1 kHz) behind a RobotServer on
+// its own network thread, and a fake operator (the real OperatorClient on its
+// own io_context thread) that records what arrives and streams commands.
+// Timing assertions use wide margins: the VM is shared and stalls for ms.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <condition_variable>
+#include <functional>
+#include <map>
+#include <mutex>
+#include <optional>
+#include <set>
+#include <thread>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "config_robot.pb.h"
+#include "operator/client/operator_client.h"
+#include "robot_side/server/robot_server.h"
+#include "robot_side/sim/realtime.h"
+#include "robot_side/sim/wire_convert.h"
+#include "robot_side/station/robot_station.h"
+
+namespace hr = hemm::robot;
+namespace hw = hemm::wire;
+namespace hn = hemm::net;
+
+namespace {
+
+const std::string kScene = std::string(HEMM_SOURCE_DIR) + "/deploy/scenes/home.xml";
+constexpr double kSpeed = 0.3;  // m/s, the navigation command of the tests
+
+hn::Key test_key() {
+  hn::Key k{};
+  for (size_t i = 0; i < k.size(); ++i) k[i] = static_cast<uint8_t>(17 * i + 3);
+  return k;
+}
+
+int64_t now_ns() { return hr::steady_now_ns(); }
+void sleep_s(double s) { std::this_thread::sleep_for(std::chrono::duration<double>(s)); }
+
+bool wait_until(const std::function<bool()>& pred, double timeout_s) {
+  const int64_t end = now_ns() + static_cast<int64_t>(timeout_s * 1e9);
+  while (now_ns() < end) {
+    if (pred()) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  return pred();
+}
+
+// The robot station: server + station on one network thread.
+struct RobotSide {
+  asio::io_context io;
+  std::optional<asio::executor_work_guard<asio::io_context::executor_type>> work;
+  std::unique_ptr<hr::RobotServer> server;
+  std::unique_ptr<hr::RobotStation> station;
+  std::thread thread;
+  hemm::config::RobotConfig cfg;
+
+  explicit RobotSide(const hemm::config::RobotConfig& c) : cfg(c) {
+    hr::RobotServerOptions o;
+    o.session_port = 0;
+    o.stream_port = 0;
+    o.psk = test_key();
+    o.link_timeout_ms = cfg.link().link_timeout_ms();
+    server = std::make_unique<hr::RobotServer>(io, o);
+    hr::RobotStationOptions so;
+    so.state_rate_hz = cfg.net().state_rate_hz();
+    station = std::make_unique<hr::RobotStation>(io, *server, so);
+  }
+  void start() {
+    std::string err;
+    ASSERT_TRUE(server->start(&err)) << err;
+    const auto load_err = station->load(cfg, kScene);
+    ASSERT_FALSE(load_err) << *load_err;
+    ASSERT_TRUE(station->start(&err)) << err;
+    work.emplace(io.get_executor());
+    thread = std::thread([this] { io.run(); });
+  }
+  ~RobotSide() {
+    station->stop();
+    asio::post(io, [this] { server->stop("test over"); });
+    work.reset();
+    sleep_s(0.05);
+    io.stop();
+    if (thread.joinable()) thread.join();
+  }
+};
+
+struct StateRec {
+  int64_t recv_ns;
+  hw::RobotState m;
+};
+struct ScanRec {
+  int64_t recv_ns;
+  hw::RangeScan m;
+};
+
+// The fake operator: the real OperatorClient, recording everything and
+// streaming a command at 100 Hz while one is set.
+struct FakeOperator {
+  asio::io_context io;
+  std::unique_ptr<hemm::op::OperatorClient> client;
+  asio::steady_timer timer{io};
+  std::thread thread;
+
+  std::mutex mu;
+  std::vector<StateRec> states;
+  std::vector<ScanRec> scans;
+  std::vector<hw::Ack> acks;
+  std::vector<hw::EStop> estops;
+  std::optional<hw::Command> command;
+  uint64_t commands_sent = 0;
+  std::atomic<bool> fatal{false};
+
+  FakeOperator(uint16_t session_port, bool want_control) {
+    hemm::op::OperatorClientOptions o;
+    o.station_name = "fake-operator";
+    o.robot_address = "127.0.0.1";
+    o.session_port = session_port;
+    o.bind_address = "127.0.0.1";
+    o.want_control = want_control;
+    o.psk = test_key();
+    o.reconnect_for_ms = 0;
+    client = std::make_unique<hemm::op::OperatorClient>(io, o);
+    client->streams().on(hw::StreamMessage::kRobotState,
+                         [this](const hn::DatagramHeader&, int64_t recv, const hw::StreamMessage& m) {
+                           std::lock_guard<std::mutex> lk(mu);
+                           states.push_back({recv, m.robot_state()});
+                         });
+    client->streams().on(hw::StreamMessage::kRangeScan,
+                         [this](const hn::DatagramHeader&, int64_t recv, const hw::StreamMessage& m) {
+                           std::lock_guard<std::mutex> lk(mu);
+                           scans.push_back({recv, m.range_scan()});
+                         });
+    client->on_session_frame(hw::SessionFrame::kAck, [this](const hw::SessionFrame& f) {
+      std::lock_guard<std::mutex> lk(mu);
+      acks.push_back(f.ack());
+    });
+    client->on_session_frame(hw::SessionFrame::kEstop, [this](const hw::SessionFrame& f) {
+      std::lock_guard<std::mutex> lk(mu);
+      estops.push_back(f.estop());
+    });
+    std::string err;
+    EXPECT_TRUE(client->start([this](int, const std::string&) { fatal = true; }, &err)) << err;
+    tick();
+    thread = std::thread([this] { io.run(); });
+  }
+  ~FakeOperator() {
+    asio::post(io, [this] {
+      timer.cancel();
+      client->stop("test over");
+    });
+    sleep_s(0.05);
+    io.stop();
+    thread.join();
+  }
+
+  void tick() {
+    timer.expires_after(std::chrono::milliseconds(10));
+    timer.async_wait([this](const asio::error_code& ec) {
+      if (ec) return;
+      std::optional<hw::Command> c;
+      {
+        std::lock_guard<std::mutex> lk(mu);
+        c = command;
+      }
+      if (c) {
+        hw::StreamMessage m;
+        *m.mutable_command() = *c;
+        m.mutable_command()->set_stamp_ns(now_ns());
+        if (client->streams().send(m)) {
+          std::lock_guard<std::mutex> lk(mu);
+          ++commands_sent;
+        }
+      }
+      tick();
+    });
+  }
+
+  bool wait_connected() {
+    return wait_until([&] { return client->session_open() && client->link_up(); }, 5.0);
+  }
+  void set_command(std::optional<hw::Command> c) {
+    std::lock_guard<std::mutex> lk(mu);
+    command = std::move(c);
+  }
+  void send_frame(hw::SessionFrame f) {
+    asio::post(io, [this, f = std::move(f)] { client->send_session_frame(f); });
+  }
+  // Link loss without Bye: the operator's UDP socket goes away, TCP stays.
+  void kill_streams() {
+    asio::post(io, [this] { client->streams().stop(); });
+  }
+  std::vector<StateRec> states_copy() {
+    std::lock_guard<std::mutex> lk(mu);
+    return states;
+  }
+  std::optional<hw::Ack> ack_for(uint64_t id) {
+    std::lock_guard<std::mutex> lk(mu);
+    for (const auto& a : acks) {
+      if (a.request_id() == id) return a;
+    }
+    return std::nullopt;
+  }
+  std::optional<hw::Ack> ack_with_reason(const std::string& reason) {
+    std::lock_guard<std::mutex> lk(mu);
+    for (const auto& a : acks) {
+      if (a.reason() == reason) return a;
+    }
+    return std::nullopt;
+  }
+  size_t estop_reports(bool engaged) {
+    std::lock_guard<std::mutex> lk(mu);
+    return static_cast<size_t>(std::count_if(estops.begin(), estops.end(),
+                                             [&](const hw::EStop& e) { return e.engaged() == engaged; }));
+  }
+  std::optional<hw::RobotState> last_state() {
+    std::lock_guard<std::mutex> lk(mu);
+    if (states.empty()) return std::nullopt;
+    return states.back().m;
+  }
+};
+
+hw::Command nav_command(double v) {
+  hw::Command c;
+  c.set_mode(hw::MODE_NAVIGATION);
+  c.set_v(v);
+  c.set_omega(0.0);
+  c.set_deadman(true);
+  return c;
+}
+
+hw::SessionFrame mode_change(hw::Mode mode, uint64_t id) {
+  hw::SessionFrame f;
+  f.mutable_mode_change()->set_mode(mode);
+  f.mutable_mode_change()->set_request_id(id);
+  return f;
+}
+
+hw::SessionFrame estop_frame(bool engaged) {
+  hw::SessionFrame f;
+  f.mutable_estop()->set_engaged(engaged);
+  f.mutable_estop()->set_reason("test");
+  return f;
+}
+
+double median(std::vector<double> v) {
+  if (v.empty()) return std::nan("");
+  std::sort(v.begin(), v.end());
+  return v[v.size() / 2];
+}
+
+// States (received) whose robot stamp lies in [t0, t1].
+std::vector<hw::RobotState> in_window(const std::vector<StateRec>& s, int64_t t0, int64_t t1) {
+  std::vector<hw::RobotState> out;
+  for (const auto& r : s) {
+    if (r.m.stamp_ns() >= t0 && r.m.stamp_ns() <= t1) out.push_back(r.m);
+  }
+  return out;
+}
+
+// Odometry x at time t, linearly interpolated between received states.
+std::optional<double> odom_x_at(const std::vector<StateRec>& s, int64_t t) {
+  for (size_t i = 1; i < s.size(); ++i) {
+    const auto& a = s[i - 1].m;
+    const auto& b = s[i].m;
+    if (a.stamp_ns() <= t && t <= b.stamp_ns() && b.stamp_ns() > a.stamp_ns()) {
+      const double u = static_cast<double>(t - a.stamp_ns()) / static_cast<double>(b.stamp_ns() - a.stamp_ns());
+      return a.t_w_r_odom().x() + u * (b.t_w_r_odom().x() - a.t_w_r_odom().x());
+    }
+  }
+  return std::nullopt;
+}
+
+// Reassembled scans: per (sensor, scan_id) the beams received and whether
+// every chunk agrees on stamp and pose.
+struct Assembly {
+  uint32_t beam_count = 0;
+  int64_t stamp_ns = 0;
+  double x = 0, y = 0, theta = 0;
+  std::set<uint32_t> beams;
+  int chunks = 0;
+  bool consistent = true;
+  bool overlap = false;
+  int64_t first_recv_ns = 0;
+};
+
+std::map<std::pair<int, uint32_t>, Assembly> reassemble(const std::vector<ScanRec>& scans, int* invalid) {
+  std::map<std::pair<int, uint32_t>, Assembly> out;
+  *invalid = 0;
+  for (const auto& r : scans) {
+    hr::RangeScanData d;
+    uint32_t first = 0;
+    if (hr::from_wire(r.m, &d, &first)) {
+      ++*invalid;
+      continue;
+    }
+    auto [it, fresh] = out.try_emplace({static_cast<int>(r.m.sensor()), r.m.scan_id()});
+    Assembly& a = it->second;
+    if (fresh) {
+      a.beam_count = r.m.beam_count();
+      a.stamp_ns = r.m.stamp_ns();
+      a.x = d.T_W_R_odom.x;
+      a.y = d.T_W_R_odom.y;
+      a.theta = d.T_W_R_odom.theta;
+      a.first_recv_ns = r.recv_ns;
+    } else if (a.beam_count != r.m.beam_count() || a.stamp_ns != r.m.stamp_ns() || a.x != d.T_W_R_odom.x ||
+               a.y != d.T_W_R_odom.y || a.theta != d.T_W_R_odom.theta) {
+      a.consistent = false;
+    }
+    ++a.chunks;
+    for (uint32_t i = 0; i < d.size(); ++i) {
+      if (!a.beams.insert(first + i).second) a.overlap = true;
+    }
+  }
+  return out;
+}
+
+hemm::config::RobotConfig test_config() {
+  hemm::config::RobotConfig c;
+  c.mutable_net()->set_state_rate_hz(250);
+  return c;
+}
+
+}  // namespace
+
+// State at >= 200 Hz with exact stamp spacing, valid fields; laser and sonar
+// scans reassembled from chunks to the configured beam counts, stamped at
+// acquisition (before arrival, on the shared steady clock).
+TEST(RobotStationLoopback, StreamsStateAtRateAndChunkedScans) {
+  RobotSide robot(test_config());
+  robot.start();
+  FakeOperator op(robot.server->session_port(), true);
+  ASSERT_TRUE(op.wait_connected());
+  sleep_s(0.3);
+  const int64_t t0 = now_ns();
+  sleep_s(2.0);
+  const int64_t t1 = now_ns();
+  std::vector<StateRec> states;
+  std::vector<ScanRec> scans;
+  {
+    std::lock_guard<std::mutex> lk(op.mu);
+    states = op.states;
+    scans = op.scans;
+  }
+
+  // Rate over the window by arrival time.
+  const auto n_window = std::count_if(states.begin(), states.end(),
+                                      [&](const StateRec& r) { return r.recv_ns >= t0 && r.recv_ns < t1; });
+  const double rate = static_cast<double>(n_window) / (static_cast<double>(t1 - t0) * 1e-9);
+  std::printf("state rate %.1f Hz over %.2f s (%zu states total)\n", rate, (t1 - t0) * 1e-9, states.size());
+  EXPECT_GE(rate, 180.0);
+
+  // Stamps strictly increase; their median spacing is the period exactly.
+  std::vector<double> gaps;
+  int not_increasing = 0;
+  for (size_t i = 1; i < states.size(); ++i) {
+    const int64_t d = states[i].m.stamp_ns() - states[i - 1].m.stamp_ns();
+    if (d <= 0) ++not_increasing;
+    gaps.push_back(static_cast<double>(d));
+  }
+  EXPECT_EQ(not_increasing, 0);
+  EXPECT_EQ(median(gaps), 1e9 / 250.0);
+
+  // Valid fields: parse back through the validating converter.
+  int bad = 0, late_stamp = 0;
+  for (const auto& r : states) {
+    hr::RobotStateSim s;
+    if (hr::from_wire(r.m, &s)) ++bad;
+    if (r.m.stamp_ns() > r.recv_ns) ++late_stamp;
+  }
+  EXPECT_EQ(bad, 0);
+  EXPECT_EQ(late_stamp, 0);  // same steady clock: sampled before it arrived
+  {
+    // Sampling -> arrival at the operator over loopback (one steady clock).
+    std::vector<double> lat;
+    for (const auto& r : states) lat.push_back((r.recv_ns - r.m.stamp_ns()) * 1e-6);
+    std::sort(lat.begin(), lat.end());
+    std::printf("state age at arrival: median %.3f ms, p99 %.3f ms, max %.3f ms\n", lat[lat.size() / 2],
+                lat[lat.size() * 99 / 100], lat.back());
+  }
+  const auto last = states.back().m;
+  EXPECT_EQ(last.q_size(), 5);
+  // In control, link up, no command yet: only the watchdog holds it.
+  EXPECT_EQ(last.safety() & (hw::SAFETY_NO_OPERATOR | hw::SAFETY_LINK_LOST | hw::SAFETY_ESTOP), 0u);
+  EXPECT_NE(last.safety() & hw::SAFETY_WATCHDOG, 0u);
+
+  // Scans.
+  int invalid = 0;
+  const auto assembled = reassemble(scans, &invalid);
+  EXPECT_EQ(invalid, 0);
+  const hemm::config::RobotConfig cfg = test_config();
+  int laser_complete = 0, sonar_complete = 0, multi_chunk = 0;
+  for (const auto& [key, a] : assembled) {
+    if (a.first_recv_ns < t0 || a.first_recv_ns >= t1) continue;
+    EXPECT_TRUE(a.consistent);
+    EXPECT_FALSE(a.overlap);
+    EXPECT_LE(a.stamp_ns, a.first_recv_ns);
+    const bool complete = a.beams.size() == a.beam_count && *a.beams.rbegin() == a.beam_count - 1;
+    if (key.first == hw::RANGE_SENSOR_LASER) {
+      EXPECT_EQ(a.beam_count, cfg.laser().beams());
+      laser_complete += complete;
+      multi_chunk += a.chunks > 1;
+    } else {
+      EXPECT_EQ(key.first, hw::RANGE_SENSOR_SONAR);
+      EXPECT_EQ(a.beam_count, cfg.sonar().count());
+      sonar_complete += complete;
+    }
+  }
+  std::printf("complete scans in window: laser %d (%d in >1 chunk), sonar %d\n", laser_complete, multi_chunk,
+              sonar_complete);
+  // 30 Hz and 10 Hz for 2 s, wide margins.
+  EXPECT_GE(laser_complete, 40);
+  EXPECT_GE(sonar_complete, 13);
+  // A 181-beam scan does not fit one 1000-byte payload.
+  EXPECT_EQ(multi_chunk, laser_complete);
+
+  const auto st = robot.station->statistics();
+  EXPECT_EQ(st.send_failures, 0u);
+  EXPECT_GT(st.states_sent, 0u);
+}
+
+// v = 0.3 m/s at 100 Hz moves the base at ~v (odometry and ground truth); each
+// scan carries the odometry pose at its acquisition time; when the commands
+// stop, the watchdog stops the base within watchdog + deceleration time.
+TEST(RobotStationLoopback, NavigationCommandMovesBaseAndWatchdogStopsIt) {
+  RobotSide robot(test_config());
+  robot.start();
+  FakeOperator op(robot.server->session_port(), true);
+  ASSERT_TRUE(op.wait_connected());
+  ASSERT_TRUE(op.client->has_control());
+  op.send_frame(mode_change(hw::MODE_NAVIGATION, 7));
+  ASSERT_TRUE(wait_until([&] { return op.ack_for(7).has_value(); }, 2.0));
+  EXPECT_TRUE(op.ack_for(7)->ok());
+
+  op.set_command(nav_command(kSpeed));
+  sleep_s(2.2);
+  op.set_command(std::nullopt);
+  sleep_s(1.3);
+
+  const auto states = op.states_copy();
+  std::vector<ScanRec> scans;
+  {
+    std::lock_guard<std::mutex> lk(op.mu);
+    scans = op.scans;
+  }
+  // The first state that reports a command applied marks the start.
+  const auto first_cmd = std::find_if(states.begin(), states.end(),
+                                      [](const StateRec& r) { return r.m.last_command_seq() != 0; });
+  ASSERT_NE(first_cmd, states.end());
+  const int64_t tc = first_cmd->m.stamp_ns();
+  // Steady motion from 0.6 s to 1.6 s after the first command (the base
+  // reaches 0.3 m/s after 0.3 s at 1 m/s^2).
+  const auto w = in_window(states, tc + 600'000'000, tc + 1'600'000'000);
+  ASSERT_GE(w.size(), 100u);
+  const double dt = (w.back().stamp_ns() - w.front().stamp_ns()) * 1e-9;
+  const double v_odom = (w.back().t_w_r_odom().x() - w.front().t_w_r_odom().x()) / dt;
+  const double v_truth = (w.back().t_w_r_truth().x() - w.front().t_w_r_truth().x()) / dt;
+  std::printf("steady speed: odometry %.4f m/s, truth %.4f m/s, reported v %.4f (command %.2f)\n", v_odom, v_truth,
+              w.back().v(), kSpeed);
+  EXPECT_NEAR(v_odom, kSpeed, 0.05);
+  EXPECT_NEAR(v_truth, kSpeed, 0.07);
+  EXPECT_NEAR(w.back().v(), kSpeed, 0.05);
+  EXPECT_NEAR(w.back().t_w_r_truth().y(), 0.0, 0.05);
+  for (const auto& s : w) EXPECT_EQ(s.mode(), hw::MODE_NAVIGATION);
+
+  // Scan pose = odometry at the scan's stamp (interpolated between states
+  // 4 ms apart; the base moves 1.2 mm in 4 ms).
+  int checked = 0;
+  double worst = 0.0;
+  for (const auto& r : scans) {
+    if (r.m.stamp_ns() < tc + 600'000'000 || r.m.stamp_ns() > tc + 1'600'000'000) continue;
+    const auto x = odom_x_at(states, r.m.stamp_ns());
+    if (!x) continue;
+    worst = std::max(worst, std::abs(*x - r.m.t_w_r().x()));
+    ++checked;
+  }
+  std::printf("scan acquisition pose vs odometry at the scan stamp: %d chunks, worst %.5f m\n", checked, worst);
+  EXPECT_GE(checked, 30);
+  EXPECT_LT(worst, 0.002);
+
+  // Watchdog: from the last command applied to standstill.
+  const uint64_t last_seq = states.back().m.last_command_seq();
+  const auto applied = std::find_if(states.begin(), states.end(),
+                                    [&](const StateRec& r) { return r.m.last_command_seq() == last_seq; });
+  ASSERT_NE(applied, states.end());
+  const int64_t t_last = applied->m.stamp_ns();
+  int64_t t_still = -1;
+  for (auto it = states.rbegin(); it != states.rend() && std::abs(it->m.v()) < 0.01; ++it) t_still = it->m.stamp_ns();
+  ASSERT_GT(t_still, 0) << "base never stopped";
+  const double stop_s = (t_still - t_last) * 1e-9;
+  const double watchdog_s = test_config().safety().watchdog_ms() * 1e-3;
+  const double decel_s = kSpeed / test_config().base().max_accel_mps2();
+  std::printf("last command -> standstill %.3f s (watchdog %.3f s + deceleration %.3f s)\n", stop_s, watchdog_s,
+              decel_s);
+  EXPECT_GT(stop_s, watchdog_s - 0.05);  // it kept following the last command until the watchdog
+  EXPECT_LT(stop_s, watchdog_s + decel_s + 0.15);
+  EXPECT_NE(states.back().m.safety() & hw::SAFETY_WATCHDOG, 0u);
+  const auto st = robot.station->statistics();
+  EXPECT_GT(st.commands_applied, 100u);
+  EXPECT_EQ(st.commands_rejected, 0u);
+  EXPECT_EQ(st.commands_without_control, 0u);
+}
+
+// An operator without control (want_control = false): its commands and mode
+// changes have no effect; the robot reports SAFETY_NO_OPERATOR. It may engage
+// the e-stop but not release it.
+TEST(RobotStationLoopback, CommandsWithoutControlHaveNoEffect) {
+  RobotSide robot(test_config());
+  robot.start();
+  FakeOperator op(robot.server->session_port(), false);
+  ASSERT_TRUE(op.wait_connected());
+  EXPECT_FALSE(op.client->has_control());
+  op.send_frame(mode_change(hw::MODE_NAVIGATION, 9));
+  ASSERT_TRUE(wait_until([&] { return op.ack_for(9).has_value(); }, 2.0));
+  EXPECT_FALSE(op.ack_for(9)->ok());
+
+  op.set_command(nav_command(kSpeed));
+  sleep_s(1.5);
+  const auto states = op.states_copy();
+  ASSERT_GT(states.size(), 200u);
+  double max_v = 0.0, max_dx = 0.0;
+  for (const auto& r : states) {
+    max_v = std::max(max_v, std::abs(r.m.v()));
+    max_dx = std::max(max_dx, std::abs(r.m.t_w_r_truth().x() - states.front().m.t_w_r_truth().x()));
+    EXPECT_NE(r.m.safety() & hw::SAFETY_NO_OPERATOR, 0u);
+    EXPECT_EQ(r.m.last_command_seq(), 0u);
+  }
+  std::printf("without control: max |v| %.5f m/s, max |dx| %.5f m\n", max_v, max_dx);
+  EXPECT_LT(max_v, 0.01);
+  EXPECT_LT(max_dx, 0.005);
+  const auto st = robot.station->statistics();
+  EXPECT_GT(st.commands_received, 50u);
+  EXPECT_EQ(st.commands_without_control, st.commands_received);
+  EXPECT_EQ(st.commands_applied, 0u);
+
+  // Any authenticated session may stop the robot; only the controller may release it.
+  op.send_frame(estop_frame(true));
+  ASSERT_TRUE(wait_until([&] { return op.ack_with_reason("e-stop engaged").has_value(); }, 2.0));
+  EXPECT_TRUE(op.ack_with_reason("e-stop engaged")->ok());
+  EXPECT_TRUE(wait_until([&] { auto s = op.last_state(); return s && (s->safety() & hw::SAFETY_ESTOP); }, 1.0));
+  op.send_frame(estop_frame(false));
+  ASSERT_TRUE(wait_until(
+      [&] { return op.ack_with_reason("only the controlling operator may release the e-stop").has_value(); }, 2.0));
+  EXPECT_FALSE(op.ack_with_reason("only the controlling operator may release the e-stop")->ok());
+  sleep_s(0.1);
+  EXPECT_TRUE(robot.station->statistics().estop);
+  EXPECT_NE(robot.station->latest_state().safety & hw::SAFETY_ESTOP, 0u);
+}
+
+// E-stop over the session channel: acknowledged and reported, the base stops
+// and stays; released: motion resumes.
+TEST(RobotStationLoopback, EStopStopsBaseAndReleaseAllowsMotion) {
+  RobotSide robot(test_config());
+  robot.start();
+  FakeOperator op(robot.server->session_port(), true);
+  ASSERT_TRUE(op.wait_connected());
+  op.set_command(nav_command(kSpeed));
+  ASSERT_TRUE(wait_until([&] { auto s = op.last_state(); return s && s->v() > 0.25; }, 3.0));
+
+  op.send_frame(estop_frame(true));
+  ASSERT_TRUE(wait_until([&] { return op.ack_with_reason("e-stop engaged").has_value(); }, 2.0));
+  EXPECT_TRUE(op.ack_with_reason("e-stop engaged")->ok());
+  const int64_t t_ack = now_ns();
+  ASSERT_TRUE(wait_until([&] { return op.estop_reports(true) == 1; }, 1.0));
+  ASSERT_TRUE(wait_until([&] { auto s = op.last_state(); return s && std::abs(s->v()) < 0.01; }, 1.0));
+  std::printf("e-stop ack -> |v| < 0.01 m/s observed after %.3f s\n", (now_ns() - t_ack) * 1e-9);
+  sleep_s(0.3);
+  const auto s0 = *op.last_state();
+  sleep_s(0.5);
+  const auto s1 = *op.last_state();
+  EXPECT_NE(s1.safety() & hw::SAFETY_ESTOP, 0u);
+  EXPECT_LT(std::abs(s1.t_w_r_truth().x() - s0.t_w_r_truth().x()), 0.003);  // commands still stream
+  EXPECT_TRUE(robot.station->statistics().estop);
+
+  op.send_frame(estop_frame(false));
+  ASSERT_TRUE(wait_until([&] { return op.ack_with_reason("e-stop released").has_value(); }, 2.0));
+  EXPECT_TRUE(op.ack_with_reason("e-stop released")->ok());
+  ASSERT_TRUE(wait_until([&] { return op.estop_reports(false) == 1; }, 1.0));
+  EXPECT_TRUE(wait_until([&] { auto s = op.last_state(); return s && s->v() > 0.25; }, 2.0));
+  EXPECT_EQ(op.last_state()->safety() & hw::SAFETY_ESTOP, 0u);
+  EXPECT_EQ(robot.station->statistics().estop_changes, 2u);
+}
+
+// Link loss: the operator's UDP goes away without Bye while it commands
+// v = 0.3 m/s. The watchdog is set far longer than the link timeout, so only
+// the link loss can stop the base: SAFETY_LINK_LOST, standstill.
+TEST(RobotStationLoopback, LinkLossStopsRobot) {
+  hemm::config::RobotConfig cfg = test_config();
+  cfg.mutable_safety()->set_watchdog_ms(5000);
+  RobotSide robot(cfg);
+  robot.start();
+  FakeOperator op(robot.server->session_port(), true);
+  ASSERT_TRUE(op.wait_connected());
+  op.set_command(nav_command(kSpeed));
+  ASSERT_TRUE(wait_until([&] { return robot.station->latest_state().v > 0.25; }, 3.0));
+  EXPECT_EQ(robot.station->latest_state().safety & hw::SAFETY_LINK_LOST, 0u);
+
+  const int64_t t_kill = now_ns();
+  op.kill_streams();
+  int64_t t_lost = -1, t_still = -1;
+  wait_until(
+      [&] {
+        const auto s = robot.station->latest_state();
+        if (t_lost < 0 && (s.safety & hw::SAFETY_LINK_LOST)) t_lost = now_ns();
+        if (t_lost >= 0 && t_still < 0 && std::abs(s.v) < 0.01) t_still = now_ns();
+        return t_still >= 0;
+      },
+      4.0);
+  ASSERT_GT(t_lost, 0) << "link loss never reported";
+  ASSERT_GT(t_still, 0) << "base never stopped";
+  const double timeout_s = cfg.link().link_timeout_ms() * 1e-3;
+  const double decel_s = kSpeed / cfg.base().max_accel_mps2();
+  std::printf("UDP killed -> LINK_LOST %.3f s, -> standstill %.3f s (timeout %.3f s + deceleration %.3f s)\n",
+              (t_lost - t_kill) * 1e-9, (t_still - t_kill) * 1e-9, timeout_s, decel_s);
+  EXPECT_GT((t_lost - t_kill) * 1e-9, timeout_s * 0.5);
+  EXPECT_LT((t_lost - t_kill) * 1e-9, timeout_s + 0.3);
+  EXPECT_LT((t_still - t_kill) * 1e-9, timeout_s + decel_s + 0.4);
+  const auto x0 = robot.station->latest_state().T_W_R_truth.x;
+  sleep_s(0.4);
+  const auto s = robot.station->latest_state();
+  EXPECT_LT(std::abs(s.T_W_R_truth.x - x0), 0.003);
+  EXPECT_NE(s.safety & hw::SAFETY_LINK_LOST, 0u);
+  EXPECT_NE(s.safety & hw::SAFETY_NO_OPERATOR, 0u);
+}
+
+// Hostile and stale input from the controlling operator changes nothing: an
+// unknown mode is refused, non-finite commands are dropped, and after a
+// ModeChange to exploration, navigation commands (sent for the old mode) are
+// dropped; once the mode is navigation, the same commands move the base.
+TEST(RobotStationLoopback, BadAndStaleCommandsChangeNothing) {
+  RobotSide robot(test_config());
+  robot.start();
+  FakeOperator op(robot.server->session_port(), true);
+  ASSERT_TRUE(op.wait_connected());
+  op.send_frame(mode_change(static_cast<hw::Mode>(42), 11));
+  ASSERT_TRUE(wait_until([&] { return op.ack_for(11).has_value(); }, 2.0));
+  EXPECT_FALSE(op.ack_for(11)->ok());
+
+  op.set_command(nav_command(std::nan("")));
+  sleep_s(0.4);
+  op.send_frame(mode_change(hw::MODE_EXPLORATION, 12));
+  ASSERT_TRUE(wait_until([&] { return op.ack_for(12).has_value(); }, 2.0));
+  EXPECT_TRUE(op.ack_for(12)->ok());
+  op.set_command(nav_command(kSpeed));
+  sleep_s(0.8);
+  auto st = robot.station->statistics();
+  const auto s = robot.station->latest_state();
+  std::printf("malformed %lu, mode mismatch %lu, applied %lu; |v| %.5f, x %.5f\n",
+              static_cast<unsigned long>(st.commands_malformed), static_cast<unsigned long>(st.commands_mode_mismatch),
+              static_cast<unsigned long>(st.commands_applied), s.v, s.T_W_R_truth.x);
+  EXPECT_GT(st.commands_malformed, 20u);
+  EXPECT_GT(st.commands_mode_mismatch, 40u);
+  EXPECT_EQ(st.commands_applied, 0u);
+  EXPECT_EQ(st.mode, hw::MODE_EXPLORATION);
+  EXPECT_LT(std::abs(s.v), 0.01);
+  EXPECT_LT(std::abs(s.T_W_R_truth.x), 0.003);
+
+  op.send_frame(mode_change(hw::MODE_NAVIGATION, 13));
+  ASSERT_TRUE(wait_until([&] { return op.ack_for(13).has_value(); }, 2.0));
+  EXPECT_TRUE(op.ack_for(13)->ok());
+  EXPECT_TRUE(wait_until([&] { return robot.station->latest_state().v > 0.25; }, 2.0));
+  st = robot.station->statistics();
+  EXPECT_GT(st.commands_applied, 0u);
+  EXPECT_EQ(st.mode_changes, 2u);
+}
