@@ -17,4 +17,10 @@ for b in "$build"/bin/bench/*; do
   "$b" 2>&1 | tee "$out/$name.txt"
   ran=$((ran + 1))
 done
+# The VPS speed-against-error report (1M-triangle scene, two tools, FCL side by side).
+if [[ -z "$filter" || "vps-report" == *"$filter"* ]] && [[ -x "$build/bin/hemm-vps" ]]; then
+  echo "== hemm-vps report"
+  "$build/bin/hemm-vps" report 2>&1 | tee "$out/hemm-vps-report.txt"
+  ran=$((ran + 1))
+fi
 echo "== $ran benchmark(s); output in $out"
