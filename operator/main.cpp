@@ -1,6 +1,9 @@
-// hemm-operator: the operator station. For now (foundation): connects to the
-// robot, authenticates, exchanges heartbeats and ping/pong, re-opens the
-// session after a drop, and prints link statistics at exit.
+// hemm-operator: the operator station. Connects to the robot, authenticates,
+// exchanges heartbeats and ping/pong, re-opens the session after a drop; runs
+// the haptic device (SIMULATED Omni with a scripted hand, or a replayed
+// trajectory) in the 1 kHz servo loop against the local model built from the
+// robot's scans, streams commands, and prints link and station statistics at
+// exit.
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
 
@@ -13,14 +16,16 @@
 #include "common/net/station_cli.h"
 #include "config_operator.pb.h"
 #include "operator/client/operator_client.h"
+#include "operator/station/demo_scripts.h"
+#include "operator/station/operator_station.h"
 
 namespace {
 
 using namespace hemm;
 
 int run(int argc, char** argv) {
-  CLI::App app{"hemm-operator: the operator station of hemm (link foundation: authenticated session, heartbeats, "
-               "ping/pong, link statistics)."};
+  CLI::App app{"hemm-operator: the operator station of hemm (authenticated session, 1 kHz haptic servo loop with "
+               "the virtual proxy on the local model, commands to the robot, link statistics)."};
   app.footer(net::kExitCodeHelp);
   std::string config_path, key_path, robot, log_level = "info", stats_json;
   int session_port = -1, stream_port = -1;
@@ -41,6 +46,13 @@ int run(int argc, char** argv) {
   app.add_option("--stats-period", stats_period_s, "log link statistics every this many seconds (0: never)")
       ->check(CLI::NonNegativeNumber);
   app.add_option("--stats-json", stats_json, "write the final link statistics as JSON to this file");
+  std::string script = "idle", servo_log, replay_file;
+  app.add_option("--script", script,
+                 "SIMULATED hand script for the sim-omni device: idle, nav-to-wall, probe-cylinder")
+      ->check(CLI::IsMember(op::demo_script_names()));
+  app.add_option("--log", servo_log,
+                 "1 kHz servo CSV log (also FILE.world.csv per tick in W, FILE.map.csv: the final map)");
+  app.add_option("--replay", replay_file, "replay this device trajectory CSV (overrides device.type/replay_file)");
   // Hidden: lets tests speak a wrong protocol version.
   app.add_option("--test-protocol-version", test_version, "")->group("");
   try {
@@ -98,8 +110,36 @@ int run(int argc, char** argv) {
   o.replay_window = link.replay_window();
   o.reconnect_for_ms = link.reconnect_for_ms();
 
+  op::OperatorStationOptions so;
+  so.device = replay_file.empty() ? cfg.device().type() : "replay";
+  so.replay_file = !replay_file.empty() ? replay_file
+                   : cfg.device().has_replay_file()
+                       ? config::resolve_relative_to(config_path, cfg.device().replay_file())
+                       : std::string();
+  so.script = script;
+  so.log_path = servo_log;
+  so.command_rate_hz = cfg.net().command_rate_hz();
+  if (cfg.servo().rate_hz() < 100 || cfg.servo().rate_hz() > 4000 || so.command_rate_hz < 100 ||
+      so.command_rate_hz > 1000) {
+    std::cerr << "hemm-operator: bad config: servo.rate_hz must be in [100, 4000], net.command_rate_hz in "
+                 "[100, 1000]\n";
+    return net::kExitUsage;
+  }
+  so.servo.period_ns = 1'000'000'000LL / cfg.servo().rate_hz();
+  so.servo.realtime = cfg.servo().realtime_priority();
+  so.servo.lock_memory = cfg.servo().realtime_priority();
+  so.task.proxy.period = static_cast<double>(so.servo.period_ns) * 1e-9;
+
   asio::io_context io;
   op::OperatorClient client(io, o);
+  std::unique_ptr<op::OperatorStation> station;
+  try {
+    station = std::make_unique<op::OperatorStation>(io, client, so);
+  } catch (const std::exception& e) {
+    std::cerr << "hemm-operator: " << e.what() << "\n";
+    spdlog::error("event=station_failed error=\"{}\"", e.what());
+    return net::kExitUsage;
+  }
   int exit_code = net::kExitOk;
   bool stopping = false;
   asio::steady_timer grace(io);
@@ -129,6 +169,17 @@ int run(int argc, char** argv) {
     spdlog::error("event=start_failed error=\"{}\"", error);
     return net::kExitUsage;
   }
+  try {
+    const servo::RealtimeStatus rt = station->start();
+    for (const auto& w : rt.warnings) spdlog::warn("event=servo_realtime warning=\"{}\"", w);
+    spdlog::info("event=station_started device={} script={} fifo={} memory_locked={}", so.device, so.script, rt.fifo,
+                 rt.memory_locked);
+  } catch (const std::exception& e) {
+    std::cerr << "hemm-operator: " << e.what() << "\n";
+    spdlog::error("event=station_failed error=\"{}\"", e.what());
+    client.stop("station failed");
+    return net::kExitUsage;
+  }
   asio::signal_set signals(io, SIGINT, SIGTERM);
   signals.async_wait([&](const asio::error_code& ec, int sig) {
     if (!ec) shutdown(sig == SIGINT ? "SIGINT" : "SIGTERM");
@@ -152,9 +203,11 @@ int run(int argc, char** argv) {
   };
   stats_tick();
 
-  // This thread is the network thread for now; later the servo and model
-  // threads run beside it and read the stream mailboxes.
+  // This thread is the network thread; the servo and model threads run
+  // beside it.
   io.run();
+  station->stop();
+  std::cout << op::to_string(station->summary());
 
   const net::LinkStatistics st = client.statistics();
   std::cout << net::to_summary(st) << std::flush;

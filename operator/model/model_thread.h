@@ -1,0 +1,114 @@
+// The operator's model thread (DESIGN.md "Threads of the operator station"):
+// scans and robot states from the network thread -> local map in W -> an
+// immutable OperatorModelSnapshot published to the servo thread through the
+// ModelChannel (lock-free; retired snapshots are freed here, never on the
+// servo thread).
+//
+// Inputs cross threads without locks: the network thread pushes wire
+// RangeScans (shared, immutable) into an SPSC ring, the newest RobotState into
+// a newest-wins mailbox, and every command it sends into another SPSC ring
+// (the history the pose prediction integrates). A full ring drops the input
+// and counts it. Each step() (model thread, model_rate_hz) drains them,
+// converts and validates scans (a bad scan is counted and changes nothing),
+// predicts the robot's present pose, slides the map window around it, and
+// publishes a snapshot.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <thread>
+
+#include "common/mapping/local_map.h"
+#include "operator/model/pose_prediction.h"
+#include "operator/model/scan_convert.h"
+#include "operator/servo/latest_mailbox.h"
+#include "operator/servo/servo_loop.h"
+#include "operator/servo/spsc_ring.h"
+
+namespace hemm::op {
+
+// What the servo thread sees. stamp_ns: the local time T_W_R was predicted for.
+struct OperatorModelSnapshot final : servo::ModelSnapshot {
+  mapping::MapSnapshot map;
+  math::Pose2 T_W_R;          // predicted robot pose at stamp_ns
+  double v = 0.0;             // command acting at stamp_ns (for extrapolation)
+  double omega = 0.0;
+  bool have_state = false;    // false: no RobotState yet, T_W_R is the origin
+  RobotStateSample state;     // the newest state, as received
+  std::size_t segments = 0;   // map segments (before splitting into pieces)
+};
+
+struct ModelThreadParams {
+  mapping::MapParams map;
+  double rate_hz = 50.0;                 // snapshots per second (at most)
+  std::size_t scan_queue = 256;          // power of two
+  std::size_t command_queue = 1024;      // power of two
+  std::size_t history = 4096;            // sent commands kept for prediction
+  double max_prediction_s = 2.0;
+};
+
+struct ModelStats {
+  std::uint64_t scans_in = 0;        // converted and added
+  std::uint64_t scans_rejected = 0;  // invalid: counted, map unchanged
+  std::uint64_t scans_dropped = 0;   // queue full
+  std::uint64_t states_in = 0;
+  std::uint64_t states_rejected = 0;
+  std::uint64_t commands_dropped = 0;
+  std::uint64_t snapshots = 0;
+  std::uint64_t freed = 0;
+};
+
+class ModelThread {
+ public:
+  // Throws std::invalid_argument on bad params.
+  ModelThread(servo::ModelChannel& channel, const ModelThreadParams& p);
+  ~ModelThread();
+  ModelThread(const ModelThread&) = delete;
+  ModelThread& operator=(const ModelThread&) = delete;
+
+  // ---- network thread (one producer) ----
+  void submit_scan(std::shared_ptr<const wire::RangeScan> scan);
+  void submit_state(const wire::RobotState& state);
+  void record_command(const SentCommand& c);
+  // ---- any thread ----
+  void set_clock_offset(std::int64_t robot_minus_local_ns) { offset_ns_.store(robot_minus_local_ns); }
+  void set_command_delay(std::int64_t ns) { delay_ns_.store(ns); }
+  ModelStats stats() const;
+
+  // One iteration at local time now_ns (the thread calls it; tests may call
+  // it directly while the thread is not running). Publishes a snapshot.
+  void step(std::int64_t now_ns);
+
+  void start();
+  void stop();  // idempotent; joins
+  // Model-thread side (or after stop()): the map and the last error.
+  const mapping::LocalMap& map() const { return map_; }
+  const std::string& last_error() const { return last_error_; }
+
+ private:
+  void run();
+
+  servo::ModelChannel& channel_;
+  ModelThreadParams p_;
+  servo::SpscRing<std::shared_ptr<const wire::RangeScan>> scans_;
+  servo::SpscRing<SentCommand> commands_;
+  servo::LatestMailbox<wire::RobotState> state_box_;
+  std::atomic<std::int64_t> offset_ns_{0}, delay_ns_{0};
+
+  // model-thread state
+  mapping::LocalMap map_;
+  CommandHistory history_;
+  RobotStateSample state_;
+  bool have_state_ = false;
+  std::uint64_t version_ = 0;
+  std::string last_error_;
+
+  std::atomic<std::uint64_t> scans_in_{0}, scans_rejected_{0}, scans_dropped_{0}, states_in_{0},
+      states_rejected_{0}, commands_dropped_{0}, snapshots_{0}, freed_{0};
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
+};
+
+}  // namespace hemm::op

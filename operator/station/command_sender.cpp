@@ -1,0 +1,90 @@
+#include "operator/station/command_sender.h"
+
+#include <stdexcept>
+
+namespace hemm::op {
+
+CommandSender::CommandSender(asio::io_context& io, servo::LatestMailbox<StationSetpoint>& setpoints, SendStream send,
+                             SendSession send_session, ModelThread* model, const CommandSenderParams& p, Clock clock)
+    : timer_(io),
+      setpoints_(setpoints),
+      send_(std::move(send)),
+      send_session_(std::move(send_session)),
+      model_(model),
+      p_(p),
+      clock_(std::move(clock)) {
+  if (!(p.rate_hz >= 100.0 && p.rate_hz <= 1000.0))
+    throw std::invalid_argument("CommandSender: rate_hz must be in [100, 1000]");
+  if (!send_ || !clock_) throw std::invalid_argument("CommandSender: send and clock are required");
+}
+
+void CommandSender::start() {
+  running_ = true;
+  next_ = std::chrono::steady_clock::now();
+  arm();
+}
+
+void CommandSender::stop() {
+  running_ = false;
+  timer_.cancel();
+}
+
+void CommandSender::arm() {
+  if (!running_) return;
+  next_ += std::chrono::nanoseconds(static_cast<std::int64_t>(1e9 / p_.rate_hz));
+  const auto now = std::chrono::steady_clock::now();
+  if (next_ < now) next_ = now;  // behind: keep the rate, do not burst
+  timer_.expires_at(next_);
+  timer_.async_wait([this](const asio::error_code& ec) {
+    if (ec || !running_) return;
+    send_once();
+    arm();
+  });
+}
+
+void CommandSender::send_once() {
+  StationSetpoint sp;
+  if (setpoints_.take(sp)) {
+    latest_ = sp;
+    have_ = true;
+  }
+  const std::int64_t now = clock_();
+  if (!have_) return;  // the servo has not run yet: nothing to say
+  const wire::Mode mode = to_wire_mode(latest_.mode);
+  const bool fresh = now - latest_.t_ns <= p_.stale_after_ns;
+  if (!fresh && latest_.moves_robot) ++stats_.stale;
+  const bool deadman = latest_.moves_robot && fresh;
+  wire::Command& c = *msg_.mutable_command();
+  c.set_stamp_ns(now);
+  c.set_mode(mode);
+  c.set_deadman(deadman);
+  c.set_v(deadman ? latest_.v : 0.0);
+  c.set_omega(deadman ? latest_.omega : 0.0);
+  if (latest_.arm_valid) {
+    c.mutable_arm_target()->set_x(latest_.arm_target_R.x());
+    c.mutable_arm_target()->set_y(latest_.arm_target_R.y());
+    c.mutable_arm_target()->set_z(latest_.arm_target_R.z());
+  } else {
+    c.clear_arm_target();
+  }
+  if (send_(msg_)) {
+    ++stats_.commands_sent;
+    if (model_ != nullptr) model_->record_command(SentCommand{now, c.v(), c.omega()});
+    // The mode goes on the session only once the link carries commands; a
+    // failed send (no session: connecting, reconnecting) forgets it, so a
+    // re-opened session hears the mode again.
+    if (mode != sent_mode_ && send_session_) {
+      wire::SessionFrame f;
+      f.mutable_mode_change()->set_mode(mode);
+      f.mutable_mode_change()->set_request_id(++request_id_);
+      send_session_(f);
+      ++stats_.mode_changes_sent;
+    }
+    sent_mode_ = mode;
+  } else {
+    ++stats_.send_failures;
+    sent_mode_ = wire::MODE_UNSPECIFIED;
+  }
+}
+
+}  // namespace hemm::op

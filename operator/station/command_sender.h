@@ -1,0 +1,70 @@
+// The command sender (network thread): at rate_hz takes the newest
+// StationSetpoint from the servo task's mailbox and sends a wire Command
+// (deadman = the mode moves the robot AND the servo's setpoint is fresh: a
+// stalled servo thread stops the robot). A mode change also goes as a
+// ModeChange session frame, after the first command of that mode was sent
+// successfully (and again after the link was lost and is back). Each command sent is recorded for the pose
+// prediction (model thread). Runs on one asio io_context; the send functions
+// are called there.
+#pragma once
+
+#include <asio.hpp>
+#include <cstdint>
+#include <functional>
+
+#include "operator/model/model_thread.h"
+#include "operator/station/operator_task.h"
+#include "wire.pb.h"
+
+namespace hemm::op {
+
+struct CommandSenderParams {
+  double rate_hz = 200.0;                // >= 100 (wire.proto)
+  std::int64_t stale_after_ns = 100'000'000;  // setpoint older than this: no deadman
+};
+
+struct CommandSenderStats {
+  std::uint64_t commands_sent = 0;
+  std::uint64_t send_failures = 0;
+  std::uint64_t mode_changes_sent = 0;
+  std::uint64_t stale = 0;  // commands sent with the deadman released because the setpoint was stale
+};
+
+class CommandSender {
+ public:
+  using SendStream = std::function<bool(const wire::StreamMessage&)>;
+  using SendSession = std::function<void(const wire::SessionFrame&)>;
+  using Clock = std::function<std::int64_t()>;
+
+  // Throws std::invalid_argument if rate_hz is outside [100, 1000]. model may
+  // be null (no prediction history).
+  CommandSender(asio::io_context& io, servo::LatestMailbox<StationSetpoint>& setpoints, SendStream send,
+                SendSession send_session, ModelThread* model, const CommandSenderParams& p, Clock clock);
+  void start();
+  void stop();
+  // One period's work (the timer calls it; tests may too, on the io thread).
+  void send_once();
+  // Network thread only (or after stop).
+  const CommandSenderStats& stats() const { return stats_; }
+
+ private:
+  void arm();
+
+  asio::steady_timer timer_;
+  servo::LatestMailbox<StationSetpoint>& setpoints_;
+  SendStream send_;
+  SendSession send_session_;
+  ModelThread* model_;
+  CommandSenderParams p_;
+  Clock clock_;
+  StationSetpoint latest_;
+  bool have_ = false;
+  wire::Mode sent_mode_ = wire::MODE_UNSPECIFIED;
+  std::uint64_t request_id_ = 0;
+  std::chrono::steady_clock::time_point next_;
+  bool running_ = false;
+  CommandSenderStats stats_;
+  wire::StreamMessage msg_;
+};
+
+}  // namespace hemm::op

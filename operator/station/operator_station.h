@@ -1,0 +1,102 @@
+// The operator station's runtime: device (SIMULATED Omni with a scripted
+// hand, or a replayed trajectory) -> 1 kHz ServoLoop with the
+// OperatorServoTask; a ModelThread fed by the link's RobotState / RangeScan
+// streams; a CommandSender on the network thread; link statistics copied into
+// the servo log and the model (clock offset, command delay = RTT / 2).
+// Logs: the servo's 1 kHz CSV (frame H: device, proxy, interaction point,
+// force, mode, model age, RTT/offset) and, beside it, <log>.world.csv (frame
+// W: robot pose, goal, proxy, force, command) and at stop <log>.map.csv (the
+// final map's segments) for deploy/plots/plot_run.py.
+//
+// Threads: construct, start() and stop() on any thread while the io_context
+// runs elsewhere or not at all; the stream handlers and the sender run on the
+// io_context's thread.
+#pragma once
+
+#include <asio.hpp>
+#include <memory>
+#include <string>
+
+#include "operator/client/operator_client.h"
+#include "operator/device/hand_script.h"
+#include "operator/device/haptic_device.h"
+#include "operator/model/model_thread.h"
+#include "operator/servo/servo_loop.h"
+#include "operator/station/command_sender.h"
+#include "operator/station/operator_task.h"
+
+namespace hemm::op {
+
+struct OperatorStationOptions {
+  std::string device = "sim-omni";  // or "replay"
+  std::string replay_file;          // device == "replay"
+  std::string script = "idle";      // device == "sim-omni": demo_scripts.h
+  // device == "sim-omni": if set, this hand instead of the script, starting
+  // in task.initial_mode (tests, custom demos).
+  std::shared_ptr<const device::HandScript> hand;
+  std::string log_path;             // empty: no logs
+  double command_rate_hz = 200.0;
+  double stats_period_s = 0.1;      // link statistics -> servo log / model
+  servo::ServoConfig servo;
+  ModelThreadParams model;
+  OperatorTaskParams task;          // initial_mode is taken from the script (unless hand is set)
+};
+
+struct OperatorStationSummary {
+  servo::TimingSummary timing;
+  ModelStats model;
+  CommandSenderStats commands;
+  std::uint64_t mode_switches = 0;
+  std::uint64_t servo_log_written = 0, servo_log_dropped = 0;
+  std::uint64_t world_log_written = 0, world_log_dropped = 0;
+};
+std::string to_string(const OperatorStationSummary& s);
+
+class OperatorStation {
+ public:
+  // Throws std::invalid_argument / std::runtime_error on bad options (unknown
+  // script or device, unreadable replay file, bad parameters).
+  OperatorStation(asio::io_context& io, OperatorClient& client, const OperatorStationOptions& o);
+  ~OperatorStation();
+  OperatorStation(const OperatorStation&) = delete;
+  OperatorStation& operator=(const OperatorStation&) = delete;
+
+  // Registers the stream handlers (call before the io_context runs them),
+  // opens the logs, starts the model and servo threads and the sender.
+  // Returns the real-time status of the servo thread. Throws on log errors.
+  servo::RealtimeStatus start();
+  // Stops the servo and model threads (the sender is cancelled on the io
+  // thread via post), writes the map dump, closes logs. Idempotent.
+  void stop();
+  // After stop(): everything counted.
+  OperatorStationSummary summary() const;
+
+  // For tests: the newest snapshot handed to the servo (model thread state).
+  ModelThread& model() { return *model_; }
+  OperatorServoTask& task() { return *task_; }
+  device::HapticDevice& device() { return *device_; }
+  const CommandSender& sender() const { return *sender_; }
+
+ private:
+  void poll_link();
+
+  asio::io_context& io_;
+  OperatorClient& client_;
+  OperatorStationOptions o_;
+  std::unique_ptr<device::HapticDevice> device_;
+  servo::ModelChannel channel_;
+  std::unique_ptr<ModelThread> model_;
+  std::unique_ptr<servo::ServoLogger> servo_log_;
+  std::unique_ptr<StationLogger> world_log_;
+  std::unique_ptr<OperatorServoTask> task_;
+  std::unique_ptr<servo::ServoLoop> loop_;
+  std::unique_ptr<CommandSender> sender_;
+  asio::steady_timer link_timer_;
+  bool started_ = false;
+  bool stopped_ = false;
+};
+
+// Writes the map's segments as CSV (ax,ay,bx,by,nx,ny,stamp_ns,kind).
+bool write_map_csv(const mapping::LocalMap& map, const std::string& path, std::string* error);
+
+}  // namespace hemm::op

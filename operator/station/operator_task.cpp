@@ -1,0 +1,171 @@
+#include "operator/station/operator_task.h"
+
+#include <cinttypes>
+#include <cmath>
+#include <cstdio>
+#include <stdexcept>
+
+namespace hemm::op {
+
+Eigen::Matrix3d R_B_H() {
+  Eigen::Matrix3d r;
+  r << 0, 0, -1,  //
+      -1, 0, 0,   //
+      0, 1, 0;
+  return r;
+}
+
+wire::Mode to_wire_mode(math::Mode m) {
+  switch (m) {
+    case math::Mode::kExploration: return wire::MODE_EXPLORATION;
+    case math::Mode::kNavigation: return wire::MODE_NAVIGATION;
+    case math::Mode::kManipulation: return wire::MODE_MANIPULATION;
+  }
+  return wire::MODE_IDLE;
+}
+
+const char* station_log_header() {
+  return "t_ns,mode,robot_x,robot_y,robot_theta,goal_x,goal_y,goal_z,proxy_x,proxy_y,fw_x,fw_y,"
+         "fh_x,fh_y,fh_z,v,omega,contacts,model_version,model_age_ns";
+}
+
+std::size_t format_station_log_record(const StationLogRecord& r, char* buf, std::size_t size) {
+  const int n = std::snprintf(
+      buf, size,
+      "%" PRId64 ",%u,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%d,%" PRIu64
+      ",%" PRId64 "\n",
+      r.t_ns, r.mode, r.robot[0], r.robot[1], r.robot[2], r.goal_W[0], r.goal_W[1], r.goal_W[2], r.proxy_W[0],
+      r.proxy_W[1], r.force_W[0], r.force_W[1], r.force_H[0], r.force_H[1], r.force_H[2], r.v, r.omega, r.contacts,
+      r.model_version, r.model_age_ns);
+  if (n < 0 || static_cast<std::size_t>(n) >= size) return 0;
+  return static_cast<std::size_t>(n);
+}
+
+OperatorServoTask::OperatorServoTask(const OperatorTaskParams& p, StationLogger* log)
+    : p_(p), mode_(p.initial_mode), log_(log) {
+  if (std::string e = haptics::validate(p.proxy); !e.empty())
+    throw std::invalid_argument("OperatorServoTask: proxy: " + e);
+  if (!(p.exploration_range > 0) || !(p.navigation_look_ahead > 0) || !(p.arm_reach > 0) ||
+      !(p.relax_speed > 0) || !(p.max_extrapolation_s >= 0))
+    throw std::invalid_argument("OperatorServoTask: ranges, reach, relax speed must be positive");
+  explore_ = math::make_exploration_map(p.workspace, p.exploration_range);
+  navigate_ = math::make_navigation_map(p.workspace, p.navigation_look_ahead);
+  if (!p.navigation_point_origin_R.allFinite() || p.navigation_point_origin_R.norm() > 5.0)
+    throw std::invalid_argument("OperatorServoTask: navigation_point_origin_R must be finite, within 5 m");
+  navigate_.point_map.origin_R = p.navigation_point_origin_R;
+  manipulate_ = math::make_manipulation_map(p.workspace, p.arm_base_R, p.arm_workspace_centre_R, p.arm_reach);
+  if (std::string e = math::validate(navigate_); !e.empty())
+    throw std::invalid_argument("OperatorServoTask: navigation map: " + e);
+  proxy_ = haptics::make_proxy_data(p.proxy);
+  empty_map_ = mapping::build_snapshot(mapping::MapParams{}, mapping::LocalMap{});
+  last_.mode = mode_;
+}
+
+const math::ScaledMap& OperatorServoTask::map_of(math::Mode m) const noexcept {
+  switch (m) {
+    case math::Mode::kNavigation: return navigate_.point_map;
+    case math::Mode::kManipulation: return manipulate_.map;
+    case math::Mode::kExploration: break;
+  }
+  return explore_.map;
+}
+
+void OperatorServoTask::switch_to(math::Mode next, const Eigen::Vector3d& p_B) noexcept {
+  if (next == mode_) return;
+  const Eigen::Vector3d proxy3(proxy_.proxy_W.x(), proxy_.proxy_W.y(), goal_W_.z());
+  anchor_ = math::reanchor_at_switch(map_of(next), T_W_R_, p_B, proxy3, goal_W_, map_of(mode_).scale);
+  mode_ = next;
+  ++switches_;
+}
+
+void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelSnapshot& model,
+                             servo::TickOutput& out) noexcept {
+  ++ticks_;
+  const auto* snap = model.version != 0 ? dynamic_cast<const OperatorModelSnapshot*>(&model) : nullptr;
+  const mapping::MapSnapshot& map = snap != nullptr ? snap->map : empty_map_;
+  if (snap != nullptr && snap->have_state) {
+    double dt = static_cast<double>(in.t_ns - snap->stamp_ns) * 1e-9;
+    dt = std::clamp(dt, 0.0, p_.max_extrapolation_s);
+    T_W_R_ = integrate_unicycle(snap->T_W_R, snap->v, snap->omega, dt);
+  }
+  const Eigen::Matrix3d R = R_B_H();
+  const Eigen::Vector3d p_B = in.position_H.allFinite() ? Eigen::Vector3d(R * in.position_H) : Eigen::Vector3d::Zero();
+
+  // Buttons: rising edges switch modes (not on the very first tick: a held
+  // button at start-up is not a press).
+  const std::uint32_t rising = first_ ? 0u : (in.buttons & ~buttons_prev_);
+  buttons_prev_ = in.buttons;
+  if (!first_) {
+    if (rising & device::kButton1) {
+      switch_to(mode_ == math::Mode::kExploration   ? math::Mode::kNavigation
+                : mode_ == math::Mode::kNavigation ? math::Mode::kManipulation
+                                                   : math::Mode::kExploration,
+                p_B);
+    } else if (rising & device::kButton2) {
+      switch_to(mode_ == math::Mode::kNavigation ? math::Mode::kExploration : math::Mode::kNavigation, p_B);
+    }
+  }
+  math::relax_anchor(anchor_, p_.relax_speed, p_.proxy.period);
+
+  const math::ScaledMap& sm = map_of(mode_);
+  goal_W_ = math::anchored_point_W(sm, anchor_, T_W_R_, p_B);
+  if (first_) {
+    haptics::proxy_reset(proxy_, goal_W_.head<2>());
+    first_ = false;
+  }
+  haptics::proxy_tick(p_.proxy, map, proxy_, goal_W_, sm.scale);
+
+  // The proxy seen from the device: R frame, then B of the active map.
+  const Eigen::Vector2d proxy_R2 = math::apply(math::inverse(T_W_R_), proxy_.proxy_W);
+  const Eigen::Vector3d proxy_R(proxy_R2.x(), proxy_R2.y(), math::map_point(sm, p_B + anchor_.offset_B).z());
+  const Eigen::Vector3d proxy_B = math::unmap_point(sm, proxy_R) - anchor_.offset_B;
+
+  StationSetpoint sp;
+  sp.t_ns = in.t_ns;
+  sp.tick = ticks_;
+  sp.mode = mode_;
+  if (mode_ == math::Mode::kNavigation) {
+    const math::BaseCommand c = math::navigation_command(navigate_, proxy_B + anchor_.offset_B);
+    sp.v = c.v;
+    sp.omega = c.omega;
+    sp.moves_robot = true;
+  } else if (mode_ == math::Mode::kManipulation) {
+    const math::ManipulationTarget t = math::manipulation_target(manipulate_, proxy_B + anchor_.offset_B);
+    sp.arm_target_R = t.p_R;
+    sp.arm_valid = true;
+    sp.moves_robot = true;
+  }
+  last_ = sp;
+  setpoints_.put(sp);
+
+  const Eigen::Vector3d F_B = math::force_W_to_B(T_W_R_, proxy_.force_W);
+  const Eigen::Vector3d F_H = R.transpose() * F_B;
+  out.force_H = F_H.allFinite() ? F_H : Eigen::Vector3d::Zero();
+  out.publish_setpoint = false;  // the base / arm command travels in StationSetpoint
+  out.proxy_position_H = R.transpose() * proxy_B;
+  out.interaction_point_H = R.transpose() * (p_B + anchor_.offset_B);
+  out.mode = static_cast<std::uint32_t>(to_wire_mode(mode_));
+
+  if (log_ != nullptr) {
+    StationLogRecord r;
+    r.t_ns = in.t_ns;
+    r.mode = out.mode;
+    r.robot[0] = T_W_R_.x;
+    r.robot[1] = T_W_R_.y;
+    r.robot[2] = T_W_R_.theta;
+    for (int i = 0; i < 3; ++i) r.goal_W[i] = goal_W_[i];
+    r.proxy_W[0] = proxy_.proxy_W.x();
+    r.proxy_W[1] = proxy_.proxy_W.y();
+    r.force_W[0] = proxy_.force_W.x();
+    r.force_W[1] = proxy_.force_W.y();
+    for (int i = 0; i < 3; ++i) r.force_H[i] = out.force_H[i];
+    r.v = sp.v;
+    r.omega = sp.omega;
+    r.contacts = proxy_.contact_count;
+    r.model_version = model.version;
+    r.model_age_ns = model.version != 0 ? in.t_ns - model.stamp_ns : -1;
+    log_->push(r);
+  }
+}
+
+}  // namespace hemm::op

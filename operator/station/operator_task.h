@@ -1,0 +1,144 @@
+// The operator's servo task (HEMM Sec. 3.2, Eq. 1): one virtual proxy serves
+// three modes; only the map from the stylus to the proxy's goal point changes.
+//
+// Frames. The device reports in H (x right, y up, z towards the user); the
+// workspace maps take B (x forward = away from the user, y left, z up), so
+//   p_B = R_B_H p_H with x_B = -z_H, y_B = -x_H, z_B = y_H,
+// and forces go back as F_H = R_B_H^T F_B, F_B = force_W_to_B(T_W_R, F_W).
+//
+// Modes (button 1, rising edge: exploration -> navigation -> manipulation ->
+// exploration; button 2, rising edge: toggles exploration <-> navigation,
+// from manipulation it goes to navigation):
+//  - exploration (E_T_H): the stylus point mapped around the robot's present
+//    (predicted) pose is the proxy's goal; the proxy rests on the map's
+//    surfaces. The robot does not move (v = omega = 0, no deadman).
+//  - navigation (N_T_H): the navigation point (stylus mapped ahead of the
+//    robot) is the proxy's goal. The (v, omega) command is taken from the
+//    PROXY's position in B, not the stylus: when a wall holds the proxy the
+//    command shrinks as the robot approaches and falls into the dead band, so
+//    the robot stops short of the wall while the force (the stylus pressed
+//    past the proxy) grows. The point's origin is navigation_point_origin_R
+//    (ahead of the chassis). Deadman on.
+//  - manipulation (M_T_H): the proxy's goal is the stylus mapped into the arm's
+//    box; the arm target is the proxy (so the tool is not sent into a wall),
+//    clamped to the arm's reach. Deadman on.
+// At a switch the new map is re-anchored (reanchor_at_switch) so the force is
+// continuous, then the anchor relaxes at relax_speed (device m/s).
+//
+// The robot pose used on each tick is the snapshot's prediction extrapolated
+// to the tick time with the command acting (bounded by max_extrapolation_s).
+// The tick never allocates, locks or blocks. Setpoints go to a newest-wins
+// mailbox (StationSetpoint: the servo's ServoSetpoint has no room for the
+// base / arm command), a W-frame log record into an optional logger.
+#pragma once
+
+#include <cstdint>
+
+#include "common/haptics/proxy/virtual_proxy.h"
+#include "common/math/workspace_maps.h"
+#include "operator/model/model_thread.h"
+#include "operator/servo/csv_logger.h"
+#include "operator/servo/latest_mailbox.h"
+#include "operator/servo/servo_loop.h"
+#include "wire.pb.h"
+
+namespace hemm::op {
+
+// Rotation taking H coordinates into B.
+Eigen::Matrix3d R_B_H();
+
+wire::Mode to_wire_mode(math::Mode m);
+
+struct StationSetpoint {
+  std::int64_t t_ns = 0;
+  std::uint64_t tick = 0;
+  math::Mode mode = math::Mode::kExploration;
+  double v = 0.0;       // m/s (navigation)
+  double omega = 0.0;   // rad/s
+  Eigen::Vector3d arm_target_R = Eigen::Vector3d::Zero();  // manipulation
+  bool arm_valid = false;
+  bool moves_robot = false;  // deadman: the mode commands motion
+};
+
+// One record per tick, W frame, for the plots (deploy/plots/plot_run.py).
+struct StationLogRecord {
+  std::int64_t t_ns = 0;
+  std::uint32_t mode = 0;  // wire::Mode
+  double robot[3] = {0, 0, 0};      // predicted T_W_R (x, y, theta)
+  double goal_W[3] = {0, 0, 0};     // interaction point (proxy goal)
+  double proxy_W[2] = {0, 0};
+  double force_W[2] = {0, 0};       // device newtons, W axes
+  double force_H[3] = {0, 0, 0};
+  double v = 0.0, omega = 0.0;
+  int contacts = 0;
+  std::uint64_t model_version = 0;
+  std::int64_t model_age_ns = -1;
+};
+const char* station_log_header();
+std::size_t format_station_log_record(const StationLogRecord& r, char* buf, std::size_t size);
+using StationLogger = servo::CsvLogger<StationLogRecord>;
+inline StationLogger make_station_logger(std::size_t capacity = 8192) {
+  return StationLogger(capacity, station_log_header(), &format_station_log_record);
+}
+
+struct OperatorTaskParams {
+  haptics::ProxyModel proxy;
+  math::DeviceWorkspace workspace;
+  double exploration_range = 4.0;   // m of W the device half extent spans (sensor range)
+  double navigation_look_ahead = 2.0;  // m
+  // Where the navigation point sits (in R) with the stylus centred: ahead of
+  // the chassis front (0.22 m) by the probe radius and a margin, so the
+  // command reaches the dead band (v = 0) while the base is still clear of
+  // the surface holding the proxy.
+  Eigen::Vector3d navigation_point_origin_R{0.35, 0.0, 0.0};
+  Eigen::Vector3d arm_base_R{0.10, 0.0, 0.30};
+  Eigen::Vector3d arm_workspace_centre_R{0.35, 0.0, 0.30};
+  double arm_reach = 0.5;
+  double relax_speed = 0.02;  // device m/s at which a switch's anchor fades
+  double max_extrapolation_s = 0.5;
+  math::Mode initial_mode = math::Mode::kExploration;
+};
+
+class OperatorServoTask final : public servo::ServoTask {
+ public:
+  // Throws std::invalid_argument on bad params. log may be null.
+  explicit OperatorServoTask(const OperatorTaskParams& p, StationLogger* log = nullptr);
+
+  void tick(const device::DeviceSample& in, const servo::ModelSnapshot& model,
+            servo::TickOutput& out) noexcept override;
+
+  servo::LatestMailbox<StationSetpoint>& setpoints() noexcept { return setpoints_; }
+  // Servo-thread side (or after the loop stopped).
+  math::Mode mode() const noexcept { return mode_; }
+  const haptics::ProxyData& proxy() const noexcept { return proxy_; }
+  const math::ModeAnchor& anchor() const noexcept { return anchor_; }
+  const StationSetpoint& last_setpoint() const noexcept { return last_; }
+  const math::Pose2& robot_pose() const noexcept { return T_W_R_; }
+  std::uint64_t mode_switches() const noexcept { return switches_; }
+  const OperatorTaskParams& params() const noexcept { return p_; }
+  // The scaled map of a mode (B -> R).
+  const math::ScaledMap& map_of(math::Mode m) const noexcept;
+
+ private:
+  void switch_to(math::Mode next, const Eigen::Vector3d& p_B) noexcept;
+
+  OperatorTaskParams p_;
+  math::ExplorationMap explore_;
+  math::NavigationMap navigate_;
+  math::ManipulationMap manipulate_;
+  haptics::ProxyData proxy_;
+  mapping::MapSnapshot empty_map_;
+  math::Mode mode_;
+  math::ModeAnchor anchor_;
+  math::Pose2 T_W_R_;
+  Eigen::Vector3d goal_W_ = Eigen::Vector3d::Zero();
+  std::uint32_t buttons_prev_ = 0;
+  bool first_ = true;
+  std::uint64_t switches_ = 0;
+  std::uint64_t ticks_ = 0;
+  StationSetpoint last_;
+  servo::LatestMailbox<StationSetpoint> setpoints_;
+  StationLogger* log_;
+};
+
+}  // namespace hemm::op

@@ -1,0 +1,203 @@
+// Wire -> RangeScan2D conversion (validation, chunks, clock offset) and the
+// model thread's step (map, rejects, prediction, snapshots).
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <thread>
+
+#include "operator/model/model_thread.h"
+
+namespace ho = hemm::op;
+namespace hw = hemm::wire;
+namespace hm = hemm::math;
+
+namespace {
+
+// A laser at the robot origin facing +x sees a wall x = wall_x (robot frame),
+// beams over [-60, 60] deg; chunk = beams [first, first + n).
+hw::RangeScan wall_scan(double wall_x, hm::Pose2 T_W_R, std::int64_t stamp, std::uint32_t first = 0,
+                        std::uint32_t n = 121) {
+  hw::RangeScan m;
+  m.set_stamp_ns(stamp);
+  m.set_scan_id(1);
+  m.set_sensor(hw::RANGE_SENSOR_LASER);
+  m.mutable_t_w_r()->set_x(T_W_R.x);
+  m.mutable_t_w_r()->set_y(T_W_R.y);
+  m.mutable_t_w_r()->set_theta(T_W_R.theta);
+  m.mutable_t_r_s()->mutable_orientation()->set_w(1.0);
+  const double a0 = -hm::kPi / 3, step = hm::kPi / 180;
+  m.set_angle_min(a0);
+  m.set_angle_step(step);
+  m.set_beam_count(121);
+  m.set_first_beam(first);
+  m.set_range_min(0.05);
+  m.set_range_max(10.0);
+  for (std::uint32_t i = first; i < first + n; ++i) {
+    m.add_ranges(static_cast<float>(wall_x / std::cos(a0 + i * step)));
+    m.add_valid(true);
+  }
+  return m;
+}
+
+TEST(ScanFromWire, ConvertsChunksAndMapsTheClock) {
+  hw::RangeScan m = wall_scan(1.0, {0.5, -0.2, 0.1}, 5'000'000'000, 30, 40);
+  const double yaw = 0.25;
+  m.mutable_t_r_s()->mutable_position()->set_x(0.2);
+  m.mutable_t_r_s()->mutable_orientation()->set_w(std::cos(yaw / 2));
+  m.mutable_t_r_s()->mutable_orientation()->set_z(std::sin(yaw / 2));
+  hemm::mapping::RangeScan2D s;
+  ASSERT_FALSE(ho::scan_from_wire(m, 1'000'000'000, &s));
+  EXPECT_EQ(s.stamp_ns, 4'000'000'000);  // robot clock minus (robot - local)
+  EXPECT_NEAR(s.angle_min, -hm::kPi / 3 + 30 * hm::kPi / 180, 1e-12);
+  EXPECT_EQ(s.ranges.size(), 40u);
+  EXPECT_NEAR(s.T_R_S.theta, yaw, 1e-12);
+  EXPECT_NEAR(s.T_R_S.x, 0.2, 1e-12);
+  EXPECT_NEAR(s.T_W_R.x, 0.5, 1e-12);
+  EXPECT_NEAR(s.T_W_R.theta, 0.1, 1e-12);
+  EXPECT_EQ(s.kind, hemm::mapping::SensorKind::kLaser);
+}
+
+TEST(ScanFromWire, HostileInputIsRejectedWithoutChange) {
+  const hw::RangeScan good = wall_scan(1.0, {}, 1000);
+  hemm::mapping::RangeScan2D s;
+  s.stamp_ns = 77;
+  auto expect_bad = [&](const hw::RangeScan& m, const char* what) {
+    const auto e = ho::scan_from_wire(m, 0, &s);
+    EXPECT_TRUE(e.has_value()) << what;
+    EXPECT_EQ(s.stamp_ns, 77) << what;
+    EXPECT_TRUE(s.ranges.empty()) << what;
+  };
+  hw::RangeScan m = good;
+  m.add_ranges(1.0f);
+  expect_bad(m, "valid size");
+  m = good;
+  m.mutable_t_w_r()->set_x(std::nan(""));
+  expect_bad(m, "nan pose");
+  m = good;
+  m.set_first_beam(10);
+  expect_bad(m, "beyond beam_count");
+  m = good;
+  m.mutable_t_r_s()->mutable_orientation()->set_x(0.5);
+  m.mutable_t_r_s()->mutable_orientation()->set_w(std::sqrt(0.75));
+  expect_bad(m, "tilted sensor");
+  m = good;
+  m.set_sensor(hw::RANGE_SENSOR_UNSPECIFIED);
+  expect_bad(m, "sensor type");
+  m = good;
+  m.set_angle_step(-0.1);
+  expect_bad(m, "negative step");
+  m = good;
+  m.clear_t_w_r();
+  expect_bad(m, "no pose");
+  m = good;
+  m.set_stamp_ns(0);
+  expect_bad(m, "no stamp");
+}
+
+TEST(StateFromWire, MapsClockAndRejectsNonFinite) {
+  hw::RobotState st;
+  st.set_stamp_ns(3'000'000'000);
+  st.mutable_t_w_r_odom()->set_x(1.0);
+  st.set_v(0.2);
+  ho::RobotStateSample s;
+  ASSERT_FALSE(ho::state_from_wire(st, -500, &s));
+  EXPECT_EQ(s.stamp_local_ns, 3'000'000'500);
+  EXPECT_FALSE(s.has_truth);
+  st.set_v(INFINITY);
+  s.v = 9;
+  EXPECT_TRUE(ho::state_from_wire(st, 0, &s).has_value());
+  EXPECT_EQ(s.v, 9);
+}
+
+const ho::OperatorModelSnapshot* newest(hemm::servo::ModelChannel& ch) {
+  return static_cast<const ho::OperatorModelSnapshot*>(ch.acquire());
+}
+
+TEST(ModelThread, StepBuildsTheWallAndCountsBadScans) {
+  hemm::servo::ModelChannel ch;
+  ho::ModelThread mt(ch, {});
+  const std::int64_t t0 = 10'000'000'000;
+  // The robot at (1, 0) heading +x sees a wall 1 m ahead: x = 2 in W.
+  hw::RobotState st;
+  st.set_stamp_ns(t0);
+  st.mutable_t_w_r_odom()->set_x(1.0);
+  mt.submit_state(st);
+  mt.submit_scan(std::make_shared<const hw::RangeScan>(wall_scan(1.0, {1.0, 0.0, 0.0}, t0, 0, 60)));
+  mt.submit_scan(std::make_shared<const hw::RangeScan>(wall_scan(1.0, {1.0, 0.0, 0.0}, t0, 60, 61)));
+  hw::RangeScan bad = wall_scan(1.0, {1.0, 0.0, 0.0}, t0);
+  bad.mutable_valid()->RemoveLast();
+  mt.submit_scan(std::make_shared<const hw::RangeScan>(bad));
+  mt.step(t0 + 1'000'000);
+  const ho::ModelStats s = mt.stats();
+  EXPECT_EQ(s.scans_in, 2u);
+  EXPECT_EQ(s.scans_rejected, 1u);
+  EXPECT_EQ(s.states_in, 1u);
+  EXPECT_FALSE(mt.last_error().empty());
+  const auto* snap = newest(ch);
+  ASSERT_NE(snap, nullptr);
+  EXPECT_EQ(snap->version, 1u);
+  EXPECT_TRUE(snap->have_state);
+  EXPECT_NEAR(snap->T_W_R.x, 1.0, 1e-12);
+  ASSERT_GT(snap->map.segments.size(), 5u);
+  for (const auto& seg : snap->map.segments) {
+    EXPECT_NEAR(seg.a.x(), 2.0, 0.02);
+    EXPECT_NEAR(seg.b.x(), 2.0, 0.02);
+    EXPECT_LT(seg.normal.x(), -0.95);  // free side toward the robot
+  }
+  // The wall spans y = tan(+-60 deg) around y = 0.
+  double ymin = 1e9, ymax = -1e9;
+  for (const auto& seg : snap->map.segments) {
+    ymin = std::min({ymin, seg.a.y(), seg.b.y()});
+    ymax = std::max({ymax, seg.a.y(), seg.b.y()});
+  }
+  EXPECT_NEAR(ymin, -std::sqrt(3.0), 0.05);
+  EXPECT_NEAR(ymax, std::sqrt(3.0), 0.05);
+  const std::size_t before = mt.map().segments.size();
+  // A bad scan alone changes nothing.
+  mt.submit_scan(std::make_shared<const hw::RangeScan>(bad));
+  mt.step(t0 + 2'000'000);
+  EXPECT_EQ(mt.map().segments.size(), before);
+  EXPECT_EQ(mt.stats().scans_rejected, 2u);
+}
+
+TEST(ModelThread, PredictsWithRecordedCommandsAndFreesRetiredSnapshots) {
+  hemm::servo::ModelChannel ch;
+  ho::ModelThread mt(ch, {});
+  const std::int64_t t0 = 1'000'000'000;
+  hw::RobotState st;
+  st.set_stamp_ns(t0);
+  st.mutable_t_w_r_odom()->set_theta(0.0);
+  mt.submit_state(st);
+  mt.set_command_delay(50'000'000);
+  mt.record_command({t0, 0.5, 0.0});  // acts from t0 + 50 ms
+  mt.step(t0 + 450'000'000);
+  const auto* snap = newest(ch);
+  ASSERT_NE(snap, nullptr);
+  EXPECT_NEAR(snap->T_W_R.x, 0.5 * 0.4, 1e-9);
+  EXPECT_NEAR(snap->v, 0.5, 1e-12);
+  // Reader takes each new snapshot; the publisher frees the retired ones.
+  for (int i = 0; i < 20; ++i) {
+    mt.step(t0 + 500'000'000 + i * 1'000'000);
+    ASSERT_NE(newest(ch), nullptr);
+  }
+  mt.step(t0 + 600'000'000);
+  EXPECT_GE(ch.freed_by_collect(), 19u);
+  EXPECT_EQ(mt.stats().snapshots, 22u);
+}
+
+TEST(ModelThread, ThreadPublishes) {
+  hemm::servo::ModelChannel ch;
+  ho::ModelThreadParams p;
+  p.rate_hz = 200;
+  ho::ModelThread mt(ch, p);
+  mt.start();
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  mt.stop();
+  EXPECT_GE(mt.stats().snapshots, 2u);
+  ho::ModelThreadParams bad;
+  bad.rate_hz = 0.0;
+  EXPECT_THROW(ho::ModelThread(ch, bad), std::invalid_argument);
+}
+
+}  // namespace

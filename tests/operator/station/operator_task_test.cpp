@@ -1,0 +1,250 @@
+// The servo task: frames and force direction, the three modes and their
+// switching without force jumps, navigation force rising toward a wall (and
+// the command stopping the robot short of it), and no allocation on tick.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
+
+#include "operator/station/operator_task.h"
+#include "tests/operator/servo/alloc_counter.h"
+
+namespace ho = hemm::op;
+namespace hm = hemm::math;
+namespace hd = hemm::device;
+namespace hs = hemm::servo;
+namespace hmap = hemm::mapping;
+
+namespace {
+
+constexpr double kK = 300.0;  // proxy stiffness (default)
+
+// A snapshot with one wall segment from a to b (normal toward the free side).
+std::unique_ptr<ho::OperatorModelSnapshot> wall_snapshot(Eigen::Vector2d a, Eigen::Vector2d b, Eigen::Vector2d n,
+                                                         hm::Pose2 T_W_R, std::int64_t stamp = 0) {
+  hmap::LocalMap lm;
+  hmap::Segment2 s;
+  s.a = a;
+  s.b = b;
+  s.normal = n.normalized();
+  lm.segments.push_back(s);
+  auto snap = std::make_unique<ho::OperatorModelSnapshot>();
+  snap->map = hmap::build_snapshot(hmap::MapParams{}, lm);
+  snap->T_W_R = T_W_R;
+  snap->have_state = true;
+  snap->stamp_ns = stamp;
+  snap->version = 1;
+  return snap;
+}
+
+// H position for a B position (x forward, y left, z up).
+Eigen::Vector3d H(double xb, double yb, double zb) { return ho::R_B_H().transpose() * Eigen::Vector3d(xb, yb, zb); }
+
+struct Runner {
+  ho::OperatorServoTask task;
+  std::int64_t t = 0;
+  explicit Runner(const ho::OperatorTaskParams& p, ho::StationLogger* log = nullptr) : task(p, log) {}
+  hs::TickOutput tick(const hs::ModelSnapshot& m, const Eigen::Vector3d& p_H, std::uint32_t buttons = 0) {
+    hd::DeviceSample s;
+    t += 1'000'000;
+    s.t_ns = t;
+    s.position_H = p_H;
+    s.buttons = buttons;
+    hs::TickOutput out;
+    task.tick(s, m, out);
+    return out;
+  }
+  // Moves the stylus linearly from a to b over n ticks, then holds for hold ticks.
+  hs::TickOutput move(const hs::ModelSnapshot& m, const Eigen::Vector3d& a, const Eigen::Vector3d& b, int n,
+                      int hold) {
+    hs::TickOutput out;
+    for (int i = 1; i <= n; ++i) out = tick(m, a + (b - a) * (double(i) / n));
+    for (int i = 0; i < hold; ++i) out = tick(m, b);
+    return out;
+  }
+};
+
+TEST(Frames, RBHIsAProperRotationWithTheDocumentedAxes) {
+  const Eigen::Matrix3d R = ho::R_B_H();
+  EXPECT_NEAR(R.determinant(), 1.0, 1e-12);
+  EXPECT_TRUE((R * R.transpose()).isIdentity(1e-12));
+  EXPECT_TRUE((R * Eigen::Vector3d(0, 0, -1)).isApprox(Eigen::Vector3d(1, 0, 0)));  // forward = -z_H
+  EXPECT_TRUE((R * Eigen::Vector3d(-1, 0, 0)).isApprox(Eigen::Vector3d(0, 1, 0)));  // left = -x_H
+  EXPECT_TRUE((R * Eigen::Vector3d(0, 1, 0)).isApprox(Eigen::Vector3d(0, 0, 1)));   // up = y_H
+}
+
+TEST(Exploration, WallAheadOfATurnedRobotPushesTheStylusBack) {
+  // Robot at (1, 1) heading +y; wall y = 2 in W (1 m ahead). Exploration scale 50.
+  ho::OperatorTaskParams p;
+  Runner r(p);
+  const auto snap = wall_snapshot({-1, 2}, {3, 2}, {0, -1}, {1, 1, hm::kPi / 2});
+  // Stylus forward 20.4 mm -> 1.02 m ahead: 0.02 + probe radius 0.03 = 0.05 m past the proxy's stop.
+  const double xb = 1.02 / 50.0;
+  const hs::TickOutput out = r.move(*snap, H(0, 0, 0), H(xb, 0, 0), 500, 300);
+  const double pen_device = 0.05 / 50.0;
+  // Force back toward the user: +z_H, magnitude k * penetration (device metres).
+  EXPECT_NEAR(out.force_H.z(), kK * pen_device, 0.01 * kK * pen_device);
+  EXPECT_NEAR(out.force_H.x(), 0.0, 1e-6);
+  EXPECT_NEAR(out.force_H.y(), 0.0, 1e-6);
+  EXPECT_NEAR(r.task.proxy().proxy_W.y(), 2.0 - p.proxy.probe_radius, 1e-6);
+  EXPECT_NEAR(r.task.proxy().proxy_W.x(), 1.0, 1e-6);
+  EXPECT_FALSE(r.task.last_setpoint().moves_robot);
+  EXPECT_EQ(out.mode, static_cast<std::uint32_t>(hemm::wire::MODE_EXPLORATION));
+  // The logged proxy (H) sits short of the device by the penetration.
+  EXPECT_NEAR((out.proxy_position_H - H(xb, 0, 0)).norm(), pen_device, 1e-6);
+}
+
+TEST(Navigation, ForceRisesAsTheRobotNearsAWallAndTheCommandStopsShort) {
+  ho::OperatorTaskParams p;
+  p.initial_mode = hm::Mode::kNavigation;
+  p.navigation_point_origin_R = Eigen::Vector3d::Zero();  // the point's origin at the robot's centre
+  Runner r(p);
+  // Wall x = 2 in W; stylus held 30 mm forward: navigation point 0.75 m ahead (scale 25).
+  const double xb = 0.030, scale = 25.0;
+  std::vector<double> forces, speeds;
+  bool first = true;
+  for (double x : {0.8, 1.0, 1.2, 1.23, 1.25, 1.27, 1.29}) {
+    const auto snap = wall_snapshot({2, -3}, {2, 3}, {-1, 0}, {x, 0, 0});
+    const hs::TickOutput out =
+        first ? r.move(*snap, H(0, 0, 0), H(xb, 0, 0), 300, 300) : r.move(*snap, H(xb, 0, 0), H(xb, 0, 0), 1, 300);
+    first = false;
+    forces.push_back(out.force_H.norm());
+    speeds.push_back(r.task.last_setpoint().v);
+    const double pen = std::max(0.0, x + xb * scale - (2.0 - p.proxy.probe_radius));
+    EXPECT_NEAR(out.force_H.norm(), kK * pen / scale, 0.01) << "robot at x = " << x;
+    if (pen > 0) {
+      EXPECT_GT(out.force_H.z(), 0.0);  // pushes the stylus back
+    }
+  }
+  EXPECT_EQ(forces.front(), 0.0);
+  for (std::size_t i = 3; i < forces.size(); ++i) EXPECT_GT(forces[i], forces[i - 1] + 0.05);
+  for (std::size_t i = 3; i < speeds.size(); ++i) EXPECT_LT(speeds[i], speeds[i - 1]);
+  EXPECT_TRUE(r.task.last_setpoint().moves_robot);
+  // Closer still: the proxy, held by the wall, falls into the dead band: v = 0.
+  const auto near = wall_snapshot({2, -3}, {2, 3}, {-1, 0}, {1.8, 0, 0});
+  const hs::TickOutput out = r.move(*near, H(xb, 0, 0), H(xb, 0, 0), 1, 300);
+  EXPECT_EQ(r.task.last_setpoint().v, 0.0);
+  EXPECT_GT(out.force_H.norm(), forces.back() * 0.99);  // still pressed (clamped to the device's limits)
+}
+
+TEST(Navigation, PointStartsAheadOfTheChassis) {
+  ho::OperatorTaskParams p;  // default origin (0.35, 0, 0)
+  p.initial_mode = hm::Mode::kNavigation;
+  Runner r(p);
+  // Wall 0.5 m ahead of a robot at the origin; stylus 10 mm forward: point at 0.35 + 0.25 = 0.6.
+  const auto snap = wall_snapshot({0.5, -3}, {0.5, 3}, {-1, 0}, {0, 0, 0});
+  const hs::TickOutput out = r.move(*snap, H(0, 0, 0), H(0.010, 0, 0), 200, 300);
+  EXPECT_NEAR(out.force_H.norm(), kK * (0.6 - 0.47) / 25.0, 0.01);
+  EXPECT_EQ(r.task.last_setpoint().v, 0.0);  // proxy held 0.12 m past the origin: inside the dead band
+}
+
+TEST(Modes, ButtonsCycleAndSwitchingKeepsTheForce) {
+  ho::OperatorTaskParams p;
+  Runner r(p);
+  const auto snap = wall_snapshot({-3, 1}, {3, 1}, {0, -1}, {0, 0, hm::kPi / 2});  // wall 1 m ahead
+  const double xb = 1.03 / 50.0;  // 0.06 past the proxy's stop in exploration
+  hs::TickOutput out = r.move(*snap, H(0, 0, 0), H(xb, 0, 0), 500, 300);
+  const double f0 = out.force_H.norm();
+  ASSERT_GT(f0, 0.2);
+  // Without re-anchoring, navigation (scale 25) would put the point
+  // 0.35 + 0.515 m ahead (no contact: force 0): a jump of f0.
+  EXPECT_LT(p.navigation_point_origin_R.x() + xb * 25.0, 1.0 - p.proxy.probe_radius);
+
+  const hm::Mode order[] = {hm::Mode::kNavigation, hm::Mode::kManipulation, hm::Mode::kExploration};
+  double max_step = 0.0;
+  Eigen::Vector3d prev = out.force_H;
+  for (hm::Mode expected : order) {
+    out = r.tick(*snap, H(xb, 0, 0), hd::kButton1);  // press
+    EXPECT_EQ(r.task.mode(), expected);
+    max_step = std::max(max_step, (out.force_H - prev).norm());
+    prev = out.force_H;
+    for (int i = 0; i < 50; ++i) {  // hold the button: no further switch
+      out = r.tick(*snap, H(xb, 0, 0), hd::kButton1);
+      max_step = std::max(max_step, (out.force_H - prev).norm());
+      prev = out.force_H;
+    }
+    EXPECT_EQ(r.task.mode(), expected);
+    out = r.tick(*snap, H(xb, 0, 0), 0);  // release
+    max_step = std::max(max_step, (out.force_H - prev).norm());
+    prev = out.force_H;
+  }
+  EXPECT_EQ(r.task.mode_switches(), 3u);
+  // The force is continuous across switches: per-tick changes are far below f0.
+  EXPECT_LT(max_step, 0.02) << "f0 " << f0;
+  // Button 2 toggles exploration <-> navigation.
+  r.tick(*snap, H(xb, 0, 0), hd::kButton2);
+  EXPECT_EQ(r.task.mode(), hm::Mode::kNavigation);
+  r.tick(*snap, H(xb, 0, 0), 0);
+  r.tick(*snap, H(xb, 0, 0), hd::kButton2);
+  EXPECT_EQ(r.task.mode(), hm::Mode::kExploration);
+}
+
+TEST(Modes, AnchorRelaxesAtBoundedForceRate) {
+  ho::OperatorTaskParams p;
+  Runner r(p);
+  const auto snap = wall_snapshot({-3, 1}, {3, 1}, {0, -1}, {0, 0, hm::kPi / 2});
+  const double xb = 1.03 / 50.0;
+  hs::TickOutput out = r.move(*snap, H(0, 0, 0), H(xb, 0, 0), 500, 300);
+  out = r.tick(*snap, H(xb, 0, 0), hd::kButton1);  // -> navigation
+  ASSERT_EQ(r.task.mode(), hm::Mode::kNavigation);
+  const double offset0 = r.task.anchor().offset_B.norm();
+  ASSERT_GT(offset0, 1e-3);
+  Eigen::Vector3d prev = out.force_H;
+  double max_step = 0.0;
+  const int n = static_cast<int>(offset0 / p.relax_speed * 1000.0) + 200;
+  for (int i = 0; i < n; ++i) {
+    out = r.tick(*snap, H(xb, 0, 0), 0);
+    max_step = std::max(max_step, (out.force_H - prev).norm());
+    prev = out.force_H;
+  }
+  EXPECT_LT(r.task.anchor().offset_B.norm(), 1e-9);  // back on the natural map
+  // Bounded by k * relax_speed * T (plus the damping term's share).
+  EXPECT_LT(max_step, 2.0 * kK * p.relax_speed * 1e-3);
+  // Natural navigation map: 0.865 m ahead, no contact.
+  EXPECT_NEAR(out.force_H.norm(), 0.0, 1e-9);
+}
+
+TEST(Manipulation, ArmTargetFollowsTheProxyInR) {
+  ho::OperatorTaskParams p;
+  p.initial_mode = hm::Mode::kManipulation;
+  Runner r(p);
+  hs::ModelSnapshot empty;
+  r.move(empty, H(0, 0, 0), H(0.01, 0.005, 0.0), 100, 10);
+  const ho::StationSetpoint& sp = r.task.last_setpoint();
+  EXPECT_TRUE(sp.arm_valid);
+  EXPECT_TRUE(sp.moves_robot);
+  const hm::ManipulationMap mm =
+      hm::make_manipulation_map(p.workspace, p.arm_base_R, p.arm_workspace_centre_R, p.arm_reach);
+  const hm::ManipulationTarget want = hm::manipulation_target(mm, Eigen::Vector3d(0.01, 0.005, 0.0));
+  EXPECT_TRUE(sp.arm_target_R.isApprox(want.p_R, 1e-9)) << sp.arm_target_R.transpose() << " vs "
+                                                         << want.p_R.transpose();
+}
+
+TEST(Tick, NeverAllocates) {
+  ho::OperatorTaskParams p;
+  auto log = ho::make_station_logger(256);  // not started: pushes fill the ring, then count drops
+  Runner r(p, &log);
+  const auto snap = wall_snapshot({-3, 1}, {3, 1}, {0, -1}, {0, 0, hm::kPi / 2});
+  r.move(*snap, H(0, 0, 0), H(0.001, 0, 0), 10, 0);  // warm up
+  hemm::test::count_allocations_on_this_thread(true);
+  const std::uint64_t before = hemm::test::counted_allocations();
+  for (int i = 0; i < 3000; ++i) {
+    const double s = std::sin(i * 0.005);
+    r.tick(*snap, H(0.022 * s, 0.01 * s, 0), (i / 500) % 2 == 1 ? hd::kButton1 : 0u);
+  }
+  const std::uint64_t allocs = hemm::test::counted_allocations() - before;
+  hemm::test::count_allocations_on_this_thread(false);
+  EXPECT_EQ(allocs, 0u);
+  EXPECT_GE(r.task.mode_switches(), 2u);
+}
+
+TEST(Task, RejectsBadParams) {
+  ho::OperatorTaskParams p;
+  p.exploration_range = -1;
+  EXPECT_THROW(ho::OperatorServoTask t(p), std::invalid_argument);
+  p = {};
+  p.proxy.stiffness = 1e6;
+  EXPECT_THROW(ho::OperatorServoTask t(p), std::invalid_argument);
+}
+
+}  // namespace
