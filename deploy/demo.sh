@@ -1,7 +1,10 @@
 #!/usr/bin/env bash
 # The loopback demo: hemm-robot and hemm-operator on 127.0.0.1, first
 # directly, then through hemm-relay with an impaired network (100 ms one-way
-# delay, 10 ms jitter, 5 % loss), printing each station's link statistics.
+# delay, 10 ms jitter, 5 % loss), printing each station's link statistics;
+# then two haptic runs with a SIMULATED PHANToM Omni and a scripted hand
+# (HEMM Figs. 8 and 9): driving at a wall in navigation mode, and probing the
+# bin in exploration mode, each plotted to PNG in out/demo/<run>/.
 # Usage: deploy/demo.sh BUILD_DIR [seconds-per-phase]
 set -euo pipefail
 build="${1:?usage: deploy/demo.sh BUILD_DIR [seconds]}"
@@ -11,6 +14,9 @@ bin="$build/bin"
 out="$root/out/demo"
 mkdir -p "$out"
 cfg="$root/deploy/configs"
+for b in hemm-robot hemm-operator hemm-relay; do
+  [[ -x "$bin/$b" ]] || { echo "demo: $bin/$b not found (build first: bash deploy/run.sh build)" >&2; exit 2; }
+done
 
 pids=()
 cleanup() { for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done; }
@@ -55,5 +61,35 @@ kill -INT "$relay" 2>/dev/null || true
 wait "$relay" 2>/dev/null || true
 echo "-- relay counters:"
 grep -v "^stats " "$out/relay.txt" || true
+
+# Haptic runs: a fresh robot for each, so it starts at the scene's start pose.
+haptic_run() {
+  local name="$1" secs_run="$2"
+  echo
+  echo "== haptic run: $name ($secs_run s, simulated Omni, scripted hand)"
+  mkdir -p "$out/$name"
+  "$bin/hemm-robot" --config "$cfg/robot.pbtxt" --session-port 47100 --stream-port 47101 \
+    --duration $((secs_run + 4)) --log-level warn >"$out/$name/robot.txt" 2>"$out/$name/robot.log" &
+  local robot=$!
+  pids+=("$robot")
+  sleep 1
+  set +e
+  "$bin/hemm-operator" --config "$cfg/operator.pbtxt" --session-port 47100 --stream-port 47101 \
+    --script "$name" --log "$out/$name/servo.csv" --duration "$secs_run" --log-level warn \
+    >"$out/$name/operator.txt" 2>"$out/$name/operator.log"
+  local rc=$?
+  set -e
+  kill -INT "$robot" 2>/dev/null || true
+  wait "$robot" 2>/dev/null || true
+  tail -n 25 "$out/$name/operator.txt"
+  if ((rc != 0)); then
+    echo "demo: hemm-operator exited with $rc; log: $out/$name/operator.log" >&2
+    exit "$rc"
+  fi
+  /usr/bin/python3 "$root/deploy/plots/plot_run.py" "$out/$name/servo.csv" --out "$out/$name" --title "$name"
+}
+haptic_run nav-to-wall 14
+haptic_run probe-cylinder 18
+
 echo
-echo "demo: outputs in $out"
+echo "demo: outputs in $out (PNG plots in $out/nav-to-wall and $out/probe-cylinder)"
