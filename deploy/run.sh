@@ -52,7 +52,7 @@ configure_release() {
   cmake -S "$root" -B "$builds/release" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo "${launcher[@]}" "$@" >/dev/null
 }
 configure_asan() {
-  CC=clang CXX=clang++ cmake -S "$root" -B "$builds/asan" -G Ninja -DCMAKE_BUILD_TYPE=Debug \
+  CC=clang CXX=clang++ cmake -S "$root" -B "$builds/asan" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
     -DHEMM_SANITIZE=ON -DHEMM_FUZZ=ON -DHEMM_BENCH=OFF "${launcher[@]}" "$@" >/dev/null
 }
 build() {
