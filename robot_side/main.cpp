@@ -75,20 +75,8 @@ int run(int argc, char** argv) {
       return net::kExitUsage;
     }
   }
-  if (key_path.empty() && cfg.link().has_key_file()) {
-    key_path = config::resolve_relative_to(config_path, cfg.link().key_file());
-  }
-  if (key_path.empty()) {
-    std::cerr << "hemm-robot: no key: give --key FILE or link.key_file in the config\n";
-    return net::kExitKey;
-  }
-  std::string key_error;
-  const auto key = net::load_key_file(key_path, &key_error);
-  if (!key) {
-    std::cerr << "hemm-robot: bad key file: " << key_error << "\n";
-    spdlog::error("event=bad_key error=\"{}\"", key_error);
-    return net::kExitKey;
-  }
+  const auto key = net::load_station_key("hemm-robot", key_path, config_path, cfg.link().key_file());
+  if (!key) return net::kExitKey;
 
   robot::RobotServerOptions o;
   const auto& link = cfg.link();

@@ -6,6 +6,9 @@
 
 #include <cstdio>
 #include <fstream>
+#include <iostream>
+
+#include "common/config/config.h"
 
 namespace hemm::net {
 
@@ -39,6 +42,23 @@ bool write_text_file(const std::string& path, const std::string& text, std::stri
     return false;
   }
   return true;
+}
+
+std::optional<Key> load_station_key(const std::string& program, const std::string& key_option,
+                                    const std::string& config_path, const std::string& config_key_file) {
+  std::string key_path = key_option;
+  if (key_path.empty()) key_path = config::resolve_relative_to(config_path, config_key_file);
+  if (key_path.empty()) {
+    std::cerr << program << ": no key: give --key FILE or link.key_file in the config\n";
+    return std::nullopt;
+  }
+  std::string key_error;
+  auto key = load_key_file(key_path, &key_error);
+  if (!key) {
+    std::cerr << program << ": bad key file: " << key_error << "\n";
+    spdlog::error("event=bad_key error=\"{}\"", key_error);
+  }
+  return key;
 }
 
 }  // namespace hemm::net

@@ -2,7 +2,10 @@
 // structured logging setup and writing result files. Not for libraries.
 #pragma once
 
+#include <optional>
 #include <string>
+
+#include "common/net/crypto.h"
 
 namespace hemm::net {
 
@@ -12,5 +15,12 @@ bool setup_station_logging(const std::string& station, const std::string& level)
 
 // Writes `text` to `path` atomically enough for tests (write + rename).
 bool write_text_file(const std::string& path, const std::string& text, std::string* error);
+
+// The pre-shared key of a station: --key if given, else the config's
+// link.key_file resolved relative to the config file. On failure prints why
+// (prefixed with `program`), logs it, and returns nullopt: the caller exits
+// with kExitKey.
+std::optional<Key> load_station_key(const std::string& program, const std::string& key_option,
+                                    const std::string& config_path, const std::string& config_key_file);
 
 }  // namespace hemm::net
