@@ -70,7 +70,12 @@ struct RelayRig {
 TEST(LinkRelayTest, SessionHoldsAndRttIsMeasuredAt200msDelay20msJitter10PercentLoss) {
   if (!relay_built()) GTEST_SKIP() << "hemm-relay is not built in " << kBin << " (add component 'relay')";
   RelayRig s;
-  s.start({"--delay-ms", "200", "--jitter-ms", "20", "--jitter-dist", "normal", "--loss", "0.1"}, 40, 40, 20);
+  // --jitter-reorder: each datagram gets exactly 200 ms + N(0, 20 ms). Without
+  // it the relay keeps FIFO order, so a datagram drawn early waits behind a
+  // late one and the injected delay is no longer the configured one (it
+  // biases the median RTT up by ~10 % at these rates).
+  s.start({"--delay-ms", "200", "--jitter-ms", "20", "--jitter-dist", "normal", "--jitter-reorder", "--loss", "0.1"},
+          40, 40, 20);
   const auto rc = s.op->wait(60s);
   ASSERT_TRUE(rc.has_value()) << s.logs();
   EXPECT_EQ(*rc, 0) << s.logs();
@@ -98,10 +103,14 @@ TEST(LinkRelayTest, SessionHoldsAndRttIsMeasuredAt200msDelay20msJitter10PercentL
     EXPECT_LT(std::abs(num(*j, "clock_offset_ms")), 25.0) << *j;
   }
   // About 10 % of the datagrams were lost on the way in each direction.
-  const double lost = num(rj, "lost"), got = num(rj, "delivered");
-  std::printf("[ measured ] robot: lost=%.0f delivered=%.0f (%.1f %%)\n", lost, got, 100.0 * lost / (lost + got));
-  EXPECT_GT(lost / (lost + got), 0.04);
-  EXPECT_LT(lost / (lost + got), 0.2);
+  // "received" counts every authenticated arrival, also the ones that came
+  // after a newer one of their kind (late, dropped by newest-wins), which
+  // jitter-induced reordering makes common.
+  const double lost = num(rj, "lost"), got = num(rj, "received");
+  std::printf("[ measured ] robot: lost=%.0f received=%.0f (%.1f %%) late=%.0f reordered=%.0f\n", lost, got,
+              100.0 * lost / (lost + got), num(rj, "late"), num(rj, "reordered"));
+  EXPECT_GT(lost / (lost + got), 0.06);
+  EXPECT_LT(lost / (lost + got), 0.14);
 }
 
 TEST(LinkRelayTest, OutageIsReportedAsLinkLostAndTheSessionRecoversWithoutRestart) {
