@@ -73,8 +73,9 @@ ClientHandshake::ClientHandshake(Params p) : p_(std::move(p)) {
   }
 }
 
-HandshakeStep ClientHandshake::fail(wire::ErrorCode code, std::string reason, bool send_error, bool by_peer) {
-  state_ = State::kFailed;
+namespace {
+// The step both handshake sides return when they give up.
+HandshakeStep failed_step(wire::ErrorCode code, std::string reason, bool send_error, bool by_peer) {
   HandshakeStep s;
   s.kind = HandshakeStep::Kind::kFailed;
   s.error = code;
@@ -82,6 +83,12 @@ HandshakeStep ClientHandshake::fail(wire::ErrorCode code, std::string reason, bo
   s.reported_by_peer = by_peer;
   if (send_error) s.reply = make_error_frame(code, s.reason);
   return s;
+}
+}  // namespace
+
+HandshakeStep ClientHandshake::fail(wire::ErrorCode code, std::string reason, bool send_error, bool by_peer) {
+  state_ = State::kFailed;
+  return failed_step(code, std::move(reason), send_error, by_peer);
 }
 
 std::vector<uint8_t> ClientHandshake::start() {
@@ -174,13 +181,7 @@ ServerHandshake::ServerHandshake(Params p) : p_(std::move(p)) {}
 
 HandshakeStep ServerHandshake::fail(wire::ErrorCode code, std::string reason, bool send_error, bool by_peer) {
   state_ = State::kFailed;
-  HandshakeStep s;
-  s.kind = HandshakeStep::Kind::kFailed;
-  s.error = code;
-  s.reason = std::move(reason);
-  s.reported_by_peer = by_peer;
-  if (send_error) s.reply = make_error_frame(code, s.reason);
-  return s;
+  return failed_step(code, std::move(reason), send_error, by_peer);
 }
 
 HandshakeStep ServerHandshake::on_frame(std::span<const uint8_t> payload) {
