@@ -59,7 +59,7 @@ struct RobotStation::Shared {
   mutable std::mutex state_mu;
   RobotStateSim latest;  // guarded by state_mu
 
-  std::atomic<uint64_t> sim_steps{0}, late_steps{0}, resyncs{0};
+  std::atomic<uint64_t> sim_steps{0}, late_steps{0}, resyncs{0}, contact_steps{0}, guard_states{0};
   std::atomic<int64_t> max_lateness_ns{0}, lateness_sum_ns{0};
   std::atomic<uint64_t> lateness_n{0};
   std::atomic<uint64_t> commands_received{0}, commands_without_control{0}, commands_malformed{0},
@@ -111,6 +111,8 @@ std::string to_json(const RobotStationStatistics& s, const std::string& indent) 
   f("sim_steps", s.sim_steps);
   f("late_steps", s.late_steps);
   f("resyncs", s.resyncs);
+  f("contact_steps", s.contact_steps);
+  f("guard_states", s.guard_states);
   f("max_lateness_ns", s.max_lateness_ns);
   f("mean_lateness_ns", s.mean_lateness_ns);
   f("commands_received", s.commands_received);
@@ -136,6 +138,7 @@ std::string to_json(const RobotStationStatistics& s, const std::string& indent) 
 std::string to_log_fields(const RobotStationStatistics& s) {
   std::ostringstream os;
   os << "sim_steps=" << s.sim_steps << " late_steps=" << s.late_steps << " resyncs=" << s.resyncs
+     << " contact_steps=" << s.contact_steps << " guard_states=" << s.guard_states
      << " max_lateness_us=" << s.max_lateness_ns / 1000 << " mean_lateness_us=" << s.mean_lateness_ns / 1000.0
      << " commands_received=" << s.commands_received << " commands_applied=" << s.commands_applied
      << " commands_rejected=" << s.commands_rejected << " commands_without_control=" << s.commands_without_control
@@ -153,6 +156,8 @@ std::string to_summary(const RobotStationStatistics& s) {
   os << "robot (SIMULATED): " << s.sim_steps << " sim steps, " << s.late_steps << " late (>1 period), "
      << s.resyncs << " resyncs, lateness mean " << s.mean_lateness_ns / 1000.0 << " us max "
      << s.max_lateness_ns / 1000 << " us\n"
+     << "  safety: " << s.contact_steps << " steps touching the scene, " << s.guard_states
+     << " states with the collision guard limiting the base\n"
      << "  commands: " << s.commands_received << " received, " << s.commands_applied << " applied, "
      << s.commands_rejected << " rejected by the robot, " << s.commands_without_control << " without control, "
      << s.commands_malformed << " malformed, " << s.commands_mode_mismatch << " wrong mode\n"
@@ -264,6 +269,8 @@ RobotStationStatistics RobotStation::statistics() const {
   RobotStationStatistics s;
   s.sim_steps = sh.sim_steps.load();
   s.late_steps = sh.late_steps.load();
+  s.contact_steps = sh.contact_steps.load();
+  s.guard_states = sh.guard_states.load();
   s.resyncs = sh.resyncs.load();
   s.max_lateness_ns = sh.max_lateness_ns.load();
   const uint64_t n = sh.lateness_n.load();
@@ -413,6 +420,7 @@ void RobotStation::run() {
     robot_.step(1);
     ++k;
     sh.sim_steps.fetch_add(1, std::memory_order_relaxed);
+    if (robot_.robot_contacts_sim() > 0) sh.contact_steps.fetch_add(1, std::memory_order_relaxed);
 
     // Streams go out while the link is up: the peer's endpoint is known
     // (learned from its datagrams) and someone is listening.
@@ -427,6 +435,7 @@ void RobotStation::run() {
         sh.latest = st;
       }
       sh.safety.store(st.safety);
+      if (st.safety & wire::SAFETY_COLLISION_GUARD) sh.guard_states.fetch_add(1, std::memory_order_relaxed);
       if (streaming) {
         wire::StreamMessage m;
         to_wire(st, m.mutable_robot_state());

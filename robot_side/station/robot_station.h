@@ -58,6 +58,8 @@ struct RobotStationStatistics {
   uint64_t sim_steps = 0;
   uint64_t late_steps = 0;          // steps started more than one period after their deadline
   uint64_t resyncs = 0;             // skips ahead after a stall (max_catch_up_ns)
+  uint64_t contact_steps = 0;       // steps with the robot touching anything but the floor (a collision)
+  uint64_t guard_states = 0;        // robot states (state rate) with the collision guard limiting the base
   int64_t max_lateness_ns = 0;      // worst start of a step after its deadline
   double mean_lateness_ns = 0.0;
   uint64_t commands_received = 0;        // authenticated Command datagrams
