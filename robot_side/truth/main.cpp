@@ -1,0 +1,174 @@
+// hemm-truth: SIMULATION ONLY. Offline ground-truth evaluation of the
+// operator's haptic rendering: along the proxy path the operator logged
+// (hemm-operator --log RUN.csv writes RUN.csv.world.csv), the force rendered
+// from its local model against the force from the simulated scene's true
+// geometry, as RMS and maximum error (robot frame), plus the pose error
+// between the operator's predicted robot pose and the simulation's true one.
+#include <CLI/CLI.hpp>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <optional>
+
+#include "common/haptics/proxy/virtual_proxy.h"
+#include "robot_side/truth/scene_slice.h"
+#include "robot_side/truth/truth_eval.h"
+
+namespace {
+
+using namespace hemm;
+
+constexpr int kExitOk = 0;
+constexpr int kExitUsage = 2;
+
+int usage_error(const std::string& msg) {
+  std::cerr << "hemm-truth: " << msg << "\n";
+  return kExitUsage;
+}
+
+void print_entries(const char* title, const std::vector<robot::SliceEntry>& v) {
+  std::printf("%s (%zu):\n", title, v.size());
+  for (const auto& e : v) std::printf("  %-16s %-9s %s\n", e.name.c_str(), e.kind.c_str(), e.detail.c_str());
+}
+
+int run(int argc, char** argv) {
+  CLI::App app{
+      "hemm-truth: SIMULATION ONLY ground-truth check of the operator's haptic rendering.\n"
+      "Replays the servo ticks of an operator world log (hemm-operator --log RUN.csv writes\n"
+      "RUN.csv.world.csv) against the exact geometry of the simulated scene: the robot's TRUE pose is\n"
+      "interpolated from the true poses the simulation sent, the robot-relative interaction point is\n"
+      "carried onto it, and the same virtual proxy runs against the scene's static geoms sliced at\n"
+      "--height. Rendered and true forces are compared in the robot frame R; prints RMS and max\n"
+      "|dF| (all ticks and contact ticks), mean contact forces, and the predicted-vs-true pose error."};
+  app.footer(
+      "--height: the range sensors scan a horizontal plane and the local model is built from it, so\n"
+      "  the truth is the scene cut at the laser's height: LaserConfig.mount_z_m = 0.30 m above the\n"
+      "  floor (frame R has its origin on the ground). In deploy/scenes/home.xml every obstacle has a\n"
+      "  part spanning 0.30 m (and 0.35 m): walls, partition, bin, crate, sofa; the table only as its\n"
+      "  four legs, the chairs only as their leg blocks (table top, seats and backs are above it).\n"
+      "Exit codes: 0 ok, 2 bad command line, scene or log file.");
+  std::string scene_path, log_path, csv_path, json_path;
+  double height = 0.30;
+  std::optional<double> from_s, to_s;
+  double contact_threshold = 0.05;
+  bool list_geoms = false;
+  app.add_option("--scene", scene_path, "MJCF scene the robot simulated (e.g. deploy/scenes/home.xml)")->required();
+  app.add_option("--log", log_path, "operator world log (RUN.csv.world.csv)")->required();
+  app.add_option("--height", height, "slice height in m above the floor (default 0.30: the laser plane; see below)")
+      ->check(CLI::Range(0.0, 100.0));
+  app.add_option("--from", from_s, "evaluate from this many seconds after the first tick");
+  app.add_option("--to", to_s, "evaluate up to this many seconds after the first tick");
+  app.add_option("--contact-threshold", contact_threshold,
+                 "N; a tick is a contact tick when either force exceeds this (default 0.05)")
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--csv", csv_path,
+                 "write per-tick rows: t_s, t_ns, rendered and true force in R, |dF|, both proxies in W, "
+                 "true pose, pose error, held");
+  app.add_option("--json", json_path, "write the summary numbers as one flat JSON object");
+  app.add_flag("--list-geoms", list_geoms, "list the static geoms sliced, skipped and off the slice");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int rc = app.exit(e);
+    return rc == 0 ? kExitOk : kExitUsage;
+  }
+  if (from_s && to_s && *to_s < *from_s) return usage_error("--to must not be before --from");
+  if ((from_s && !std::isfinite(*from_s)) || (to_s && !std::isfinite(*to_s)))
+    return usage_error("--from/--to must be finite");
+
+  // Output paths are checked before anything is written, so a bad one leaves no partial output.
+  for (const std::string* out : {&csv_path, &json_path}) {
+    if (out->empty()) continue;
+    std::error_code ec;
+    const std::filesystem::path parent = std::filesystem::absolute(*out, ec).parent_path();
+    if (ec || !std::filesystem::is_directory(parent, ec) || std::filesystem::is_directory(*out, ec))
+      return usage_error(*out + ": cannot write (no such directory, or it is a directory)");
+  }
+
+  robot::SceneSlice slice;
+  std::string error;
+  if (!robot::load_scene_slice(scene_path, height, &slice, &error)) return usage_error(error);
+  robot::WorldLog log;
+  if (!robot::read_world_log(log_path, &log, &error)) return usage_error(error);
+  if (log.rows.empty()) return usage_error(log_path + ": no data rows");
+
+  // What the operator runs (OperatorTaskParams::proxy defaults, 1 kHz).
+  haptics::ProxyModel proxy;
+  proxy.period = 1e-3;
+  robot::TruthOptions opt;
+  opt.from_s = from_s;
+  opt.to_s = to_s;
+  opt.contact_threshold_n = contact_threshold;
+  opt.per_tick = !csv_path.empty();
+  const robot::TruthReport r = robot::evaluate_against_truth(log.rows, slice.scene, proxy, opt);
+
+  if (list_geoms) {
+    print_entries("sliced", slice.included);
+    print_entries("skipped", slice.skipped);
+    print_entries("off the slice", slice.off_slice);
+  }
+  std::printf("hemm-truth (SIMULATION ONLY): scene %s at z = %.3f m: %zu geoms sliced, %zu skipped, %zu moving "
+              "excluded\n",
+              scene_path.c_str(), height, slice.included.size(), slice.skipped.size(), slice.moving_geoms);
+  for (const auto& e : slice.skipped)
+    std::printf("  skipped %s (%s): %s\n", e.name.c_str(), e.kind.c_str(), e.detail.c_str());
+  std::printf("log %s: %zu rows%s, %zu true-pose samples (max gap %.3f s)\n", log_path.c_str(), r.rows,
+              log.truncated_lines ? " (+1 truncated last line dropped)" : "", r.truth_samples, r.truth_max_gap_s);
+  std::printf("ticks evaluated %zu of %zu in window (skipped: %zu before the first true pose, %zu invalid; %zu "
+              "held after the last)\n",
+              r.ticks, r.window_rows, r.skipped_before_truth, r.skipped_invalid, r.held_after_truth);
+  if (r.ticks > 0) {
+    std::printf("force error |dF| (R): RMS %.4f N, max %.4f N at t = %.3f s\n", r.rms_n, r.max_n, r.max_t_s);
+    if (r.contact_ticks > 0)
+      std::printf("contact ticks %zu: RMS %.4f N, max %.4f N; mean |F| rendered %.4f N, true %.4f N\n",
+                  r.contact_ticks, r.contact_rms_n, r.contact_max_n, r.mean_force_rendered_n, r.mean_force_truth_n);
+    else
+      std::printf("contact ticks 0 (neither force above %.3f N)\n", contact_threshold);
+    std::printf("pose error (predicted vs true): mean %.4f m, max %.4f m, heading max %.4f rad\n",
+                r.pose_error_mean_m, r.pose_error_max_m, r.heading_error_max_rad);
+  }
+
+  if (!csv_path.empty()) {
+    std::ofstream f(csv_path);
+    if (!f) return usage_error(csv_path + ": cannot write");
+    f << "t_s,t_ns,fr_x,fr_y,ft_x,ft_y,df,proxy_x,proxy_y,proxy_true_x,proxy_true_y,true_x,true_y,true_theta,"
+         "pose_error_m,held\n";
+    char buf[512];
+    for (const auto& k : r.per_tick) {
+      std::snprintf(buf, sizeof buf, "%.6f,%lld,%.5f,%.5f,%.5f,%.5f,%.5f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%d\n",
+                    k.t_s, static_cast<long long>(k.t_ns), k.f_rendered_R.x(), k.f_rendered_R.y(), k.f_truth_R.x(),
+                    k.f_truth_R.y(), k.df, k.proxy_rendered_W.x(), k.proxy_rendered_W.y(), k.proxy_true_W.x(),
+                    k.proxy_true_W.y(), k.true_x, k.true_y, k.true_theta, k.pose_error_m, k.held ? 1 : 0);
+      f << buf;
+    }
+    if (!f) return usage_error(csv_path + ": write failed");
+  }
+  if (!json_path.empty()) {
+    std::ofstream f(json_path);
+    if (!f) return usage_error(json_path + ": cannot write");
+    const double nan = std::nan("");
+    f << robot::to_json(r, {{"height_m", height},
+                            {"geoms_sliced", static_cast<double>(slice.included.size())},
+                            {"geoms_skipped", static_cast<double>(slice.skipped.size())},
+                            {"truncated_lines", static_cast<double>(log.truncated_lines)},
+                            {"contact_threshold_n", contact_threshold},
+                            {"from_s", from_s ? *from_s : nan},
+                            {"to_s", to_s ? *to_s : nan}});
+    if (!f) return usage_error(json_path + ": write failed");
+  }
+  return kExitOk;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    return run(argc, argv);
+  } catch (const std::exception& e) {
+    std::cerr << "hemm-truth: internal error: " << e.what() << "\n";
+    return 1;
+  }
+}

@@ -1,0 +1,178 @@
+#include "robot_side/truth/scene_slice.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <set>
+
+#include <gtest/gtest.h>
+
+#include "common/math/frames.h"
+
+namespace hemm::robot {
+namespace {
+
+using Eigen::Vector2d;
+
+class TempDir {
+ public:
+  TempDir() {
+    std::string t = (std::filesystem::temp_directory_path() / "hemm_slice_XXXXXX").string();
+    if (mkdtemp(t.data()) != nullptr) path_ = t;
+  }
+  ~TempDir() {
+    std::error_code ec;
+    if (!path_.empty()) std::filesystem::remove_all(path_, ec);
+  }
+  const std::string& path() const { return path_; }
+
+ private:
+  std::string path_;
+};
+
+std::set<std::string> names(const std::vector<SliceEntry>& v) {
+  std::set<std::string> s;
+  for (const auto& e : v) s.insert(e.name);
+  return s;
+}
+
+const haptics::ExactCircle* circle_at(const haptics::ExactScene& s, const Vector2d& c) {
+  for (const auto& k : s.circles)
+    if ((k.centre - c).norm() < 1e-9) return &k;
+  return nullptr;
+}
+
+bool has_vertex(const haptics::ExactScene& s, const Vector2d& p) {
+  return std::any_of(s.segments.begin(), s.segments.end(),
+                     [&](const haptics::ExactSegment& g) { return (g.a - p).norm() < 1e-9 || (g.b - p).norm() < 1e-9; });
+}
+
+constexpr double kZ = 0.35;
+
+// One of each case the slicer must handle (slice at z = 0.35).
+constexpr const char* kTestScene = R"(<mujoco model="slice_test">
+  <compiler angle="radian"/>
+  <worldbody>
+    <geom name="floor" type="plane" size="5 5 0.1"/>
+    <geom name="yawbox" type="box" pos="1 2 0.5" euler="0 0 0.5235987755982988" size="0.3 0.1 0.5"/>
+    <geom name="sidebox" type="box" pos="-3 1 0.5" zaxis="1 0 0" size="0.5 0.2 0.1"/>
+    <geom name="cyl" type="cylinder" pos="-1 0.5 0.4" size="0.2 0.4"/>
+    <geom name="ball" type="sphere" pos="2 -1 0.5" size="0.25"/>
+    <geom name="high" type="box" pos="0 -2 1.5" size="0.2 0.2 0.2"/>
+    <geom name="tilted" type="cylinder" pos="-2 -2 0.5" euler="0.4 0 0" size="0.1 0.5"/>
+    <geom name="egg" type="ellipsoid" pos="4 4 0.3" size="0.1 0.2 0.3"/>
+    <body name="bot" pos="0 0 0.3">
+      <freejoint/>
+      <geom name="bot_box" type="box" size="0.1 0.1 0.1"/>
+    </body>
+    <body name="stand" pos="3 3 0">
+      <geom name="pole" type="capsule" pos="0 0 0.3" size="0.1 0.2"/>
+      <geom name="stub" type="capsule" pos="1 0 0" size="0.1 0.3"/>
+    </body>
+  </worldbody>
+</mujoco>
+)";
+
+TEST(SceneSlice, ClosedFormShapes) {
+  TempDir dir;
+  ASSERT_FALSE(dir.path().empty());
+  const std::string path = dir.path() + "/scene.xml";
+  std::ofstream(path) << kTestScene;
+  SceneSlice s;
+  std::string err;
+  ASSERT_TRUE(load_scene_slice(path, kZ, &s, &err)) << err;
+  EXPECT_DOUBLE_EQ(s.height, kZ);
+
+  EXPECT_EQ(names(s.included), (std::set<std::string>{"yawbox", "sidebox", "cyl", "ball", "pole", "stub"}));
+  EXPECT_EQ(names(s.skipped), (std::set<std::string>{"tilted", "egg"}));
+  EXPECT_EQ(names(s.off_slice), (std::set<std::string>{"floor", "high"}));
+  EXPECT_EQ(s.moving_geoms, 1u);  // bot_box (free joint)
+
+  // Box yawed 30 deg: corners c +- R(30)(0.3, 0) +- R(30)(0, 0.1).
+  ASSERT_EQ(s.scene.segments.size(), 8u);  // two rectangles
+  const Eigen::Matrix2d R = math::rotation2(math::kPi / 6);
+  for (double sa : {-1.0, 1.0})
+    for (double sb : {-1.0, 1.0}) {
+      const Vector2d corner = Vector2d(1, 2) + R * Vector2d(sa * 0.3, sb * 0.1);
+      EXPECT_TRUE(has_vertex(s.scene, corner)) << corner.transpose();
+    }
+  // Box with its local x vertical (zaxis = world x): footprint x +- 0.1, y +- 0.2.
+  for (double sa : {-1.0, 1.0})
+    for (double sb : {-1.0, 1.0}) EXPECT_TRUE(has_vertex(s.scene, Vector2d(-3 + sa * 0.1, 1 + sb * 0.2)));
+  // The yawed box's surface seen from its centre line: distance along its
+  // local y axis from 0.5 m out is 0.5 - 0.1.
+  EXPECT_NEAR(haptics::distance_to_scene(s.scene, Vector2d(1, 2) + R * Vector2d(0, 0.5)), 0.4, 1e-12);
+
+  ASSERT_EQ(s.scene.circles.size(), 4u);
+  const auto* cyl = circle_at(s.scene, {-1, 0.5});
+  ASSERT_NE(cyl, nullptr);
+  EXPECT_NEAR(cyl->radius, 0.2, 1e-12);
+  const auto* ball = circle_at(s.scene, {2, -1});
+  ASSERT_NE(ball, nullptr);
+  EXPECT_NEAR(ball->radius, std::sqrt(0.25 * 0.25 - 0.15 * 0.15), 1e-12);  // dz = 0.15
+  const auto* pole = circle_at(s.scene, {3, 3});  // slice through the capsule's cylinder part
+  ASSERT_NE(pole, nullptr);
+  EXPECT_NEAR(pole->radius, 0.1, 1e-12);
+  const auto* stub = circle_at(s.scene, {4, 3});  // slice 0.05 m into the top cap
+  ASSERT_NE(stub, nullptr);
+  EXPECT_NEAR(stub->radius, std::sqrt(0.1 * 0.1 - 0.05 * 0.05), 1e-12);
+
+  // Nothing of the free body: its box would put (0, 0) inside the scene.
+  EXPECT_NEAR(haptics::distance_to_scene(s.scene, {0, 0}), (Vector2d(-1, 0.5).norm() - 0.2), 1e-12);
+}
+
+TEST(SceneSlice, BadInputs) {
+  SceneSlice s;
+  s.height = -7.0;  // must stay untouched on error
+  std::string err;
+  EXPECT_FALSE(load_scene_slice("/nonexistent/scene.xml", kZ, &s, &err));
+  EXPECT_NE(err.find("/nonexistent/scene.xml"), std::string::npos) << err;
+  TempDir dir;
+  ASSERT_FALSE(dir.path().empty());
+  const std::string path = dir.path() + "/bad.xml";
+  std::ofstream(path) << "<mujoco><worldbody><geom type=\"box\" size=\"1\"";
+  err.clear();
+  EXPECT_FALSE(load_scene_slice(path, kZ, &s, &err));
+  EXPECT_NE(err.find(path), std::string::npos) << err;
+  EXPECT_FALSE(load_scene_slice(HEMM_SOURCE_DIR "/deploy/scenes/home.xml", std::nan(""), &s, &err));
+  EXPECT_DOUBLE_EQ(s.height, -7.0);
+}
+
+TEST(SceneSlice, HomeSceneKnownFacts) {
+  const std::string home = HEMM_SOURCE_DIR "/deploy/scenes/home.xml";
+  SceneSlice s;
+  std::string err;
+  ASSERT_TRUE(load_scene_slice(home, 0.30, &s, &err)) << err;  // the laser plane
+  EXPECT_TRUE(s.skipped.empty());
+  EXPECT_GT(s.moving_geoms, 0u);  // the robot
+  const std::set<std::string> in = names(s.included);
+  for (const char* robot_geom : {"chassis", "laser_head", "wheel_fl", "arm_column", "arm_link2", "payload"})
+    EXPECT_EQ(in.count(robot_geom), 0u) << robot_geom;
+  // Every obstacle reaches the laser plane; the table only with its legs.
+  for (const char* g : {"wall_west", "wall_mid_s", "table_leg1", "chair_w_legs", "sofa_seat", "sofa_back", "bin",
+                        "partition", "crate"})
+    EXPECT_EQ(in.count(g), 1u) << g;
+  for (const char* g : {"table_top", "chair_w_seat", "chair_e_back"}) EXPECT_EQ(in.count(g), 0u) << g;
+
+  const auto* bin = circle_at(s.scene, {1.5, -1.2});
+  ASSERT_NE(bin, nullptr);
+  EXPECT_NEAR(bin->radius, 0.15, 1e-12);
+  // West wall inner face at x = -0.95 (wall centre -1, half thickness 0.05).
+  EXPECT_NEAR(haptics::distance_to_scene(s.scene, {-0.5, 0.0}), 0.45, 1e-12);
+  // At the robot's start nothing is nearer than that wall: no robot geometry.
+  EXPECT_NEAR(haptics::distance_to_scene(s.scene, {0.0, 0.0}), 0.95, 1e-12);
+  // The sofa seat's front face: y = -2.5 + 0.05 + 0.35.
+  EXPECT_NEAR(haptics::distance_to_scene(s.scene, {1.0, -1.9}), 0.2, 1e-12);
+
+  // At 0.35 m the same geoms are cut (hemm-truth --help says so).
+  SceneSlice s35;
+  ASSERT_TRUE(load_scene_slice(home, 0.35, &s35, &err)) << err;
+  EXPECT_EQ(names(s35.included), in);
+}
+
+}  // namespace
+}  // namespace hemm::robot
