@@ -8,7 +8,13 @@
 #include <spdlog/spdlog.h>
 
 #include <asio.hpp>
+#include <cctype>
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
 #include <iostream>
+#include <optional>
+#include <vector>
 
 #include "common/config/config.h"
 #include "common/net/crypto.h"
@@ -22,6 +28,22 @@
 namespace {
 
 using namespace hemm;
+
+// "X,Y" -> two finite numbers (nothing else on the string).
+std::optional<Eigen::Vector2d> parse_goal(const std::string& s) {
+  const auto comma = s.find(',');
+  if (comma == std::string::npos) return std::nullopt;
+  auto num = [](const std::string& t, double* out) {
+    if (t.empty() || std::isspace(static_cast<unsigned char>(t.front()))) return false;
+    char* end = nullptr;
+    errno = 0;
+    *out = std::strtod(t.c_str(), &end);
+    return errno == 0 && end == t.c_str() + t.size() && std::isfinite(*out);
+  };
+  double x = 0, y = 0;
+  if (!num(s.substr(0, comma), &x) || !num(s.substr(comma + 1), &y)) return std::nullopt;
+  return Eigen::Vector2d(x, y);
+}
 
 int run(int argc, char** argv) {
   CLI::App app{"hemm-operator: the operator station of hemm (authenticated session, 1 kHz haptic servo loop with "
@@ -48,8 +70,18 @@ int run(int argc, char** argv) {
   app.add_option("--stats-json", stats_json, "write the final link statistics as JSON to this file");
   std::string script = "idle", servo_log, replay_file;
   app.add_option("--script", script,
-                 "SIMULATED hand script for the sim-omni device: idle, nav-to-wall, probe-cylinder")
+                 "SIMULATED hand script for the sim-omni device: idle, nav-to-wall, probe-cylinder, nav-to-goal "
+                 "(closed loop: drives the robot to --goal and stops within 0.10 m; ~25 s)")
       ->check(CLI::IsMember(op::demo_script_names()));
+  std::vector<std::string> goal_args;
+  app.add_option("--goal", goal_args,
+                 "nav-to-goal: goal X,Y in W metres; repeat for a route (the robot passes the earlier goals and "
+                 "stops at the last; default: 2.2,0 then 2.45,-1.6)")
+      ->allow_extra_args(false);
+  std::string station_json;
+  app.add_option("--station-json", station_json,
+                 "write the station summary (servo timing, model, commands, logs, final predicted pose, "
+                 "nav-to-goal state) as JSON to this file at exit");
   app.add_option("--log", servo_log,
                  "1 kHz servo CSV log (also FILE.world.csv per tick in W, FILE.map.csv: the final map)");
   app.add_option("--replay", replay_file, "replay this device trajectory CSV (overrides device.type/replay_file)");
@@ -60,6 +92,19 @@ int run(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     const int rc = app.exit(e);
     return rc == 0 ? net::kExitOk : net::kExitUsage;
+  }
+  std::vector<Eigen::Vector2d> goal_route;
+  for (const std::string& g : goal_args) {
+    const auto p = parse_goal(g);
+    if (!p) {
+      std::cerr << "hemm-operator: --goal '" << g << "': expected X,Y (two finite numbers, metres in W)\n";
+      return net::kExitUsage;
+    }
+    goal_route.push_back(*p);
+  }
+  if (!goal_route.empty() && script != "nav-to-goal") {
+    std::cerr << "hemm-operator: --goal needs --script nav-to-goal\n";
+    return net::kExitUsage;
   }
   if (!net::setup_station_logging("operator", log_level)) {
     std::cerr << "hemm-operator: bad --log-level '" << log_level << "'\n";
@@ -105,6 +150,7 @@ int run(int argc, char** argv) {
                        ? config::resolve_relative_to(config_path, cfg.device().replay_file())
                        : std::string();
   so.script = script;
+  so.goal_route = goal_route;
   so.log_path = servo_log;
   so.command_rate_hz = cfg.net().command_rate_hz();
   if (cfg.servo().rate_hz() < 100 || cfg.servo().rate_hz() > 4000 || so.command_rate_hz < 100 ||
@@ -195,7 +241,12 @@ int run(int argc, char** argv) {
   // beside it.
   io.run();
   station->stop();
-  std::cout << op::to_string(station->summary());
+  const op::OperatorStationSummary summary = station->summary();
+  std::cout << op::to_string(summary);
+  if (!station_json.empty() && !net::write_text_file(station_json, op::to_json(summary), &error)) {
+    std::cerr << "hemm-operator: --station-json: " << error << "\n";
+    if (exit_code == net::kExitOk) exit_code = net::kExitInternal;
+  }
 
   const net::LinkStatistics st = client.statistics();
   std::cout << net::to_summary(st) << std::flush;

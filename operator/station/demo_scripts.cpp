@@ -1,14 +1,110 @@
 #include "operator/station/demo_scripts.h"
 
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
 namespace hemm::op {
 namespace {
 // B (x forward, y left, z up) -> H (x right, y up, z towards the user).
 Eigen::Vector3d h_from_b(double xb, double yb, double zb) { return {-yb, zb, -xb}; }
+
+// Inverse of math::dead_band_saturate: the stylus offset that commands the
+// fraction a in [-1, 1] of the axis' maximum (0 stays at the centre).
+double offset_for_fraction(double a, double dead_band, double saturation) {
+  if (!(std::abs(a) > 0.0)) return 0.0;
+  const double m = dead_band + std::min(1.0, std::abs(a)) * (saturation - dead_band);
+  return a < 0.0 ? -m : m;
+}
+
+double wrap_angle(double a) { return std::remainder(a, 2.0 * math::kPi); }
 }  // namespace
 
-std::vector<std::string> demo_script_names() { return {"idle", "nav-to-wall", "probe-cylinder"}; }
+std::string validate(const NavGoalParams& p) {
+  if (std::string e = math::validate(p.nav); !e.empty()) return "nav: " + e;
+  auto pos = [](double v) { return std::isfinite(v) && v > 0.0; };
+  if (!pos(p.stop_distance) || !pos(p.pass_radius) || !pos(p.k_distance) || !pos(p.v_cruise) ||
+      !pos(p.k_heading) || !pos(p.omega_cruise) || !pos(p.turn_in_place) || !pos(p.max_offset) || !pos(p.hand_speed))
+    return "stop_distance, pass_radius, gains, cruise speeds, turn_in_place, max_offset, hand_speed must be > 0";
+  if (!(std::isfinite(p.tolerance) && p.tolerance >= p.stop_distance)) return "tolerance must be >= stop_distance";
+  if (!(std::isfinite(p.v_min) && p.v_min >= 0.0 && p.v_min <= p.v_cruise)) return "need 0 <= v_min <= v_cruise";
+  if (!(std::isfinite(p.reverse_range) && p.reverse_range >= 0.0)) return "reverse_range must be >= 0";
+  return {};
+}
 
-DemoScript make_demo_script(std::string_view name) {
+NavHandTarget hand_target_for_goal(const OperatorView& view, const Eigen::Vector2d& goal_W, const NavGoalParams& p,
+                                   bool final_goal, bool was_arrived) noexcept {
+  NavHandTarget out;
+  if (!view.valid || view.mode != math::Mode::kNavigation || !math::is_finite(view.T_W_R) || !goal_W.allFinite())
+    return out;  // nothing sensible to steer by: hands off (centre)
+  const Eigen::Vector2d d_W = goal_W - Eigen::Vector2d(view.T_W_R.x, view.T_W_R.y);
+  const double dist = d_W.norm();
+  out.distance = dist;
+  if (final_goal && (dist < p.stop_distance || (was_arrived && dist < p.tolerance))) {
+    out.arrived = true;
+    return out;
+  }
+  double e = wrap_angle(std::atan2(d_W.y(), d_W.x()) - view.T_W_R.theta);
+  double dir = 1.0;
+  if (final_goal && std::abs(e) > 0.5 * math::kPi && dist < p.reverse_range) {
+    dir = -1.0;  // close behind: back up, steering the robot's back onto the goal
+    e = wrap_angle(e - math::kPi);
+  }
+  out.heading_error = e;
+  const double cut = std::clamp(1.0 - std::abs(e) / p.turn_in_place, 0.0, 1.0);
+  const double speed = final_goal ? std::clamp(p.k_distance * dist, p.v_min, p.v_cruise) : p.v_cruise;
+  const double v = dir * speed * cut;
+  const double omega = std::clamp(p.k_heading * e, -p.omega_cruise, p.omega_cruise);
+  const double x_B = std::clamp(offset_for_fraction(v / p.nav.v_max, p.nav.dead_band, p.nav.saturation),
+                                -p.max_offset, p.max_offset);
+  const double y_B = std::clamp(offset_for_fraction(omega / p.nav.omega_max, p.nav.dead_band, p.nav.saturation),
+                                -p.max_offset, p.max_offset);
+  out.position_H = h_from_b(x_B, y_B, 0.0);
+  return out;
+}
+
+NavGoalHand::NavGoalHand(std::shared_ptr<const OperatorView> view, std::vector<Eigen::Vector2d> route_W,
+                         const NavGoalParams& p)
+    : view_(std::move(view)), route_(std::move(route_W)), p_(p) {
+  if (!view_) throw std::invalid_argument("NavGoalHand: null view");
+  if (route_.empty()) throw std::invalid_argument("NavGoalHand: empty route");
+  for (std::size_t i = 0; i < route_.size(); ++i)
+    if (!route_[i].allFinite()) throw std::invalid_argument("NavGoalHand: non-finite goal " + std::to_string(i));
+  if (std::string e = validate(p_); !e.empty()) throw std::invalid_argument("NavGoalHand: " + e);
+}
+
+device::HandTarget NavGoalHand::at(double t_s) const noexcept {
+  const OperatorView& v = *view_;
+  // Intermediate goals are passed (not stopped at) inside pass_radius.
+  while (index_ + 1 < route_.size() && v.valid && math::is_finite(v.T_W_R) &&
+         (route_[index_] - Eigen::Vector2d(v.T_W_R.x, v.T_W_R.y)).norm() < p_.pass_radius)
+    ++index_;
+  const bool final_goal = index_ + 1 == route_.size();
+  last_ = hand_target_for_goal(v, route_[index_], p_, final_goal, arrived_);
+  if (last_.arrived && !arrived_) {
+    ++arrivals_;
+    if (first_arrival_s_ < 0.0 && std::isfinite(t_s)) first_arrival_s_ = t_s;
+  }
+  arrived_ = last_.arrived;
+  // A hand moves at a finite speed: step toward the wanted position.
+  double dt = started_ && std::isfinite(t_s) ? t_s - t_prev_ : 0.0;
+  dt = std::clamp(dt, 0.0, 0.1);
+  if (std::isfinite(t_s)) t_prev_ = t_s;
+  started_ = true;
+  const Eigen::Vector3d step = last_.position_H - position_H_;
+  const double max_step = p_.hand_speed * dt;
+  const double n = step.norm();
+  position_H_ += n > max_step ? Eigen::Vector3d(step * (max_step / n)) : step;
+  device::HandTarget out;
+  out.position_H = position_H_;
+  return out;
+}
+
+std::vector<Eigen::Vector2d> default_nav_goal_route() { return {{2.2, 0.0}, {2.45, -1.6}}; }
+
+std::vector<std::string> demo_script_names() { return {"idle", "nav-to-wall", "probe-cylinder", "nav-to-goal"}; }
+
+DemoScript make_demo_script(std::string_view name, const DemoScriptOptions& o) {
   DemoScript d;
   if (name == "idle") {
     d.hand = std::make_shared<device::HoldScript>(Eigen::Vector3d::Zero());
@@ -31,6 +127,13 @@ DemoScript make_demo_script(std::string_view name) {
     d.hand = std::make_shared<device::WaypointScript>(std::move(w));
     d.mode = math::Mode::kExploration;
     d.duration_s = 17.0;
+  } else if (name == "nav-to-goal") {
+    d.view = std::make_shared<OperatorView>();
+    auto hand = std::make_shared<const NavGoalHand>(d.view, o.route_W.empty() ? default_nav_goal_route() : o.route_W);
+    d.nav_goal = hand;
+    d.hand = hand;
+    d.mode = math::Mode::kNavigation;
+    d.duration_s = 25.0;
   }
   return d;
 }

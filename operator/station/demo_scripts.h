@@ -13,8 +13,17 @@
 //    (1.42, -0.8) in W and sweeps along x = 1.42 to y = -1.6 and back,
 //    through the bin at (1.5, -1.2), r = 0.15, 8 cm off its centre line: the
 //    proxy meets the bin's near (seen) face and slides round it.
+//  - "nav-to-goal": navigation mode, CLOSED LOOP: the hand watches the robot
+//    pose the station shows (OperatorView) and steers the stylus so the
+//    robot drives along a route of goals in W and stops at the last one
+//    (NavGoalHand below). Default route: via (2.2, 0) to (2.45, -1.6): the
+//    straight line from the start to (2.45, -1.6) passes 0.18 m from the bin's
+//    centre, too close for the 0.50 x 0.49 m base; the via point keeps its
+//    west side >= 0.4 m from the bin. At the goal the base's east side is
+//    ~0.25 m from wall_mid_s (west face x = 2.95).
 #pragma once
 
+#include <Eigen/Core>
 #include <memory>
 #include <string>
 #include <string_view>
@@ -22,17 +31,117 @@
 
 #include "common/math/workspace_maps.h"
 #include "operator/device/hand_script.h"
+#include "operator/station/operator_task.h"
 
 namespace hemm::op {
 
+// ------------------------------------------------------------ nav-to-goal
+// How the simulated operator drives (a person with a learned feel for the
+// navigation map, not a bang-bang controller): the speed wanted is
+// proportional to the distance left (between v_min and v_cruise), cut while
+// the heading error is large (turn first); the turn rate wanted is
+// proportional to the heading error (capped). Wanted (v, omega) become stylus
+// offsets through the inverse of the map's dead band / saturation
+// (NavigationMap): forward = v, lateral = omega. Inside stop_distance of the
+// last goal the stylus goes back to the centre (inside the dead band: the
+// robot stops), aiming at half the tolerance so the robot still coasting on
+// commands in flight (the link's delay) ends inside it; only beyond
+// `tolerance` does the hand drive again (hysteresis: it corrects a drift but
+// does not chatter). A last goal close behind the robot (< reverse_range) is
+// reached backing up rather than turning round.
+struct NavGoalParams {
+  math::NavigationMap nav = math::make_navigation_map(math::DeviceWorkspace{}, 2.0);
+  double stop_distance = 0.05;    // m: arrived (stylus centred) inside this
+  double tolerance = 0.10;        // m: once arrived, drive again only beyond this
+  double pass_radius = 0.30;      // m: an intermediate goal is passed inside this
+  double k_distance = 0.5;        // 1/s: wanted speed per metre left
+  double v_min = 0.05;            // m/s: no creeping on the last centimetres
+  double v_cruise = 0.35;         // m/s
+  double k_heading = 0.8;         // 1/s: wanted turn rate per radian of heading error
+  double omega_cruise = 0.6;      // rad/s
+  double turn_in_place = 1.0;     // rad: no forward push at a larger heading error
+  double reverse_range = 0.5;     // m
+  double max_offset = 0.030;      // m of stylus travel per axis (the Omni's box: +-35 mm deep)
+  double hand_speed = 0.05;       // m/s: how fast the hand moves the stylus (rate limit)
+};
+// Empty if usable, else what is wrong.
+std::string validate(const NavGoalParams& p);
+
+struct NavHandTarget {
+  Eigen::Vector3d position_H = Eigen::Vector3d::Zero();  // where the hand wants the stylus
+  bool arrived = false;          // at the (last) goal: stylus centred
+  double distance = -1.0;        // m, robot to goal; -1: nothing to go by (view invalid, non-finite input)
+  double heading_error = 0.0;    // rad, of the driving direction (the back when reversing)
+};
+
+// The simulated operator's decision for one glance at the display: where to
+// hold the stylus so the robot drives to goal_W. final_goal: stop there
+// (else just drive through); was_arrived: the previous decision's `arrived`
+// (hysteresis). Invalid view, a view not in navigation mode, or non-finite
+// input: centre. Pure, allocation-free; the result stays within
+// +-max_offset on the two horizontal axes (y_H = 0).
+NavHandTarget hand_target_for_goal(const OperatorView& view, const Eigen::Vector2d& goal_W,
+                                   const NavGoalParams& p, bool final_goal = true,
+                                   bool was_arrived = false) noexcept;
+
+// The closed-loop hand: at(t) takes the task's OperatorView, moves along the
+// route (intermediate goals are passed inside pass_radius) and rate-limits the
+// stylus target to hand_speed. at() keeps its state in mutable members: it is
+// called only on the servo thread (SimulatedOmni::write), right after the tick
+// that wrote the view (and once by SimulatedOmni's constructor before the
+// servo thread starts). The accessors are for that thread or after it
+// stopped. Throws std::invalid_argument on an empty route, a non-finite goal,
+// bad params or a null view.
+class NavGoalHand final : public device::HandScript {
+ public:
+  NavGoalHand(std::shared_ptr<const OperatorView> view, std::vector<Eigen::Vector2d> route_W,
+              const NavGoalParams& p = {});
+  device::HandTarget at(double t_s) const noexcept override;
+
+  const std::vector<Eigen::Vector2d>& route() const { return route_; }
+  const NavGoalParams& params() const { return p_; }
+  std::size_t goal_index() const { return index_; }  // the goal driven to now
+  bool arrived() const { return arrived_; }
+  double first_arrival_s() const { return first_arrival_s_; }  // device time; -1: never
+  std::uint64_t arrivals() const { return arrivals_; }          // > 1: it had to correct
+  double last_distance() const { return last_.distance; }
+
+ private:
+  std::shared_ptr<const OperatorView> view_;
+  std::vector<Eigen::Vector2d> route_;
+  NavGoalParams p_;
+  // Servo-thread state (see the class comment).
+  mutable std::size_t index_ = 0;
+  mutable bool arrived_ = false;
+  mutable double first_arrival_s_ = -1.0;
+  mutable std::uint64_t arrivals_ = 0;
+  mutable double t_prev_ = 0.0;
+  mutable bool started_ = false;
+  mutable Eigen::Vector3d position_H_ = Eigen::Vector3d::Zero();
+  mutable NavHandTarget last_;
+};
+
+// The default route of "nav-to-goal" (see the file comment).
+std::vector<Eigen::Vector2d> default_nav_goal_route();
+
+// ------------------------------------------------------------ scripts
 struct DemoScript {
   std::shared_ptr<const device::HandScript> hand;
   math::Mode mode = math::Mode::kExploration;
   double duration_s = 0.0;  // natural length of the script (0: none)
+  // Closed-loop scripts only: the view the task must write (pass it to
+  // OperatorServoTask) and the nav-to-goal hand (for its arrival state).
+  std::shared_ptr<OperatorView> view;
+  std::shared_ptr<const NavGoalHand> nav_goal;
 };
 
-// Null hand if the name is unknown.
-DemoScript make_demo_script(std::string_view name);
+struct DemoScriptOptions {
+  std::vector<Eigen::Vector2d> route_W;  // nav-to-goal: empty = default_nav_goal_route()
+};
+
+// Null hand if the name is unknown. Throws std::invalid_argument on a bad
+// route (non-finite goal).
+DemoScript make_demo_script(std::string_view name, const DemoScriptOptions& o = {});
 std::vector<std::string> demo_script_names();
 
 }  // namespace hemm::op

@@ -1,6 +1,7 @@
 #include "operator/station/operator_station.h"
 
 #include <cinttypes>
+#include <cmath>
 #include <cstdio>
 #include <future>
 #include <sstream>
@@ -30,6 +31,141 @@ std::string to_string(const OperatorStationSummary& s) {
     << " mode_switches=" << s.mode_switches << "\n"
     << "logs: servo written=" << s.servo_log_written << " dropped=" << s.servo_log_dropped
     << " world written=" << s.world_log_written << " dropped=" << s.world_log_dropped << "\n";
+  o << "robot (predicted): x=" << s.robot_pose.x << " y=" << s.robot_pose.y << " theta=" << s.robot_pose.theta
+    << (s.robot_pose_valid ? "" : " (no robot state)") << "\n";
+  if (s.has_goal)
+    o << "nav-to-goal: goal=(" << s.goal_W.x() << ", " << s.goal_W.y() << ") arrived=" << (s.arrived ? "yes" : "no")
+      << " distance_m=" << s.goal_distance_m << " first_arrival_s=" << s.first_arrival_s
+      << " arrivals=" << s.arrivals << " goal " << s.goal_index + 1 << "/" << s.route_size << "\n";
+  return o.str();
+}
+
+namespace {
+// A tiny JSON writer for flat objects of numbers (enough for the summary; no
+// JSON library is among the project's dependencies).
+class JsonObject {
+ public:
+  explicit JsonObject(std::ostringstream& o, int indent) : o_(o), indent_(indent) { o_ << "{"; }
+  void key(const char* k) {
+    o_ << (first_ ? "\n" : ",\n") << std::string(static_cast<std::size_t>(indent_ + 2), ' ') << '"' << k << "\": ";
+    first_ = false;
+  }
+  void u(const char* k, std::uint64_t v) {
+    key(k);
+    o_ << v;
+  }
+  void b(const char* k, bool v) {
+    key(k);
+    o_ << (v ? "true" : "false");
+  }
+  void d(const char* k, double v) {
+    key(k);
+    if (!std::isfinite(v)) {
+      o_ << "null";
+      return;
+    }
+    char buf[40];
+    std::snprintf(buf, sizeof buf, "%.9g", v);
+    o_ << buf;
+  }
+  void null(const char* k) {
+    key(k);
+    o_ << "null";
+  }
+  void close() { o_ << "\n" << std::string(static_cast<std::size_t>(indent_), ' ') << "}"; }
+
+ private:
+  std::ostringstream& o_;
+  int indent_;
+  bool first_ = true;
+};
+
+void histogram_json(std::ostringstream& o, JsonObject& parent, const char* k, const servo::HistogramSummary& h) {
+  parent.key(k);
+  JsonObject j(o, 4);
+  j.u("count", h.count);
+  j.d("median", h.median_us);
+  j.d("p99", h.p99_us);
+  j.d("max", h.max_us);
+  j.d("mean", h.mean_us);
+  j.close();
+}
+}  // namespace
+
+std::string to_json(const OperatorStationSummary& s) {
+  std::ostringstream o;
+  JsonObject top(o, 0);
+  top.key("timing");
+  {
+    JsonObject t(o, 2);
+    t.u("ticks", s.timing.ticks);
+    t.u("misses", s.timing.misses);
+    t.u("overruns", s.timing.overruns);
+    t.u("late_wakes", s.timing.late_wakes);
+    t.u("skipped_periods", s.timing.skipped_periods);
+    histogram_json(o, t, "period_us", s.timing.period);
+    histogram_json(o, t, "wake_latency_us", s.timing.wake_latency);
+    histogram_json(o, t, "compute_us", s.timing.compute);
+    t.close();
+  }
+  top.key("model");
+  {
+    JsonObject m(o, 2);
+    m.u("scans_in", s.model.scans_in);
+    m.u("scans_rejected", s.model.scans_rejected);
+    m.u("scans_dropped", s.model.scans_dropped);
+    m.u("states_in", s.model.states_in);
+    m.u("states_rejected", s.model.states_rejected);
+    m.u("commands_dropped", s.model.commands_dropped);
+    m.u("snapshots", s.model.snapshots);
+    m.u("freed", s.model.freed);
+    m.close();
+  }
+  top.key("commands");
+  {
+    JsonObject c(o, 2);
+    c.u("sent", s.commands.commands_sent);
+    c.u("send_failures", s.commands.send_failures);
+    c.u("mode_changes_sent", s.commands.mode_changes_sent);
+    c.u("stale", s.commands.stale);
+    c.close();
+  }
+  top.u("mode_switches", s.mode_switches);
+  top.key("logs");
+  {
+    JsonObject l(o, 2);
+    l.u("servo_written", s.servo_log_written);
+    l.u("servo_dropped", s.servo_log_dropped);
+    l.u("world_written", s.world_log_written);
+    l.u("world_dropped", s.world_log_dropped);
+    l.close();
+  }
+  top.key("robot_pose");
+  {
+    JsonObject r(o, 2);
+    r.b("valid", s.robot_pose_valid);
+    r.d("x_m", s.robot_pose.x);
+    r.d("y_m", s.robot_pose.y);
+    r.d("theta_rad", s.robot_pose.theta);
+    r.close();
+  }
+  if (!s.has_goal) {
+    top.null("nav_goal");
+  } else {
+    top.key("nav_goal");
+    JsonObject g(o, 2);
+    g.d("goal_x_m", s.goal_W.x());
+    g.d("goal_y_m", s.goal_W.y());
+    g.b("arrived", s.arrived);
+    if (s.first_arrival_s >= 0.0) g.d("first_arrival_s", s.first_arrival_s); else g.null("first_arrival_s");
+    g.u("arrivals", s.arrivals);
+    g.u("goal_index", s.goal_index);
+    g.u("route_size", s.route_size);
+    if (s.goal_distance_m >= 0.0) g.d("goal_distance_m", s.goal_distance_m); else g.null("goal_distance_m");
+    g.close();
+  }
+  top.close();
+  o << "\n";
   return o.str();
 }
 
@@ -51,12 +187,17 @@ bool write_map_csv(const mapping::LocalMap& map, const std::string& path, std::s
 OperatorStation::OperatorStation(asio::io_context& io, OperatorClient& client, const OperatorStationOptions& o)
     : io_(io), client_(client), o_(o), link_timer_(io) {
   OperatorTaskParams tp = o.task;
+  if (!o.goal_route.empty() && (o.device != "sim-omni" || o.hand || o.script != "nav-to-goal"))
+    throw std::invalid_argument("a goal route needs the sim-omni device with --script nav-to-goal");
   if (o.device == "sim-omni" && o.hand) {
+    view_ = o.view;
     device_ = std::make_unique<device::SimulatedOmni>(device::SimulatedOmniModel{}, o.hand);
   } else if (o.device == "sim-omni") {
-    DemoScript d = make_demo_script(o.script);
+    DemoScript d = make_demo_script(o.script, DemoScriptOptions{o.goal_route});
     if (!d.hand) throw std::invalid_argument("unknown --script '" + o.script + "'");
     tp.initial_mode = d.mode;
+    view_ = d.view;
+    nav_goal_ = d.nav_goal;
     device_ = std::make_unique<device::SimulatedOmni>(device::SimulatedOmniModel{}, d.hand);
   } else if (o.device == "replay") {
     device::Trajectory traj;
@@ -72,7 +213,8 @@ OperatorStation::OperatorStation(asio::io_context& io, OperatorClient& client, c
     servo_log_ = std::make_unique<servo::ServoLogger>(16384, servo::servo_log_header(), &servo::format_servo_log_record);
     world_log_ = std::make_unique<StationLogger>(16384, station_log_header(), &format_station_log_record);
   }
-  task_ = std::make_unique<OperatorServoTask>(tp, world_log_.get());
+  if (!view_) view_ = std::make_shared<OperatorView>();  // the summary's final pose comes from it
+  task_ = std::make_unique<OperatorServoTask>(tp, world_log_.get(), view_.get());
   loop_ = std::make_unique<servo::ServoLoop>(*device_, *task_, channel_, o.servo, servo_log_.get());
   sender_ = std::make_unique<CommandSender>(
       io_, task_->setpoints(), [this](const wire::StreamMessage& m) { return client_.streams().send(m); },
@@ -166,6 +308,21 @@ OperatorStationSummary OperatorStation::summary() const {
     s.servo_log_dropped = servo_log_->dropped();
     s.world_log_written = world_log_->written();
     s.world_log_dropped = world_log_->dropped();
+  }
+  // The servo thread wrote these; it has stopped (or not started) when the
+  // summary is taken after stop().
+  s.robot_pose = view_->T_W_R;
+  s.robot_pose_valid = view_->valid;
+  if (nav_goal_) {
+    s.has_goal = true;
+    s.goal_W = nav_goal_->route().back();
+    s.arrived = nav_goal_->arrived();
+    s.first_arrival_s = nav_goal_->first_arrival_s();
+    s.arrivals = nav_goal_->arrivals();
+    s.goal_index = nav_goal_->goal_index();
+    s.route_size = nav_goal_->route().size();
+    if (s.robot_pose_valid)
+      s.goal_distance_m = (s.goal_W - Eigen::Vector2d(s.robot_pose.x, s.robot_pose.y)).norm();
   }
   return s;
 }

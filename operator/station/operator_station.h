@@ -16,11 +16,13 @@
 #include <asio.hpp>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "operator/client/operator_client.h"
 #include "operator/device/hand_script.h"
 #include "operator/device/haptic_device.h"
 #include "operator/model/model_thread.h"
+#include "operator/station/demo_scripts.h"
 #include "operator/servo/servo_loop.h"
 #include "operator/station/command_sender.h"
 #include "operator/station/operator_task.h"
@@ -34,6 +36,10 @@ struct OperatorStationOptions {
   // device == "sim-omni": if set, this hand instead of the script, starting
   // in task.initial_mode (tests, custom demos).
   std::shared_ptr<const device::HandScript> hand;
+  // With `hand`: the view a closed-loop hand reads (the task writes it), or null.
+  std::shared_ptr<OperatorView> view;
+  // script == "nav-to-goal": the route in W (empty: default_nav_goal_route()).
+  std::vector<Eigen::Vector2d> goal_route;
   std::string log_path;             // empty: no logs
   double command_rate_hz = 200.0;
   double stats_period_s = 0.1;      // link statistics -> servo log / model
@@ -49,8 +55,24 @@ struct OperatorStationSummary {
   std::uint64_t mode_switches = 0;
   std::uint64_t servo_log_written = 0, servo_log_dropped = 0;
   std::uint64_t world_log_written = 0, world_log_dropped = 0;
+  // The robot pose the servo task predicted on its last tick (W), and whether
+  // the model had a RobotState by then.
+  math::Pose2 robot_pose;
+  bool robot_pose_valid = false;
+  // script "nav-to-goal" only (has_goal): the last goal of the route, the
+  // hand's state at the end, the distance from the final predicted pose.
+  bool has_goal = false;
+  Eigen::Vector2d goal_W = Eigen::Vector2d::Zero();
+  bool arrived = false;
+  double first_arrival_s = -1.0;  // device (script) time of the first arrival; -1: never
+  std::uint64_t arrivals = 0;
+  std::size_t goal_index = 0, route_size = 0;
+  double goal_distance_m = -1.0;
 };
 std::string to_string(const OperatorStationSummary& s);
+// The summary as one JSON object (units in the keys; non-finite numbers as
+// null). Keys: see operator_station.cpp, to_json.
+std::string to_json(const OperatorStationSummary& s);
 
 class OperatorStation {
  public:
@@ -88,6 +110,8 @@ class OperatorStation {
   std::unique_ptr<ModelThread> model_;
   std::unique_ptr<servo::ServoLogger> servo_log_;
   std::unique_ptr<StationLogger> world_log_;
+  std::shared_ptr<OperatorView> view_;                 // closed-loop hands: written by the task
+  std::shared_ptr<const NavGoalHand> nav_goal_;       // script nav-to-goal
   std::unique_ptr<OperatorServoTask> task_;
   std::unique_ptr<servo::ServoLoop> loop_;
   std::unique_ptr<CommandSender> sender_;

@@ -26,23 +26,25 @@ wire::Mode to_wire_mode(math::Mode m) {
 
 const char* station_log_header() {
   return "t_ns,mode,robot_x,robot_y,robot_theta,goal_x,goal_y,goal_z,proxy_x,proxy_y,fw_x,fw_y,"
-         "fh_x,fh_y,fh_z,v,omega,contacts,model_version,model_age_ns";
+         "fh_x,fh_y,fh_z,v,omega,contacts,model_version,model_age_ns,scale,state_stamp_ns,odom_x,odom_y,odom_theta,"
+         "truth_x,truth_y,truth_theta,has_truth";
 }
 
 std::size_t format_station_log_record(const StationLogRecord& r, char* buf, std::size_t size) {
   const int n = std::snprintf(
       buf, size,
       "%" PRId64 ",%u,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%d,%" PRIu64
-      ",%" PRId64 "\n",
+      ",%" PRId64 ",%.6f,%" PRId64 ",%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%d\n",
       r.t_ns, r.mode, r.robot[0], r.robot[1], r.robot[2], r.goal_W[0], r.goal_W[1], r.goal_W[2], r.proxy_W[0],
       r.proxy_W[1], r.force_W[0], r.force_W[1], r.force_H[0], r.force_H[1], r.force_H[2], r.v, r.omega, r.contacts,
-      r.model_version, r.model_age_ns);
+      r.model_version, r.model_age_ns, r.scale, r.state_stamp_ns, r.odom[0], r.odom[1], r.odom[2], r.truth[0],
+      r.truth[1], r.truth[2], r.has_truth);
   if (n < 0 || static_cast<std::size_t>(n) >= size) return 0;
   return static_cast<std::size_t>(n);
 }
 
-OperatorServoTask::OperatorServoTask(const OperatorTaskParams& p, StationLogger* log)
-    : p_(p), mode_(p.initial_mode), log_(log) {
+OperatorServoTask::OperatorServoTask(const OperatorTaskParams& p, StationLogger* log, OperatorView* view)
+    : p_(p), mode_(p.initial_mode), log_(log), view_(view) {
   if (std::string e = haptics::validate(p.proxy); !e.empty())
     throw std::invalid_argument("OperatorServoTask: proxy: " + e);
   if (!(p.exploration_range > 0) || !(p.navigation_look_ahead > 0) || !(p.arm_reach > 0) ||
@@ -146,6 +148,13 @@ void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelS
   out.interaction_point_H = R.transpose() * (p_B + anchor_.offset_B);
   out.mode = static_cast<std::uint32_t>(to_wire_mode(mode_));
 
+  if (view_ != nullptr) {
+    view_->T_W_R = T_W_R_;
+    view_->t_ns = in.t_ns;
+    view_->mode = mode_;
+    view_->valid = snap != nullptr && snap->have_state;
+  }
+
   if (log_ != nullptr) {
     StationLogRecord r;
     r.t_ns = in.t_ns;
@@ -164,6 +173,18 @@ void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelS
     r.contacts = proxy_.contact_count;
     r.model_version = model.version;
     r.model_age_ns = model.version != 0 ? in.t_ns - model.stamp_ns : -1;
+    r.scale = sm.scale;
+    if (snap != nullptr && snap->have_state) {
+      const RobotStateSample& st = snap->state;
+      r.state_stamp_ns = st.stamp_local_ns;
+      r.odom[0] = st.T_W_R_odom.x;
+      r.odom[1] = st.T_W_R_odom.y;
+      r.odom[2] = st.T_W_R_odom.theta;
+      r.truth[0] = st.T_W_R_truth.x;
+      r.truth[1] = st.T_W_R_truth.y;
+      r.truth[2] = st.T_W_R_truth.theta;
+      r.has_truth = st.has_truth ? 1 : 0;
+    }
     log_->push(r);
   }
 }

@@ -73,6 +73,14 @@ struct StationLogRecord {
   int contacts = 0;
   std::uint64_t model_version = 0;
   std::int64_t model_age_ns = -1;
+  double scale = 0.0;               // W metres per device metre of the active map
+  // The newest RobotState the model had (for offline evaluation against the
+  // simulation's ground truth): its local stamp, odometry and SIMULATION-ONLY
+  // true pose (has_truth 0 if the robot sends none; state_stamp_ns -1: none yet).
+  std::int64_t state_stamp_ns = -1;
+  double odom[3] = {0, 0, 0};
+  double truth[3] = {0, 0, 0};
+  int has_truth = 0;
 };
 const char* station_log_header();
 std::size_t format_station_log_record(const StationLogRecord& r, char* buf, std::size_t size);
@@ -80,6 +88,21 @@ using StationLogger = servo::CsvLogger<StationLogRecord>;
 inline StationLogger make_station_logger(std::size_t capacity = 8192) {
   return StationLogger(capacity, station_log_header(), &format_station_log_record);
 }
+
+// What the operator sees on the station's display, for a SIMULATED operator
+// that closes the loop (the "nav-to-goal" hand, demo_scripts.h): the robot
+// pose the forces are rendered with (the snapshot's prediction extrapolated to
+// the tick). The task overwrites it at the end of every tick; the hand reads
+// it in its at(), which SimulatedOmni::write calls right after the tick, so it
+// sees the pose of the tick just finished. SERVO THREAD ONLY: both sides run
+// on the servo thread (device read/write and tick), so a plain struct needs no
+// atomics, locks or allocation. A hand on another thread would need a seqlock.
+struct OperatorView {
+  math::Pose2 T_W_R;          // predicted robot pose in W
+  std::int64_t t_ns = 0;      // the tick's time
+  math::Mode mode = math::Mode::kExploration;
+  bool valid = false;         // false until the model has a RobotState
+};
 
 struct OperatorTaskParams {
   haptics::ProxyModel proxy;
@@ -101,8 +124,11 @@ struct OperatorTaskParams {
 
 class OperatorServoTask final : public servo::ServoTask {
  public:
-  // Throws std::invalid_argument on bad params. log may be null.
-  explicit OperatorServoTask(const OperatorTaskParams& p, StationLogger* log = nullptr);
+  // Throws std::invalid_argument on bad params. log and view may be null;
+  // view, if given, is written at the end of every tick (servo thread) and
+  // must outlive the task.
+  explicit OperatorServoTask(const OperatorTaskParams& p, StationLogger* log = nullptr,
+                             OperatorView* view = nullptr);
 
   void tick(const device::DeviceSample& in, const servo::ModelSnapshot& model,
             servo::TickOutput& out) noexcept override;
@@ -139,6 +165,7 @@ class OperatorServoTask final : public servo::ServoTask {
   StationSetpoint last_;
   servo::LatestMailbox<StationSetpoint> setpoints_;
   StationLogger* log_;
+  OperatorView* view_;
 };
 
 }  // namespace hemm::op
