@@ -45,7 +45,7 @@ std::string validate(const RangeScan2D& s) {
 std::string validate(const MapParams& p) {
   const double vals[] = {p.jump_ratio,  p.jump_abs,       p.min_view_angle,  p.max_segment_length,
                          p.min_point_spacing, p.normal_window, p.range_noise, p.sonar_merge_ratio, p.sonar_merge_abs, p.sonar_max_gap,
-                         p.window_age_s, p.window_radius, p.cell_size};
+                         p.sonar_laser_tolerance, p.sonar_laser_max_age_s, p.window_age_s, p.window_radius, p.cell_size};
   for (double v : vals)
     if (!std::isfinite(v) || v < 0.0) return "map params: values must be finite and >= 0";
   if (p.max_segment_length <= 0.0 || p.cell_size <= 0.0 || p.window_radius <= 0.0)
@@ -158,15 +158,44 @@ void extract_laser(const MapParams& p, const RangeScan2D& scan, const math::Pose
   emit_polyline(p, run, o_W, scan.stamp_ns, out);
 }
 
+// Does a laser return lie inside cone (apex o_W, unit axis u_W, half angle)
+// no farther than reach?
+// Only returns within max_age_ns of the sonar scan count.
+bool laser_explains(const LaserCoverage& laser, std::int64_t stamp_ns, double max_age_ns, const Vector2d& o_W,
+                    const Vector2d& u_W, double half, double reach) {
+  const double cos_half = std::cos(half);
+  for (const LaserReturn& q : laser.returns) {
+    if (std::abs(static_cast<double>(q.stamp_ns) - static_cast<double>(stamp_ns)) > max_age_ns) continue;
+    const Vector2d d = q.p_W - o_W;
+    const double dist = d.norm();
+    if (dist > reach || dist <= 0.0) continue;
+    if (d.dot(u_W) >= cos_half * dist) return true;
+  }
+  return false;
+}
+
 void extract_sonar(const MapParams& p, const RangeScan2D& scan, const math::Pose2& T_W_S,
-                   std::vector<Segment2>& out) {
+                   const LaserCoverage* laser, std::vector<Segment2>& out) {
   const Vector2d o_W = math::translation(T_W_S);
   const double half = 0.5 * scan.beam_width;
   const int pieces = p.sonar_arc_pieces;
   auto at = [&](double r, double ang) { return math::apply(T_W_S, Vector2d(r * std::cos(ang), r * std::sin(ang))); };
   const std::size_t n = scan.ranges.size();
+  const bool use_laser = laser != nullptr && !laser->returns.empty() && p.sonar_laser_max_age_s > 0.0;
+  // drawn[i]: cone i is a return the laser does not explain.
+  std::vector<std::uint8_t> drawn(n, 0);
   for (std::size_t i = 0; i < n; ++i) {
     if (!beam_is_return(scan, i)) continue;
+    if (use_laser) {
+      const double a = beam_angle(scan, i) + T_W_S.theta;
+      if (laser_explains(*laser, scan.stamp_ns, p.sonar_laser_max_age_s * 1e9, o_W, Vector2d(std::cos(a), std::sin(a)),
+                         half, scan.ranges[i] + p.sonar_laser_tolerance))
+        continue;
+    }
+    drawn[i] = 1;
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!drawn[i]) continue;
     const double r = scan.ranges[i];
     const double a = beam_angle(scan, i);
     Vector2d prev = at(r, a - half);
@@ -181,7 +210,7 @@ void extract_sonar(const MapParams& p, const RangeScan2D& scan, const math::Pose
   for (std::size_t i = 0; i < n && n > 1; ++i) {
     const std::size_t j = (i + 1) % n;
     if (j == 0 && n < 3) break;
-    if (!beam_is_return(scan, i) || !beam_is_return(scan, j)) continue;
+    if (!drawn[i] || !drawn[j]) continue;
     const double ri = scan.ranges[i], rj = scan.ranges[j];
     if (std::abs(ri - rj) > p.sonar_merge_ratio * std::min(ri, rj) + p.sonar_merge_abs) continue;
     const double ai = beam_angle(scan, i), aj = beam_angle(scan, j);
@@ -195,13 +224,28 @@ void extract_sonar(const MapParams& p, const RangeScan2D& scan, const math::Pose
 
 }  // namespace
 
-std::string extract_segments(const MapParams& p, const RangeScan2D& scan, std::vector<Segment2>& out) {
+void update_laser_coverage(LaserCoverage& c, const RangeScan2D& s, double max_age_s) {
+  if (s.kind != SensorKind::kLaser || !validate(s).empty()) return;
+  const double oldest = static_cast<double>(s.stamp_ns) - max_age_s * 1e9;
+  c.returns.erase(std::remove_if(c.returns.begin(), c.returns.end(),
+                                 [&](const LaserReturn& q) { return static_cast<double>(q.stamp_ns) < oldest; }),
+                  c.returns.end());
+  const math::Pose2 T_W_S = math::compose(s.T_W_R, s.T_R_S);
+  for (std::size_t i = 0; i < s.ranges.size(); ++i) {
+    if (!beam_is_return(s, i)) continue;
+    const double a = beam_angle(s, i), r = s.ranges[i];
+    c.returns.push_back({math::apply(T_W_S, Vector2d(r * std::cos(a), r * std::sin(a))), s.stamp_ns});
+  }
+}
+
+std::string extract_segments(const MapParams& p, const RangeScan2D& scan, std::vector<Segment2>& out,
+                             const LaserCoverage* laser) {
   if (std::string e = validate(p); !e.empty()) return e;
   if (std::string e = validate(scan); !e.empty()) return e;
   const math::Pose2 T_W_S = math::compose(scan.T_W_R, scan.T_R_S);
   std::vector<Segment2> found;
   if (scan.kind == SensorKind::kSonar) {
-    extract_sonar(p, scan, T_W_S, found);
+    extract_sonar(p, scan, T_W_S, laser, found);
   } else {
     extract_laser(p, scan, T_W_S, found);
   }
@@ -210,8 +254,10 @@ std::string extract_segments(const MapParams& p, const RangeScan2D& scan, std::v
 }
 
 std::string add_scan(const MapParams& p, LocalMap& map, const RangeScan2D& scan) {
-  std::string e = extract_segments(p, scan, map.segments);
-  if (e.empty()) map.newest_stamp_ns = std::max(map.newest_stamp_ns, scan.stamp_ns);
+  std::string e = extract_segments(p, scan, map.segments, &map.laser);
+  if (!e.empty()) return e;
+  map.newest_stamp_ns = std::max(map.newest_stamp_ns, scan.stamp_ns);
+  if (scan.kind == SensorKind::kLaser) update_laser_coverage(map.laser, scan, p.sonar_laser_max_age_s);
   return e;
 }
 

@@ -12,6 +12,15 @@
 // ranges agree. Every segment carries a unit normal pointing to its free side
 // (toward the sensor that saw it).
 //
+// Sonar and laser together: an arc spans the whole cone (0.5 m wide at 2 m
+// for a 15 deg cone) although the echo came from one spot, so where the laser
+// also looks the arc is a false wall in front of the true surface (the proxy
+// rests on it, or is caught between it and the laser polyline). A sonar echo
+// the newest laser scan explains -- a laser return inside the cone no farther
+// than the echo plus sonar_laser_tolerance, within sonar_laser_max_age_s --
+// is therefore left to the laser; echoes the laser does not explain (outside
+// its field of view, or an obstacle below its plane) are still drawn.
+//
 // PCL is deliberately not used here: measured on a 10k-point scan
 // (tests/bench/proxy/bench_map_pcl), a k-d tree radius search costs ~7x the
 // midpoint-grid query and allocates; VoxelGrid loses the beam order the
@@ -68,6 +77,9 @@ struct MapParams {
   double sonar_merge_ratio = 0.10; // neighbours joined when |r_i - r_j| <= ratio * min + abs
   double sonar_merge_abs = 0.10;   // m
   double sonar_max_gap = 0.45;     // rad: largest angular gap between cone edges to bridge
+  // A sonar echo explained by a laser return (see above) is not drawn; 0 age: never.
+  double sonar_laser_tolerance = 0.15;  // m beyond the echo's range
+  double sonar_laser_max_age_s = 0.5;   // |sonar stamp - laser stamp|
   // Sliding window: keep only what the probe can reach.
   double window_age_s = 3.0;       // drop segments older than this
   double window_radius = 6.0;      // m, drop segments farther than this from the centre
@@ -80,17 +92,33 @@ struct MapParams {
 // Empty when usable; otherwise what is wrong.
 std::string validate(const MapParams& p);
 
+// Laser returns in W from the last sonar_laser_max_age_s: what the laser
+// explains. Kept per return, not per scan, because a dense scan travels in
+// chunks (each its own RangeScan2D).
+struct LaserReturn {
+  Eigen::Vector2d p_W = Eigen::Vector2d::Zero();
+  std::int64_t stamp_ns = 0;
+};
+struct LaserCoverage {
+  std::vector<LaserReturn> returns;  // oldest first
+};
+// Appends the laser scan's returns; drops those older than max_age_s before it.
+void update_laser_coverage(LaserCoverage& c, const RangeScan2D& laser_scan, double max_age_s);
+
 // Model-thread state: segments in arrival order (oldest first).
 struct LocalMap {
   std::vector<Segment2> segments;
   std::int64_t newest_stamp_ns = std::numeric_limits<std::int64_t>::min();
+  LaserCoverage laser;  // recent laser returns (see MapParams::sonar_laser_max_age_s)
 };
 
 // Surfaces of one scan, appended to out. A bad scan returns an error and
-// leaves out untouched.
-std::string extract_segments(const MapParams& p, const RangeScan2D& scan, std::vector<Segment2>& out);
+// leaves out untouched. laser (optional): sonar echoes it explains are not drawn.
+std::string extract_segments(const MapParams& p, const RangeScan2D& scan, std::vector<Segment2>& out,
+                             const LaserCoverage* laser = nullptr);
 
-// extract_segments into the map; on error the map is unchanged.
+// extract_segments into the map (sonar against map.laser; a laser scan also
+// updates map.laser); on error the map is unchanged.
 std::string add_scan(const MapParams& p, LocalMap& map, const RangeScan2D& scan);
 
 // Drops segments older than window_age_s before now_ns, or farther than

@@ -245,6 +245,78 @@ TEST(LocalMap, SonarInterpolation) {
   }
 }
 
+// Where the laser looks, a sonar echo it explains is not drawn (its arc would
+// be a false wall in front of the measured surface); echoes from behind the
+// laser's field of view, or from an obstacle only the sonar sees (below the
+// laser plane), still are; a laser scan too old explains nothing.
+TEST(LocalMap, SonarEchoesTheLaserExplainsAreLeftToTheLaser) {
+  Shapes laser_world;  // what the laser plane cuts
+  laser_world.circles.push_back({{1.9, 0.0}, 0.15});     // a bin ahead
+  laser_world.segs.push_back({{-1.5, -6}, {-1.5, 6}});   // a wall behind the robot
+  Shapes sonar_world = laser_world;
+  sonar_world.circles.push_back({{1.0, 0.3}, 0.04});     // a low post only the sonar sees
+  MapParams p;
+  const RangeScan2D ls = test::synth_scan(laser_world.rayfn(), Pose2{}, Pose2{}, 0, laser());
+  const RangeScan2D ss = test::synth_scan(sonar_world.rayfn(), Pose2{}, Pose2{}, 100'000'000, sonar_ring());
+
+  LocalMap map;
+  ASSERT_EQ(add_scan(p, map, ls), "");
+  ASSERT_GT(map.laser.returns.size(), 5u);
+  const std::size_t n_laser = map.segments.size();
+  ASSERT_EQ(add_scan(p, map, ss), "");
+  int rear = 0, post = 0;
+  for (std::size_t k = n_laser; k < map.segments.size(); ++k) {
+    const Segment2& seg = map.segments[k];
+    ASSERT_EQ(seg.kind, SensorKind::kSonar);
+    const Vector2d mid = 0.5 * (seg.a + seg.b);
+    // No arc in front of the bin: the laser measured it.
+    EXPECT_GT((mid - Vector2d(1.9, 0.0)).norm(), 0.6) << mid.transpose();
+    if (mid.x() < -1.0) ++rear;
+    if ((mid - Vector2d(1.0, 0.3)).norm() < 0.3) ++post;
+  }
+  EXPECT_GE(rear, p.sonar_arc_pieces);  // behind the laser's field of view: drawn
+  EXPECT_GE(post, 1);                   // the laser saw past the post: drawn
+
+  // A dense scan travels in chunks (each its own RangeScan2D): the returns of
+  // every chunk explain, not just the last chunk's.
+  {
+    RangeScan2D right = ls, left = ls;
+    const std::size_t half_n = ls.ranges.size() / 2;
+    right.ranges.resize(half_n);
+    right.valid.resize(half_n);
+    left.ranges.erase(left.ranges.begin(), left.ranges.begin() + static_cast<std::ptrdiff_t>(half_n));
+    left.valid.erase(left.valid.begin(), left.valid.begin() + static_cast<std::ptrdiff_t>(half_n));
+    left.angle_min = ls.angle_min + static_cast<double>(half_n) * ls.angle_step;
+    LocalMap chunked;
+    ASSERT_EQ(add_scan(p, chunked, right), "");
+    ASSERT_EQ(add_scan(p, chunked, left), "");
+    EXPECT_EQ(chunked.laser.returns.size(), map.laser.returns.size());
+    ASSERT_EQ(add_scan(p, chunked, ss), "");
+    for (const Segment2& seg : chunked.segments) {
+      if (seg.kind == SensorKind::kSonar) {
+        EXPECT_GT((0.5 * (seg.a + seg.b) - Vector2d(1.9, 0.0)).norm(), 0.6);
+      }
+    }
+    // Returns older than sonar_laser_max_age_s before the newest laser data go.
+    RangeScan2D later = ls;
+    later.stamp_ns = 2'000'000'000;
+    ASSERT_EQ(add_scan(p, chunked, later), "");
+    EXPECT_EQ(chunked.laser.returns.size(), map.laser.returns.size());
+  }
+
+  // The same sonar scan 1 s after the laser scan: nothing explained, the
+  // front cone's arc is drawn in front of the bin.
+  LocalMap stale;
+  ASSERT_EQ(add_scan(p, stale, ls), "");
+  RangeScan2D late = ss;
+  late.stamp_ns = 1'000'000'000;
+  ASSERT_EQ(add_scan(p, stale, late), "");
+  int front = 0;
+  for (const Segment2& seg : stale.segments)
+    if (seg.kind == SensorKind::kSonar && (0.5 * (seg.a + seg.b) - Vector2d(1.9, 0.0)).norm() < 0.6) ++front;
+  EXPECT_GE(front, p.sonar_arc_pieces);
+}
+
 TEST(LocalMap, SlidingWindowDropsOldAndFar) {
   Shapes world;
   world.segs.push_back({{2, -3}, {2, 3}});
