@@ -45,9 +45,11 @@ std::string validate(const RangeScan2D& s) {
 std::string validate(const MapParams& p) {
   const double vals[] = {p.jump_ratio,  p.jump_abs,       p.min_view_angle,  p.max_segment_length,
                          p.min_point_spacing, p.normal_window, p.range_noise, p.sonar_merge_ratio, p.sonar_merge_abs, p.sonar_max_gap,
-                         p.sonar_laser_tolerance, p.sonar_laser_max_age_s, p.window_age_s, p.window_radius, p.cell_size};
+                         p.sonar_laser_tolerance, p.sonar_laser_max_age_s, p.clear_tolerance, p.window_age_s, p.window_radius, p.cell_size};
   for (double v : vals)
     if (!std::isfinite(v) || v < 0.0) return "map params: values must be finite and >= 0";
+  // Larger would clear surfaces well behind the one measured.
+  if (p.clear_tolerance > 1.0) return "map params: clear_tolerance must be <= 1 m";
   if (p.max_segment_length <= 0.0 || p.cell_size <= 0.0 || p.window_radius <= 0.0)
     return "map params: max_segment_length, cell_size, window_radius must be > 0";
   if (p.max_bridged_dropouts < 0) return "map params: max_bridged_dropouts must be >= 0";
@@ -222,7 +224,159 @@ void extract_sonar(const MapParams& p, const RangeScan2D& scan, const math::Pose
   }
 }
 
+// ---- Ray clearing -------------------------------------------------------
+
+// What beam i says about free space along its axis: the measured range, the
+// range_max for a valid "no return", or < 0 when it says nothing (dropout,
+// NaN, below range_min).
+double beam_limit(const RangeScan2D& s, std::size_t i) {
+  if (s.valid[i] == 0) return -1.0;
+  const double r = static_cast<double>(s.ranges[i]);
+  if (std::isnan(r) || r < s.range_min) return -1.0;
+  return std::min(r, s.range_max);
+}
+
+// The beam nearest bearing beta (rad, in S) among the scan's own beams, each
+// standing for the angular cell halfway to its neighbours (so the chunks of a
+// dense scan partition its field of view). off = beta - angle of beam k.
+// False when beta lies outside every cell.
+bool nearest_beam(const RangeScan2D& s, double beta, std::size_t& k, double& off) {
+  const std::size_t n = s.ranges.size();
+  if (n == 0) return false;
+  const double a0 = beam_angle(s, 0);
+  const bool regular = s.beam_angles.empty();
+  const double h0 = regular ? 0.5 * s.angle_step : (n > 1 ? 0.5 * (beam_angle(s, 1) - a0) : 0.0);
+  double rel = math::wrap_angle(beta - a0);  // (-pi, pi]
+  if (rel < -h0) rel += 2.0 * math::kPi;      // [-h0, 2 pi - h0)
+  if (regular) {
+    const double x = std::floor(rel / s.angle_step + 0.5);
+    if (x < 0.0 || x > static_cast<double>(n - 1)) return false;
+    k = static_cast<std::size_t>(x);
+    off = rel - x * s.angle_step;
+    return true;
+  }
+  // Irregular (ascending) beam angles: binary search for the first beam past rel.
+  std::size_t lo = 0, hi = n;
+  while (lo < hi) {
+    const std::size_t mid = (lo + hi) / 2;
+    if (beam_angle(s, mid) - a0 <= rel) lo = mid + 1; else hi = mid;
+  }
+  if (lo == 0) {
+    k = 0;
+  } else if (lo == n) {
+    k = n - 1;
+    const double h_last = n > 1 ? 0.5 * (beam_angle(s, n - 1) - beam_angle(s, n - 2)) : 0.0;
+    if (rel - (beam_angle(s, n - 1) - a0) >= h_last && !(n == 1 && rel == 0.0)) return false;
+  } else {
+    const double before = rel - (beam_angle(s, lo - 1) - a0), after = (beam_angle(s, lo) - a0) - rel;
+    k = before < after ? lo - 1 : lo;
+  }
+  off = rel - (beam_angle(s, k) - a0);
+  return true;
+}
+
+// Has this laser scan seen through point q (range r_q, bearing beta in S)?
+bool laser_sees_through(const MapParams& p, const RangeScan2D& s, double r_q, double beta) {
+  std::size_t k = 0;
+  double off = 0.0;
+  if (r_q < s.range_min || !nearest_beam(s, beta, k, off)) return false;
+  const double lk = beam_limit(s, k);
+  if (lk < 0.0) return false;
+  const std::size_t n = s.ranges.size();
+  const double tol = p.clear_tolerance;
+  auto agree = [&](double x, double y) { return std::abs(x - y) <= p.jump_ratio * std::min(x, y) + p.jump_abs; };
+  const int side = off >= 0.0 ? 1 : -1;  // the neighbour across the gap q lies in
+  const auto j = static_cast<std::ptrdiff_t>(k) + side, o = static_cast<std::ptrdiff_t>(k) - side;
+  double limit = lk;
+  if (j >= 0 && j < static_cast<std::ptrdiff_t>(n)) {
+    // An invalid neighbour says nothing about the gap: beam k alone decides.
+    // (Not "in doubt": the wire cannot tell a dropout from "nothing within
+    // range", so every surface end next to open space would keep a copy per
+    // scan; a real dropout beside an object's edge costs at most that one
+    // scan's sliver of edge, redrawn by the next.)
+    const double lj = beam_limit(s, static_cast<std::size_t>(j));
+    if (lj < 0.0) {
+      // limit stays lk
+    } else if (agree(lk, lj)) {
+      // One surface across the gap: its range at beta, linearly in angle.
+      limit = lk + (lj - lk) * off / (beam_angle(s, static_cast<std::size_t>(j)) - beam_angle(s, k));
+    } else if (lj < lk) {
+      // Beam k slipped past the edge of a nearer object whose surface may
+      // reach into the gap: only what lies in front of that object is seen.
+      return r_q <= lj - tol;
+    }
+    // else: k is on the near surface and its neighbour sees past its edge.
+  } else if (o >= 0 && o < static_cast<std::ptrdiff_t>(n)) {
+    // q beyond the scan's (or chunk's) last beam: extrapolate the surface's slope.
+    const double lo = beam_limit(s, static_cast<std::size_t>(o));
+    if (lo >= 0.0 && agree(lk, lo))
+      limit = lk + (lk - lo) * off / (beam_angle(s, k) - beam_angle(s, static_cast<std::size_t>(o)));
+  }
+  return r_q <= limit + tol;
+}
+
+// Has this sonar scan seen through point q? An echo at r: nothing nearer in
+// the cone. Arcs are inferred across the whole cone, so the cone is widened by
+// half an arc piece; between neighbouring cones close enough to bridge, the
+// two echoes bound the free space (interpolated when they agree, else the
+// nearer).
+bool sonar_sees_through(const MapParams& p, const RangeScan2D& s, double r_q, double beta) {
+  if (r_q < s.range_min) return false;
+  const std::size_t n = s.ranges.size();
+  const double half = 0.5 * s.beam_width, slack = 0.5 * s.beam_width / p.sonar_arc_pieces;
+  const double tol = p.clear_tolerance;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (std::abs(math::wrap_angle(beta - beam_angle(s, i))) > half + slack) continue;
+    const double li = beam_limit(s, i);
+    if (li >= 0.0 && r_q <= li + tol) return true;
+  }
+  for (std::size_t i = 0; i < n && n > 1; ++i) {
+    const std::size_t j = (i + 1) % n;
+    if (j == 0 && n < 3) break;
+    const double span = math::wrap_angle(beam_angle(s, j) - beam_angle(s, i));
+    const double gap = span - s.beam_width;
+    if (span <= 0.0 || gap <= 0.0 || gap > p.sonar_max_gap) continue;
+    double d = math::wrap_angle(beta - beam_angle(s, i));
+    if (d < 0.0) d += 2.0 * math::kPi;
+    if (d <= half || d >= span - half) continue;
+    const double li = beam_limit(s, i), lj = beam_limit(s, j);
+    if (li < 0.0 || lj < 0.0) continue;
+    // Echoes that agree are bridged by extract_sonar: the bridge (a line,
+    // whose range is convex in the bearing) lies within the linear
+    // interpolation of the two; otherwise only the nearer echo bounds the gap.
+    const bool agree = std::abs(li - lj) <= p.sonar_merge_ratio * std::min(li, lj) + p.sonar_merge_abs;
+    const double f = (d - half) / (span - s.beam_width);
+    const double limit = agree ? li + f * (lj - li) : std::min(li, lj);
+    if (r_q <= limit + tol) return true;
+  }
+  return false;
+}
+
 }  // namespace
+
+std::size_t clear_reobserved_segments(const MapParams& p, LocalMap& map, const RangeScan2D& scan) {
+  if (!validate(p).empty() || !validate(scan).empty()) return 0;
+  const math::Pose2 T_S_W = math::inverse(math::compose(scan.T_W_R, scan.T_R_S));
+  const bool sonar = scan.kind == SensorKind::kSonar;
+  auto seen = [&](const Vector2d& q_W) {
+    const Vector2d d = math::apply(T_S_W, q_W);
+    const double r = d.norm(), beta = std::atan2(d.y(), d.x());
+    return sonar ? sonar_sees_through(p, scan, r, beta) : laser_sees_through(p, scan, r, beta);
+  };
+  for (Segment2& seg : map.segments) {
+    // Only older segments: a late (reordered) scan never clears newer data,
+    // and a chunk never clears its own scan's other chunks.
+    if (seg.kind != scan.kind || seg.stamp_ns >= scan.stamp_ns) continue;
+    if (!(seg.reobserved & 1u) && seen(seg.a)) seg.reobserved |= 1u;
+    if (!(seg.reobserved & 2u) && seen(0.5 * (seg.a + seg.b))) seg.reobserved |= 2u;
+    if (!(seg.reobserved & 4u) && seen(seg.b)) seg.reobserved |= 4u;
+  }
+  const std::size_t before = map.segments.size();
+  map.segments.erase(std::remove_if(map.segments.begin(), map.segments.end(),
+                                    [](const Segment2& s) { return s.reobserved == 7u; }),
+                     map.segments.end());
+  return before - map.segments.size();
+}
 
 void update_laser_coverage(LaserCoverage& c, const RangeScan2D& s, double max_age_s) {
   if (s.kind != SensorKind::kLaser || !validate(s).empty()) return;
@@ -254,6 +408,9 @@ std::string extract_segments(const MapParams& p, const RangeScan2D& scan, std::v
 }
 
 std::string add_scan(const MapParams& p, LocalMap& map, const RangeScan2D& scan) {
+  if (std::string e = validate(p); !e.empty()) return e;
+  if (std::string e = validate(scan); !e.empty()) return e;
+  if (p.clear_reobserved) clear_reobserved_segments(p, map, scan);
   std::string e = extract_segments(p, scan, map.segments, &map.laser);
   if (!e.empty()) return e;
   map.newest_stamp_ns = std::max(map.newest_stamp_ns, scan.stamp_ns);

@@ -21,6 +21,37 @@
 // is therefore left to the laser; echoes the laser does not explain (outside
 // its field of view, or an obstacle below its plane) are still drawn.
 //
+// The newest scan supersedes what it re-observes (ray clearing). Before a
+// scan's segments are added, older segments of the SAME sensor kind whose
+// points the scan has seen through are removed: a point is re-observed when
+// it lies in the scan's field of view, no farther from the sensor than the
+// range measured at its bearing plus clear_tolerance. Why: a 30 Hz laser
+// looking at one surface for window_age_s would otherwise leave ~90 noisy
+// overlapping copies of it -- a fuzzy band of tiny concave kinks the proxy
+// snags on; an object that moved away would stay until it aged out; and the
+// map would cost memory and time for nothing. With clearing the map holds one
+// copy of what is currently seen, and a moved object vanishes at the next scan.
+// What is kept: what is out of view, occluded (behind the measured range),
+// behind a dropout, or in doubt at a range discontinuity -- a point whose
+// nearest beam slipped past an object's edge (its neighbour toward the point
+// is nearer) may lie on that object, so the object's edge is not cleared by
+// the wall beam next to it.
+//   Laser: each test point (both endpoints and the midpoint: a long chord,
+// e.g. across bridged dropouts, can pass behind a new object with both ends
+// visible) takes the beam nearest its bearing; the limit is that beam's range
+// (range_max for a valid "no return"), interpolated toward the neighbour on
+// the point's side when the two agree (by the windowing jump test). A chunk
+// of a dense scan judges only points whose nearest beam is its own; marks
+// accumulate on the segment (Segment2::reobserved), so a segment across two
+// chunks is cleared when both have seen it, like the whole scan would.
+//   Sonar: the echo at r says nothing is nearer anywhere in the cone: old
+// sonar segments in the cone (widened by half an arc piece: arcs are an
+// inference across the cone) closer than r + tolerance go; in the gap between
+// neighbouring cones (<= sonar_max_gap) the two echoes are the limit
+// (interpolated across the gap when they agree, as the bridge is; else the nearer).
+// Laser never clears sonar and sonar never clears laser: they see at different
+// heights, and the sonar must keep obstacles below the laser plane.
+//
 // PCL is deliberately not used here: measured on a 10k-point scan
 // (tests/bench/proxy/bench_map_pcl), a k-d tree radius search costs ~7x the
 // midpoint-grid query and allocates; VoxelGrid loses the beam order the
@@ -48,6 +79,9 @@ struct Segment2 {
   std::int64_t stamp_ns = 0;                         // scan acquisition time
   SensorKind kind = SensorKind::kLaser;
   bool interpolated = false;  // sonar arc / bridge: inferred, not a measured point pair
+  // Ray clearing (model thread only): bits 1 = a, 2 = midpoint, 4 = b seen
+  // through by a newer scan (or chunk) of the same kind; all three: removed.
+  std::uint8_t reobserved = 0;
 };
 
 struct MapParams {
@@ -80,6 +114,11 @@ struct MapParams {
   // A sonar echo explained by a laser return (see above) is not drawn; 0 age: never.
   double sonar_laser_tolerance = 0.15;  // m beyond the echo's range
   double sonar_laser_max_age_s = 0.5;   // |sonar stamp - laser stamp|
+  // Ray clearing (see above): an older segment point counts as re-observed
+  // when it lies no farther than the range measured at its bearing plus this
+  // (~3 sigma of laser range noise + a margin for odometry between scans).
+  bool clear_reobserved = true;
+  double clear_tolerance = 0.05;   // m
   // Sliding window: keep only what the probe can reach.
   double window_age_s = 3.0;       // drop segments older than this
   double window_radius = 6.0;      // m, drop segments farther than this from the centre
@@ -117,9 +156,16 @@ struct LocalMap {
 std::string extract_segments(const MapParams& p, const RangeScan2D& scan, std::vector<Segment2>& out,
                              const LaserCoverage* laser = nullptr);
 
-// extract_segments into the map (sonar against map.laser; a laser scan also
-// updates map.laser); on error the map is unchanged.
+// Clears what the scan re-observes (clear_reobserved), then extract_segments
+// into the map (sonar against map.laser; a laser scan also updates
+// map.laser); on error the map is unchanged.
 std::string add_scan(const MapParams& p, LocalMap& map, const RangeScan2D& scan);
+
+// Ray clearing alone: marks the points of map segments older than the scan
+// and of its kind that the scan sees through, and removes the segments whose
+// three points are all marked. Returns how many were removed; a bad scan
+// removes nothing.
+std::size_t clear_reobserved_segments(const MapParams& p, LocalMap& map, const RangeScan2D& scan);
 
 // Drops segments older than window_age_s before now_ns, or farther than
 // window_radius from centre_W, then the oldest beyond max_segments.

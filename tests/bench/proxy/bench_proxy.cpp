@@ -3,6 +3,7 @@
 // the number of scan points. All inputs are SIMULATED, generated analytically.
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -141,6 +142,60 @@ void BM_MapUpdate(benchmark::State& state) { map_update(state, 0.0); }
 void BM_MapUpdateDownsampled5cm(benchmark::State& state) { map_update(state, 0.05); }
 BENCHMARK(BM_MapUpdate)->Arg(181)->Arg(1000)->Arg(5000)->Arg(10000)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_MapUpdateDownsampled5cm)->Arg(181)->Arg(1000)->Arg(5000)->Arg(10000)->Unit(benchmark::kMicrosecond);
+
+// The operator's steady state: a 181-beam laser (180 deg) at 30 Hz, window
+// 3 s, robot standing in the room with a new noise draw per scan. Arg 1: ray
+// clearing on (the newest scan supersedes what it re-observes), 0: off (every
+// scan kept until it ages out). Time per add_scan alone, and the map size.
+void BM_AddScan30Hz(benchmark::State& state) {
+  const bool clear = state.range(0) != 0;
+  std::vector<mapping::RangeScan2D> scans;
+  for (int k = 0; k < 16; ++k) {
+    mapping::RangeScan2D s = room_scan(360, 0, 0.0);  // 1 cm noise, the same draw each time
+    std::mt19937 rng(static_cast<std::uint32_t>(k + 1));
+    std::normal_distribution<double> noise(0.0, 0.01);
+    mapping::RangeScan2D f = s;  // keep the front 181 beams (-90 .. +90 deg)
+    f.angle_min = -0.5 * math::kPi;
+    f.angle_step = math::kPi / 180.0;
+    f.ranges.assign(s.ranges.begin() + 90, s.ranges.begin() + 271);
+    f.valid.assign(s.valid.begin() + 90, s.valid.begin() + 271);
+    for (float& r : f.ranges) r += static_cast<float>(noise(rng));  // plus a fresh draw: ~1.4 cm in all
+    scans.push_back(f);
+  }
+  mapping::MapParams p;
+  p.clear_reobserved = clear;
+  p.window_age_s = 3.0;
+  mapping::LocalMap map;
+  const std::int64_t period = 33'333'333;
+  std::int64_t t = 0;
+  std::size_t k = 0;
+  // Warm up to the steady state: a full window.
+  for (; t < 4'000'000'000; t += period) {
+    mapping::RangeScan2D s = scans[k++ % scans.size()];
+    s.stamp_ns = t;
+    mapping::add_scan(p, map, s);
+    mapping::slide_window(p, map, t, Vector2d(0.1, 0.0));
+  }
+  double segs = 0;
+  std::size_t n = 0;
+  for (auto _ : state) {
+    state.PauseTiming();
+    mapping::RangeScan2D s = scans[k++ % scans.size()];
+    s.stamp_ns = t;
+    state.ResumeTiming();
+    mapping::add_scan(p, map, s);
+    state.PauseTiming();
+    mapping::slide_window(p, map, t, Vector2d(0.1, 0.0));
+    segs += static_cast<double>(map.segments.size());
+    ++n;
+    t += period;
+    state.ResumeTiming();
+  }
+  state.counters["map_segments"] = segs / static_cast<double>(n);
+  state.counters["newest_scan_segments"] = static_cast<double>(std::count_if(
+      map.segments.begin(), map.segments.end(), [&](const mapping::Segment2& g) { return g.stamp_ns == t - period; }));
+}
+BENCHMARK(BM_AddScan30Hz)->Arg(0)->Arg(1)->Unit(benchmark::kMicrosecond);
 
 // Radius query alone (what the servo thread does each tick before the sweep).
 void BM_MapQuery(benchmark::State& state) {

@@ -323,6 +323,9 @@ TEST(LocalMap, SlidingWindowDropsOldAndFar) {
   MapParams p;
   p.window_age_s = 3.0;
   p.window_radius = 4.0;
+  // The window alone (ray clearing would leave only the newest of these
+  // identical scans; see the RayClearing tests).
+  p.clear_reobserved = false;
   LocalMap map;
   // One scan per second, t = 0 .. 5 s, robot stationary at the origin.
   std::vector<std::size_t> per_scan;
@@ -472,6 +475,332 @@ TEST(LocalMap, SnapshotQueryMatchesBruteForce) {
   EXPECT_EQ(query_segments(snap, {1e6, 1e6}, 1.0, out.data(), out.size()), 0u);
   EXPECT_EQ(query_segments(snap, {std::nan(""), 0}, 1.0, out.data(), out.size()), 0u);
   EXPECT_EQ(query_segments(MapSnapshot{}, {0, 0}, 1.0, out.data(), out.size()), 0u);
+}
+
+
+// ---- Ray clearing: the newest scan supersedes what it re-observes ----------
+
+constexpr std::int64_t kScanPeriodNs = 33'333'333;  // 30 Hz
+
+// Closed box (axis-aligned) as four thin segments.
+void add_box(Shapes& w, const Vector2d& lo, const Vector2d& hi) {
+  w.segs.push_back({lo, {hi.x(), lo.y()}});
+  w.segs.push_back({{hi.x(), lo.y()}, hi});
+  w.segs.push_back({hi, {lo.x(), hi.y()}});
+  w.segs.push_back({{lo.x(), hi.y()}, lo});
+}
+
+std::size_t count_stamp(const LocalMap& m, std::int64_t stamp) {
+  return static_cast<std::size_t>(
+      std::count_if(m.segments.begin(), m.segments.end(), [&](const Segment2& s) { return s.stamp_ns == stamp; }));
+}
+
+TEST(RayClearing, StaticWallScanned50TimesHoldsOneScan) {
+  Shapes world;
+  world.segs.push_back({{3, -5}, {3, 5}});
+  MapParams p;
+  LocalMap map;
+  std::size_t last = 0;
+  std::int64_t t = 0;
+  for (int k = 0; k < 50; ++k) {
+    t = k * kScanPeriodNs;
+    const std::size_t before = map.segments.size();
+    const RangeScan2D s = test::synth_scan(world.rayfn(), Pose2{}, Pose2{}, t, laser(0.01, 100u + static_cast<std::uint32_t>(k)));
+    const std::size_t n = [&] { std::vector<Segment2> tmp; extract_segments(p, s, tmp); return tmp.size(); }();
+    ASSERT_EQ(add_scan(p, map, s), "");
+    last = n;
+    ASSERT_LE(map.segments.size(), before + n);
+  }
+  ASSERT_GT(last, 100u);
+  // Every segment is the newest scan's: one copy of the wall, not 50.
+  EXPECT_EQ(map.segments.size(), last);
+  EXPECT_EQ(count_stamp(map, t), last);
+  // Control: without clearing the map holds every scan.
+  MapParams off = p;
+  off.clear_reobserved = false;
+  LocalMap all;
+  for (int k = 0; k < 50; ++k)
+    ASSERT_EQ(add_scan(off, all, test::synth_scan(world.rayfn(), Pose2{}, Pose2{}, k * kScanPeriodNs,
+                                                  laser(0.01, 100u + static_cast<std::uint32_t>(k)))), "");
+  EXPECT_GT(all.segments.size(), 45 * last);
+  // A late (reordered) scan older than the map's segments clears nothing.
+  const std::size_t n = map.segments.size();
+  EXPECT_EQ(clear_reobserved_segments(p, map, test::synth_scan(world.rayfn(), Pose2{}, Pose2{}, t - 1, laser())), 0u);
+  EXPECT_EQ(map.segments.size(), n);
+}
+
+TEST(RayClearing, RemovedPostVanishesWallBehindIsDrawn) {
+  Shapes with, without;
+  without.segs.push_back({{3, -5}, {3, 5}});
+  with = without;
+  const Vector2d post(1.5, 0.2);
+  with.circles.push_back({post, 0.1});
+  MapParams p;
+  LocalMap map;
+  ASSERT_EQ(add_scan(p, map, test::synth_scan(with.rayfn(), Pose2{}, Pose2{}, 0, laser(0.005, 1))), "");
+  auto near_post = [&] {
+    int n = 0;
+    for (const Segment2& s : map.segments) n += math::distance_to_segment(s.a, s.b, post) < 0.3 ? 1 : 0;
+    return n;
+  };
+  ASSERT_GT(near_post(), 3);
+  // The post is taken away; the next scan from a slightly moved robot.
+  ASSERT_EQ(add_scan(p, map, test::synth_scan(without.rayfn(), Pose2{0.05, 0.02, 0.03}, Pose2{}, kScanPeriodNs,
+                                              laser(0.005, 2))), "");
+  EXPECT_EQ(near_post(), 0);
+  // The wall behind where the post stood (its shadow was y in ~[0.12, 0.7]) is drawn.
+  for (double y = 0.1; y <= 0.7; y += 0.05) {
+    bool covered = false;
+    for (const Segment2& s : map.segments)
+      covered = covered || (std::abs(s.a.x() - 3.0) < 0.03 && std::min(s.a.y(), s.b.y()) <= y && y <= std::max(s.a.y(), s.b.y()));
+    EXPECT_TRUE(covered) << y;
+  }
+  for (const Segment2& s : map.segments) EXPECT_LT(without.distance(s.a), 0.03);
+}
+
+TEST(RayClearing, OccludedSurfaceIsKept) {
+  Shapes wall, boxed;
+  wall.segs.push_back({{3, -5}, {3, 5}});
+  boxed = wall;
+  add_box(boxed, {1.5, -0.3}, {1.7, 0.3});  // now a box stands in front: shadow |y| < 0.6 on the wall
+  MapParams p;
+  LocalMap map;
+  ASSERT_EQ(add_scan(p, map, test::synth_scan(wall.rayfn(), Pose2{}, Pose2{}, 0, laser(0.005, 1))), "");
+  ASSERT_EQ(add_scan(p, map, test::synth_scan(boxed.rayfn(), Pose2{}, Pose2{}, kScanPeriodNs, laser(0.005, 2))), "");
+  int hidden = 0, visible = 0;
+  for (const Segment2& s : map.segments) {
+    if (s.stamp_ns != 0) continue;
+    const double y0 = std::min(s.a.y(), s.b.y()), y1 = std::max(s.a.y(), s.b.y());
+    if (y1 < 0.5 && y0 > -0.5) ++hidden;
+    if (y0 > 0.75 || y1 < -0.75) ++visible;
+  }
+  // Every old wall segment in the shadow (beams 1 deg apart: ~17 at 3 m over 1 m) is kept...
+  EXPECT_GE(hidden, 15);
+  int old_in_shadow = 0;
+  {
+    LocalMap only_old;
+    ASSERT_EQ(add_scan(p, only_old, test::synth_scan(wall.rayfn(), Pose2{}, Pose2{}, 0, laser(0.005, 1))), "");
+    for (const Segment2& s : only_old.segments)
+      old_in_shadow += std::max(s.a.y(), s.b.y()) < 0.5 && std::min(s.a.y(), s.b.y()) > -0.5 ? 1 : 0;
+  }
+  EXPECT_EQ(hidden, old_in_shadow);
+  // ... and every old one in view is superseded.
+  EXPECT_EQ(visible, 0);
+}
+
+TEST(RayClearing, OutOfViewIsKeptUntilTheWindowDropsIt) {
+  Shapes world;
+  world.segs.push_back({{3, -5}, {3, 5}});
+  world.segs.push_back({{-3, -5}, {-3, 5}});
+  MapParams p;
+  LocalMap map;
+  ASSERT_EQ(add_scan(p, map, test::synth_scan(world.rayfn(), Pose2{}, Pose2{}, 0, laser(0.005, 1))), "");
+  const std::size_t front = map.segments.size();
+  // The robot turns round: the 180 deg scan now sees only the wall at x = -3.
+  for (int k = 1; k <= 10; ++k)
+    ASSERT_EQ(add_scan(p, map, test::synth_scan(world.rayfn(), Pose2{0, 0, kPi}, Pose2{}, k * kScanPeriodNs,
+                                                laser(0.005, 1u + static_cast<std::uint32_t>(k)))), "");
+  EXPECT_EQ(count_stamp(map, 0), front);
+  for (const Segment2& s : map.segments) {
+    if (s.stamp_ns == 0) {
+      EXPECT_GT(s.a.x(), 2.9);
+    } else {
+      EXPECT_EQ(s.stamp_ns, 10 * kScanPeriodNs);  // the turned view: one copy
+    }
+  }
+  slide_window(p, map, static_cast<std::int64_t>(p.window_age_s * 1e9) + 1, Vector2d::Zero());
+  EXPECT_EQ(count_stamp(map, 0), 0u);
+}
+
+// A box edge at bearing 11.7 deg with the wall behind. The old scan (0.2 deg
+// beams) reaches closer to the edge than the new one (1 deg beams: the beam at
+// 12 deg slipped past the edge): old box points whose nearest new beam is a
+// wall beam are in doubt and kept, so the edge is not eroded; old box points
+// whose nearest new beam is on the box go.
+TEST(RayClearing, SilhouetteEdgeNotClearedByBeamPastIt) {
+  Shapes world;
+  world.segs.push_back({{3, -5}, {3, 5}});
+  const double w = 1.5 * std::tan(11.7 * kPi / 180);
+  add_box(world, {1.5, -w}, {1.7, w});
+  test::SynthScanSpec fine = laser();
+  fine.beams = 901;
+  fine.angle_step = kPi / 900;
+  MapParams p;
+  LocalMap map;
+  ASSERT_EQ(add_scan(p, map, test::synth_scan(world.rayfn(), Pose2{}, Pose2{}, 0, fine)), "");
+  const std::vector<Segment2> old = map.segments;
+  const RangeScan2D coarse = test::synth_scan(world.rayfn(), Pose2{}, Pose2{}, kScanPeriodNs, laser());
+  ASSERT_EQ(add_scan(p, map, coarse), "");
+  auto on_box = [](const Segment2& s) { return s.a.x() < 2.0 && s.b.x() < 2.0; };
+  // Closed form: nearest coarse beam of a point (sensor at the origin, beams at whole degrees).
+  auto wall_beam_nearest = [&](const Vector2d& q) {
+    const long k = std::lround((std::atan2(q.y(), q.x()) - coarse.angle_min) / coarse.angle_step);
+    return coarse.ranges[static_cast<std::size_t>(k)] > 2.0f;
+  };
+  int kept = 0, cleared = 0;
+  double old_edge = 0.0;
+  for (const Segment2& s : old) {
+    if (!on_box(s)) continue;
+    old_edge = std::max({old_edge, std::abs(s.a.y()), std::abs(s.b.y())});
+    const bool doubt = wall_beam_nearest(s.a) || wall_beam_nearest(s.b) || wall_beam_nearest(0.5 * (s.a + s.b));
+    const bool still = std::any_of(map.segments.begin(), map.segments.end(), [&](const Segment2& m) {
+      return m.stamp_ns == 0 && m.a == s.a && m.b == s.b;
+    });
+    EXPECT_EQ(still, doubt) << s.a.transpose() << " -> " << s.b.transpose();
+    kept += still ? 1 : 0;
+    cleared += still ? 0 : 1;
+  }
+  EXPECT_GE(kept, 2);      // both edges
+  EXPECT_GE(cleared, 20);  // the face between (down-sampled to 2 cm)
+  double edge = 0.0;
+  for (const Segment2& s : map.segments)
+    if (on_box(s)) edge = std::max({edge, std::abs(s.a.y()), std::abs(s.b.y())});
+  EXPECT_DOUBLE_EQ(edge, old_edge);
+  EXPECT_GT(old_edge, 1.5 * std::tan(11.5 * kPi / 180));  // past the last coarse box beam's cell
+}
+
+// Both endpoints AND the midpoint must be seen through: a long chord (bridged
+// dropouts, down-sampling) can pass behind a new object with both ends in view.
+TEST(RayClearing, ChordBehindNewObjectIsKept) {
+  Shapes wall, posted;
+  wall.segs.push_back({{3, -5}, {3, 5}});
+  posted = wall;
+  posted.circles.push_back({{1.5, 0.0}, 0.1});
+  MapParams p;
+  for (bool with_post : {true, false}) {
+    LocalMap map;
+    Segment2 chord;
+    chord.a = {3.0, -0.5};
+    chord.b = {3.0, 0.5};
+    chord.normal = {-1, 0};
+    map.segments.push_back(chord);
+    const Shapes& w = with_post ? posted : wall;
+    ASSERT_EQ(add_scan(p, map, test::synth_scan(w.rayfn(), Pose2{}, Pose2{}, 1, laser())), "");
+    const auto it = std::find_if(map.segments.begin(), map.segments.end(), [](const Segment2& s) { return s.stamp_ns == 0; });
+    if (with_post) {
+      ASSERT_NE(it, map.segments.end());
+      EXPECT_EQ(it->reobserved, 1u | 4u);  // both ends seen, the middle hidden
+    } else {
+      EXPECT_EQ(it, map.segments.end());
+    }
+  }
+}
+
+// A scan split into chunks clears exactly what the whole scan clears,
+// including old segments that straddle the chunk seam (marks add up).
+TEST(RayClearing, ChunksClearLikeTheWholeScan) {
+  Shapes world;
+  world.segs.push_back({{3, -5}, {3, 5}});
+  world.circles.push_back({{1.8, 1.0}, 0.15});
+  add_box(world, {2.0, -1.6}, {2.3, -1.0});
+  MapParams p;
+  const RangeScan2D old_scan = test::synth_scan(world.rayfn(), Pose2{}, Pose2{}, 0, laser(0.01, 1));
+  const RangeScan2D whole =
+      test::synth_scan(world.rayfn(), Pose2{0.1, 0.05, 0.02}, Pose2{0.18, 0, 0}, kScanPeriodNs, laser(0.01, 2));
+  const std::size_t cut = 95;
+  RangeScan2D right = whole, left = whole;
+  right.ranges.resize(cut);
+  right.valid.resize(cut);
+  left.ranges.erase(left.ranges.begin(), left.ranges.begin() + static_cast<std::ptrdiff_t>(cut));
+  left.valid.erase(left.valid.begin(), left.valid.begin() + static_cast<std::ptrdiff_t>(cut));
+  left.angle_min = whole.angle_min + static_cast<double>(cut) * whole.angle_step;
+
+  LocalMap a, b;
+  ASSERT_EQ(add_scan(p, a, old_scan), "");
+  ASSERT_EQ(add_scan(p, b, old_scan), "");
+  const std::size_t n_old = a.segments.size();
+  ASSERT_EQ(add_scan(p, a, whole), "");
+  ASSERT_EQ(add_scan(p, b, right), "");
+  ASSERT_EQ(add_scan(p, b, left), "");
+  std::vector<std::pair<Vector2d, Vector2d>> kept_a, kept_b;
+  for (const Segment2& s : a.segments) if (s.stamp_ns == 0) kept_a.push_back({s.a, s.b});
+  for (const Segment2& s : b.segments) if (s.stamp_ns == 0) kept_b.push_back({s.a, s.b});
+  EXPECT_EQ(kept_a, kept_b);
+  EXPECT_LT(kept_a.size(), n_old / 4);  // most of the old scan was superseded
+  // Old segments straddling the seam's bearing (in the new sensor frame) were cleared.
+  const math::Pose2 T_S_W = math::inverse(math::compose(whole.T_W_R, whole.T_R_S));
+  const double seam = left.angle_min - 0.5 * whole.angle_step;
+  int straddling = 0;
+  LocalMap o;
+  ASSERT_EQ(add_scan(p, o, old_scan), "");
+  for (const Segment2& s : o.segments) {
+    const Vector2d qa = math::apply(T_S_W, s.a), qb = math::apply(T_S_W, s.b);
+    const double ba = std::atan2(qa.y(), qa.x()), bb = std::atan2(qb.y(), qb.x());
+    if ((ba - seam) * (bb - seam) < 0.0) {
+      ++straddling;
+      EXPECT_EQ(std::count(kept_b.begin(), kept_b.end(), std::make_pair(s.a, s.b)), 0);
+    }
+  }
+  EXPECT_GE(straddling, 1);
+}
+
+TEST(RayClearing, SonarClearsSonarOnlyAndLaserClearsLaserOnly) {
+  Shapes with, without;
+  without.segs.push_back({{1.5, -6}, {1.5, 6}});
+  with = without;
+  const Vector2d post(0.8, 0.3);
+  with.circles.push_back({post, 0.05});
+  MapParams p;
+  p.sonar_laser_max_age_s = 0.0;  // draw every echo: this test is about clearing alone
+  LocalMap map;
+  ASSERT_EQ(add_scan(p, map, test::synth_scan(with.rayfn(), Pose2{}, Pose2{}, 0, sonar_ring())), "");
+  auto near_post = [&] {
+    int n = 0;
+    for (const Segment2& s : map.segments) n += math::distance_to_segment(s.a, s.b, post) < 0.15 ? 1 : 0;
+    return n;
+  };
+  ASSERT_GE(near_post(), 1);
+  const std::size_t first = map.segments.size();
+  // The post is gone; the next ring from the same spot: one copy of the wall, no post.
+  const std::int64_t t1 = 100'000'000;
+  ASSERT_EQ(add_scan(p, map, test::synth_scan(without.rayfn(), Pose2{}, Pose2{}, t1, sonar_ring())), "");
+  EXPECT_EQ(near_post(), 0);
+  EXPECT_EQ(count_stamp(map, t1), map.segments.size());
+  EXPECT_GT(map.segments.size(), first / 2);
+  // Out-of-range echoes (the cones facing away from the wall) say nothing: arcs of the
+  // first ring there would be kept. Here every drawn arc faced the wall and is replaced.
+  // A laser scan (newer, same spot) clears no sonar segment...
+  const std::size_t sonar_n = map.segments.size();
+  const std::int64_t t2 = 200'000'000;
+  ASSERT_EQ(add_scan(p, map, test::synth_scan(without.rayfn(), Pose2{}, Pose2{}, t2, laser())), "");
+  EXPECT_EQ(count_stamp(map, t1), sonar_n);
+  const std::size_t laser_n = count_stamp(map, t2);
+  ASSERT_GT(laser_n, 50u);
+  // ... and a newer sonar ring clears no laser segment (only the older sonar).
+  const std::int64_t t3 = 300'000'000;
+  ASSERT_EQ(add_scan(p, map, test::synth_scan(without.rayfn(), Pose2{}, Pose2{}, t3, sonar_ring())), "");
+  EXPECT_EQ(count_stamp(map, t2), laser_n);
+  EXPECT_EQ(count_stamp(map, t1), 0u);
+  for (const Segment2& s : map.segments) EXPECT_EQ(s.kind == SensorKind::kLaser, s.stamp_ns == t2);
+  // The robot moves and turns a little between rings (arcs shift inside their
+  // cones): the front arcs, facing the wall, are replaced. (Cones at an oblique
+  // wall echo from their near edge, so their range jumps as the robot turns: an
+  // old arc found behind the new echo is not seen through and is kept until it
+  // ages out.)
+  const std::int64_t t4 = 400'000'000;
+  ASSERT_EQ(add_scan(p, map, test::synth_scan(without.rayfn(), Pose2{0.02, 0.0, 0.03}, Pose2{}, t4, sonar_ring())), "");
+  int front_old = 0;
+  for (const Segment2& s : map.segments) {
+    const Vector2d m = 0.5 * (s.a + s.b);
+    front_old += s.stamp_ns == t3 && std::abs(std::atan2(m.y(), m.x())) < 30.0 * kPi / 180 ? 1 : 0;
+  }
+  EXPECT_EQ(front_old, 0);
+  EXPECT_LT(count_stamp(map, t3), count_stamp(map, t4));
+}
+
+TEST(RayClearing, BadParamsRejected) {
+  EXPECT_EQ(validate(MapParams{}), "");
+  for (double bad : {-0.01, std::nan(""), std::numeric_limits<double>::infinity(), 1.5}) {
+    MapParams p;
+    p.clear_tolerance = bad;
+    EXPECT_NE(validate(p), "") << bad;
+    LocalMap map;
+    Shapes world;
+    world.segs.push_back({{2, -5}, {2, 5}});
+    EXPECT_NE(add_scan(p, map, test::synth_scan(world.rayfn(), Pose2{}, Pose2{}, 0, laser())), "");
+    EXPECT_TRUE(map.segments.empty());
+    EXPECT_EQ(clear_reobserved_segments(p, map, test::synth_scan(world.rayfn(), Pose2{}, Pose2{}, 0, laser())), 0u);
+  }
 }
 
 }  // namespace
