@@ -191,7 +191,9 @@ void god_object_tick(const ProxyModel& m, const Scene& scene, ProxyData& d, cons
       // proxy zig-zags toward the constrained minimum and converges slowly.
       const Surface s = scene.closest(active_ids[static_cast<std::size_t>(slide_on)], x);
       const double gap = s.distance - rho;
-      if (gap > kContactTol) {
+      // Infinite: the step left a one-sided surface's front (map segments):
+      // nothing to retract onto.
+      if (gap > kContactTol && std::isfinite(gap)) {
         const Vector2d back = -gap * s.normal;
         double r_min = 1.0;
         for (std::size_t i = 0; i < n && r_min > 0.0; ++i) {

@@ -8,18 +8,36 @@ namespace hemm::haptics {
 
 namespace {
 
-// Scene adapter over the map snapshot: segments as capsules.
+// Scene adapter over the map snapshot: segments as capsules, one-sided. A
+// map segment is a surface seen from the side its normal points to; behind
+// it is unseen space, not solid. A proxy whose centre is behind a segment's
+// line got there through unseen space (past the end of an object's visible
+// face, or a surface appeared in front of it): that segment does not hold
+// it, so it can come back out instead of being trapped behind the visible
+// face with a force that stays after the hand has left.
 struct SnapshotScene {
   const mapping::MapSnapshot& map;
+  double behind_depth;  // ProxyModel::one_sided_depth
+
   std::size_t gather(const Eigen::Vector2d& c, double r, std::uint32_t* out, std::size_t cap) const {
     return mapping::query_segments(map, c, r, out, cap);
   }
+  // In front of the line (h >= 0): the capsule. Behind it, over the segment
+  // and no deeper than behind_depth: inside the surface, pushed out to the
+  // front along its normal (negative distance). Anywhere else behind the
+  // line (deeper, or beside the segment's ends): unseen space, no surface.
   detail::Surface closest(std::uint32_t id, const Eigen::Vector2d& x) const {
     const mapping::Segment2& s = map.segments[id];
-    return detail::segment_surface(s.a, s.b, s.normal, x);
+    const double h = s.normal.dot(x - s.a);
+    if (h >= 0.0) return detail::segment_surface(s.a, s.b, s.normal, x);
+    const Eigen::Vector2d ab = s.b - s.a;
+    const double t = ab.dot(x - s.a);
+    if (h >= -behind_depth && t >= 0.0 && t <= ab.squaredNorm()) return detail::Surface{h, s.normal};
+    return detail::Surface{};  // infinitely far
   }
   double sweep(std::uint32_t id, const Eigen::Vector2d& x, const Eigen::Vector2d& dx, double rho) const {
     const mapping::Segment2& s = map.segments[id];
+    if (s.normal.dot(x - s.a) < 0.0) return detail::kInf;  // behind: see closest()
     return detail::segment_sweep(s.a, s.b, x, dx, rho);
   }
 };
@@ -27,8 +45,10 @@ struct SnapshotScene {
 }  // namespace
 
 std::string validate(const ProxyModel& m) {
-  const double v[] = {m.probe_radius, m.stiffness, m.damping, m.period, m.force_peak, m.force_continuous,
-                      m.continuous_time_constant, m.device_max_stiffness, m.assumed_device_damping};
+  const double v[] = {m.probe_radius,          m.stiffness,           m.damping,
+                      m.period,                m.force_peak,          m.force_continuous,
+                      m.continuous_time_constant, m.device_max_stiffness, m.assumed_device_damping,
+                      m.one_sided_depth};
   for (double x : v)
     if (!std::isfinite(x) || x < 0.0) return "proxy: parameters must be finite and >= 0";
   if (!(m.probe_radius > 0.0) || !(m.period > 0.0) || !(m.continuous_time_constant > 0.0))
@@ -60,7 +80,7 @@ void proxy_reset(ProxyData& d, const Eigen::Vector2d& at_W) {
 
 void proxy_tick(const ProxyModel& m, const mapping::MapSnapshot& map, ProxyData& d,
                 const Eigen::Vector3d& device_W, double scale) {
-  detail::god_object_tick(m, SnapshotScene{map}, d, device_W, scale);
+  detail::god_object_tick(m, SnapshotScene{map, m.one_sided_depth}, d, device_W, scale);
 }
 
 }  // namespace hemm::haptics

@@ -18,10 +18,20 @@
 // proxy is pushed out along that surface's normal (counted in
 // depenetrations); this is the one motion not swept.
 //
-// Known limit: at a zero-thickness wall end, a device behind the wall line but
-// within probe_radius of the end makes the proxy slide round the end to the
-// back face in one tick (the nearest-point map of a thin edge is
-// discontinuous); deeper behind the wall, the proxy releases at the end.
+// Map segments are one-sided: each is a surface seen from the side its
+// normal points to (the sensor's), and only holds a proxy whose centre is on
+// that side. Behind a visible face is unseen space, not solid: a proxy that
+// got there (past the end of an object's visible face, where the true object
+// goes on but the scans do not) comes back out through the face instead of
+// being trapped behind it with a force that stays after the hand has left.
+// Within one_sided_depth behind the line (over the segment, not beside its
+// ends) it counts as inside the surface and is pushed out to the front, the
+// way it is going: at most k (probe_radius + one_sided_depth) / scale, once.
+// That depth also keeps scan noise (a new scan's face drawn a few sigma
+// nearer than the last) from ever putting a resting proxy "behind" a face. From the front a face blocks as before, thin walls included; at
+// a wall's end the proxy rolls over the rounded end and is released once its
+// centre passes behind the wall line. The exact reference (reference_scene.h)
+// is two-sided: true geometry is solid.
 //
 // Force on the device (newtons, W axes):
 //   e = (proxy - device) / scale           spring vector in device metres
@@ -73,6 +83,9 @@ struct ProxyModel {
   double assumed_device_damping = 0.5;    // N s/m the hand+device is assumed to add (Colgate's b)
   std::size_t max_candidates = 4096; // segments considered per tick
   int max_iterations = 16;            // move/slide steps per tick
+  // Map segments are one-sided (see above): a proxy centre more than this
+  // far behind a segment's line is in unseen space and not held by it.
+  double one_sided_depth = 0.05;     // m in W, >= 0
 };
 
 // Colgate & Schenkelberg: largest passive stiffness for physical damping b,

@@ -259,6 +259,43 @@ TEST(VirtualProxy, DoorwayEdgeRoundedAndContinuous) {
   }
 }
 
+// Map segments are one-sided: a surface seen from the sensor's side holds a
+// proxy on that side, but a proxy behind it (it got there through unseen
+// space, e.g. past the end of an object's visible face) is not held by it,
+// so it is never trapped behind the face with a force that stays after the
+// hand has left. From the front the same wall still blocks.
+TEST(VirtualProxy, ProxyBehindAVisibleFaceIsNotTrapped) {
+  ExactScene scene;
+  scene.segments.push_back({{1, -0.5}, {1, 0.5}});
+  const auto map = test::snapshot_of(scene, {0, 0});  // seen from the origin: normal -x
+  ProxyModel m = undamped();
+  const double rho = m.probe_radius, scale = 10.0;
+  ProxyData d = make_proxy_data(m);
+  proxy_tick(m, map, d, v3(1.3, 0.1), scale);  // starts behind the face
+  for (int k = 1; k <= 800; ++k) {               // back to the front, straight through the face
+    const double x = 1.3 - 0.001 * k;
+    proxy_tick(m, map, d, v3(x, 0.1), scale);
+    ASSERT_TRUE(d.proxy_W.allFinite());
+    // Behind the face (deeper than one_sided_depth) and clear of it in
+    // front: no force. Between, the proxy is pushed out to the front, the way
+    // the hand is going: at most k (rho + depth) / scale, gone after rho.
+    const double depth = m.one_sided_depth;
+    if (x >= 1.0 + depth || x < 1.0 - rho - 0.002) {
+      EXPECT_EQ(d.force_W.norm(), 0.0) << "held at x = " << x;
+    } else {
+      EXPECT_LE(d.force_W.norm(), m.stiffness * (rho + depth) / scale + 1e-9);
+      EXPECT_LE(d.force_W.x(), 1e-12);  // toward the front (-x), never back behind the face
+    }
+  }
+  EXPECT_NEAR((d.proxy_W - Vector2d(0.5, 0.1)).norm(), 0.0, 1e-12);
+  // Pushing from the front: held at the face, force k * penetration along -x.
+  for (int k = 1; k <= 800; ++k) proxy_tick(m, map, d, v3(0.5 + 0.001 * k, 0.1), scale);
+  EXPECT_NEAR(d.proxy_W.x(), 1.0 - rho, 1e-9);
+  EXPECT_NEAR(d.force_W.x(), -std::min(m.stiffness * (1.3 - (1.0 - rho)) / scale, d.force_limit), 1e-6);
+  EXPECT_LT(d.force_W.x(), -0.5);
+  EXPECT_NEAR(d.force_W.y(), 0.0, 1e-9);
+}
+
 // Builds a snapshot from one synthetic scan.
 template <class Ray>
 mapping::MapSnapshot map_from_scan(const Ray& ray, const Pose2& T_W_R, const test::SynthScanSpec& spec,
