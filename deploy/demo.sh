@@ -2,9 +2,11 @@
 # The loopback demo: hemm-robot and hemm-operator on 127.0.0.1, first
 # directly, then through hemm-relay with an impaired network (100 ms one-way
 # delay, 10 ms jitter, 5 % loss), printing each station's link statistics;
-# then two haptic runs with a SIMULATED PHANToM Omni and a scripted hand
-# (HEMM Figs. 8 and 9): driving at a wall in navigation mode, and probing the
-# bin in exploration mode, each plotted to PNG in out/demo/<run>/.
+# then three haptic runs with a SIMULATED PHANToM Omni and a scripted hand:
+# driving at a wall in navigation mode (HEMM Fig. 8), probing the bin in
+# exploration mode (Fig. 9), and a closed-loop navigation to a goal at 300 ms
+# round trip; each compared with the scene's ground truth (hemm-truth) and
+# plotted to PNG in out/demo/<run>/.
 # Usage: deploy/demo.sh BUILD_DIR [seconds-per-phase]
 set -euo pipefail
 build="${1:?usage: deploy/demo.sh BUILD_DIR [seconds]}"
@@ -14,7 +16,7 @@ bin="$build/bin"
 out="$root/out/demo"
 mkdir -p "$out"
 cfg="$root/deploy/configs"
-for b in hemm-robot hemm-operator hemm-relay; do
+for b in hemm-robot hemm-operator hemm-relay hemm-truth; do
   [[ -x "$bin/$b" ]] || { echo "demo: $bin/$b not found (build first: bash deploy/run.sh build)" >&2; exit 2; }
 done
 
@@ -63,33 +65,61 @@ echo "-- relay counters:"
 grep -v "^stats " "$out/relay.txt" || true
 
 # Haptic runs: a fresh robot for each, so it starts at the scene's start pose.
+# haptic_run NAME SCRIPT SECONDS [RTT_MS]: with RTT_MS the link goes through
+# hemm-relay (half the round trip each way, +-10 % jitter, 5 % loss). After
+# each run hemm-truth (SIMULATION ONLY) replays the proxy path against the
+# scene's exact geometry and prints the force error; the plots follow.
 haptic_run() {
-  local name="$1" secs_run="$2"
+  local name="$1" script="$2" secs_run="$3" rtt="${4:-}"
+  local dir="$out/$name"
   echo
-  echo "== haptic run: $name ($secs_run s, simulated Omni, scripted hand)"
-  mkdir -p "$out/$name"
+  echo "== haptic run: $name (script $script, $secs_run s, simulated Omni, scripted hand${rtt:+, ${rtt} ms round trip through hemm-relay, 5 % loss})"
+  mkdir -p "$dir"
   "$bin/hemm-robot" --config "$cfg/robot.pbtxt" --session-port 47100 --stream-port 47101 \
-    --duration $((secs_run + 4)) --log-level warn >"$out/$name/robot.txt" 2>"$out/$name/robot.log" &
+    --duration $((secs_run + 6)) --stats-json "$dir/robot.json" --log-level warn \
+    >"$dir/robot.txt" 2>"$dir/robot.log" &
   local robot=$!
   pids+=("$robot")
+  local port=47100 stream=47101 relay_pid=""
+  if [[ -n "$rtt" ]]; then
+    local one_way=$((rtt / 2))
+    "$bin/hemm-relay" --tcp-listen 127.0.0.1:47200 --tcp-forward 127.0.0.1:47100 \
+      --udp-listen 127.0.0.1:47201 --udp-forward 127.0.0.1:47101 \
+      --delay-ms "$one_way" --jitter-ms $((one_way / 10 + 1)) --jitter-reorder --loss 0.05 --seed 7 \
+      --stats-json "$dir/relay.json" >"$dir/relay.txt" 2>"$dir/relay.log" &
+    relay_pid=$!
+    pids+=("$relay_pid")
+    for _ in $(seq 50); do grep -q "hemm-relay ready" "$dir/relay.txt" 2>/dev/null && break; sleep 0.1; done
+    port=47200
+    stream=47201
+  fi
   sleep 1
   set +e
-  "$bin/hemm-operator" --config "$cfg/operator.pbtxt" --session-port 47100 --stream-port 47101 \
-    --script "$name" --log "$out/$name/servo.csv" --duration "$secs_run" --log-level warn \
-    >"$out/$name/operator.txt" 2>"$out/$name/operator.log"
+  "$bin/hemm-operator" --config "$cfg/operator.pbtxt" --session-port "$port" --stream-port "$stream" \
+    --script "$script" --log "$dir/servo.csv" --duration "$secs_run" --log-level warn \
+    --station-json "$dir/station.json" >"$dir/operator.txt" 2>"$dir/operator.log"
   local rc=$?
   set -e
   kill -INT "$robot" 2>/dev/null || true
   wait "$robot" 2>/dev/null || true
-  tail -n 25 "$out/$name/operator.txt"
+  if [[ -n "$relay_pid" ]]; then
+    kill -INT "$relay_pid" 2>/dev/null || true
+    wait "$relay_pid" 2>/dev/null || true
+  fi
+  tail -n 25 "$dir/operator.txt"
   if ((rc != 0)); then
-    echo "demo: hemm-operator exited with $rc; log: $out/$name/operator.log" >&2
+    echo "demo: hemm-operator exited with $rc; log: $dir/operator.log" >&2
     exit "$rc"
   fi
-  /usr/bin/python3 "$root/deploy/plots/plot_run.py" "$out/$name/servo.csv" --out "$out/$name" --title "$name"
+  grep -E "steps touching|collision guard" "$dir/robot.txt" || true
+  "$bin/hemm-truth" --scene "$root/deploy/scenes/home.xml" --log "$dir/servo.csv.world.csv" \
+    --csv "$dir/truth.csv" --json "$dir/truth.json"
+  /usr/bin/python3 "$root/deploy/plots/plot_run.py" "$dir/servo.csv" --out "$dir" --title "$name" \
+    --truth "$dir/truth.csv"
 }
-haptic_run nav-to-wall 14
-haptic_run probe-cylinder 18
+haptic_run nav-to-wall nav-to-wall 14              # HEMM Fig. 8
+haptic_run probe-cylinder probe-cylinder 19        # HEMM Fig. 9
+haptic_run nav-to-goal-300ms nav-to-goal 30 300    # closed-loop navigation at 300 ms round trip
 
 echo
-echo "demo: outputs in $out (PNG plots in $out/nav-to-wall and $out/probe-cylinder)"
+echo "demo: outputs in $out (PNG plots in $out/nav-to-wall, $out/probe-cylinder, $out/nav-to-goal-300ms)"

@@ -8,8 +8,11 @@ final local map's segments). Outputs PNGs into --out (default: beside FILE):
   force_time.png   |F| and its components vs time, mode shaded   (HEMM Fig. 8 style)
   force_path.png   |F| vs the proxy's position along its path      (HEMM Fig. 9 style)
   map_topdown.png  map segments, the robot's path, the proxy's path (needs the W logs)
+  force_truth.png  |F| from the local model against |F| from the true scene, and
+                   their difference, vs time (with --truth: hemm-truth --csv output;
+                   SIMULATION ONLY)
 
-Usage: plot_run.py FILE [--out DIR] [--title TEXT]
+Usage: plot_run.py FILE [--out DIR] [--title TEXT] [--truth TRUTH.csv]
 """
 import argparse
 import csv
@@ -135,14 +138,32 @@ def plot_map(world, segments, out, title):
         x, y, th = world["robot_x"][-1], world["robot_y"][-1], world["robot_theta"][-1]
         ax.arrow(x, y, 0.3 * math.cos(th), 0.3 * math.sin(th), width=0.02, color="g")
     ax.set_aspect("equal", adjustable="datalim")
-    ax.set_xlabel("x_W [m]")
-    ax.set_ylabel("y_W [m]")
-    ax.set_title(f"{title}: local map (black), paths")
+    save(fig, ax, out, f"{title}: local map (black), paths", "x_W [m]", "y_W [m]", legend="best")
+
+
+def save(fig, ax, out, title, xlabel, ylabel, legend=None):
+    """Labels, grid, optional legend; writes the PNG and closes the figure."""
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
     ax.grid(True, alpha=0.3)
-    ax.legend(loc="best", fontsize=8)
+    if legend:
+        ax.legend(loc=legend, fontsize=8)
     fig.tight_layout()
     fig.savefig(out, dpi=120)
     plt.close(fig)
+
+
+def plot_force_truth(truth, out, title):
+    t = truth["t_s"]
+    fr = [math.hypot(a, b) for a, b in zip(truth["fr_x"], truth["fr_y"])]
+    ft = [math.hypot(a, b) for a, b in zip(truth["ft_x"], truth["ft_y"])]
+    fig, ax = plt.subplots(figsize=(9, 4))
+    ax.plot(t, fr, "b-", lw=1.0, label="|F| local model (rendered)")
+    ax.plot(t, ft, "k--", lw=1.0, label="|F| true scene (same path)")
+    ax.plot(t, truth["df"], "r-", lw=0.6, alpha=0.7, label="|F_local - F_true|")
+    save(fig, ax, out, f"{title}: rendered force against the true scene's (SIMULATION ONLY)", "time [s]",
+         "force [N]", legend="upper left")
 
 
 def main(argv):
@@ -150,6 +171,7 @@ def main(argv):
     p.add_argument("log", help="servo CSV written by hemm-operator --log")
     p.add_argument("--out", help="output directory (default: the log's directory)")
     p.add_argument("--title", default=None)
+    p.add_argument("--truth", help="per-tick CSV from hemm-truth --csv (adds force_truth.png)")
     a = p.parse_args(argv)
     out = a.out or os.path.dirname(os.path.abspath(a.log))
     os.makedirs(out, exist_ok=True)
@@ -173,6 +195,18 @@ def main(argv):
     if world is not None:
         plot_map(world, segments, os.path.join(out, "map_topdown.png"), title)
         written.append("map_topdown.png")
+    if a.truth:
+        try:
+            truth = read_csv(a.truth)
+        except (OSError, ValueError) as e:
+            print(f"plot_run: {e}", file=sys.stderr)
+            return 2
+        missing = [c for c in ("t_s", "fr_x", "fr_y", "ft_x", "ft_y", "df") if c not in truth]
+        if missing:
+            print(f"plot_run: {a.truth}: no column {missing[0]}: not a hemm-truth --csv file", file=sys.stderr)
+            return 2
+        plot_force_truth(truth, os.path.join(out, "force_truth.png"), title)
+        written.append("force_truth.png")
     print("wrote " + ", ".join(os.path.join(out, w) for w in written))
     return 0
 

@@ -101,6 +101,7 @@ device::HandTarget NavGoalHand::at(double t_s) const noexcept {
 }
 
 std::vector<Eigen::Vector2d> default_nav_goal_route() { return {{2.2, 0.0}, {2.45, -1.6}}; }
+Eigen::Vector2d nav_to_wall_target() { return {4.5, 1.6}; }
 
 std::vector<std::string> demo_script_names() { return {"idle", "nav-to-wall", "probe-cylinder", "nav-to-goal"}; }
 
@@ -110,9 +111,13 @@ DemoScript make_demo_script(std::string_view name, const DemoScriptOptions& o) {
     d.hand = std::make_shared<device::HoldScript>(Eigen::Vector3d::Zero());
     d.mode = math::Mode::kExploration;
   } else if (name == "nav-to-wall") {
-    d.hand = std::make_shared<device::LineScript>(Eigen::Vector3d::Zero(), h_from_b(0.025, 0.0, 0.0), 0.02, 1.0);
+    // The operator steers for a point behind wall_mid_n and keeps pushing.
+    d.view = std::make_shared<OperatorView>();
+    auto hand = std::make_shared<const NavGoalHand>(d.view, std::vector<Eigen::Vector2d>{nav_to_wall_target()});
+    d.nav_goal = hand;
+    d.hand = hand;
     d.mode = math::Mode::kNavigation;
-    d.duration_s = 12.0;
+    d.duration_s = 14.0;
   } else if (name == "probe-cylinder") {
     constexpr double s = 50.0;  // exploration: 4 m over 0.08 m
     auto b = [](double xw, double yw) { return h_from_b(xw / s, yw / s, 0.0); };

@@ -5,10 +5,13 @@
 // per device metre) and the robot at deploy/scenes/home.xml's robot_start
 // (0, 0, heading 0).
 //  - "idle": the hand holds the stylus at the centre; exploration mode.
-//  - "nav-to-wall": navigation mode; after 1 s the hand pushes the stylus
-//    forward to 25 mm (past the dead band: ~0.44 m/s) and keeps pushing, so
-//    the robot drives +x at the end of the y = 0 wall (x = 3.0): the proxy
-//    meets it, the force rises and the command falls into the dead band.
+//  - "nav-to-wall" (HEMM Fig. 8): navigation mode; the hand steers like
+//    nav-to-goal for a point behind the wall wall_mid_n (nav_to_wall_target:
+//    (4.5, 1.6); the path turns ~20 deg left and meets the wall's west face,
+//    x = 2.95, near y = 1.05, 0.55 m from its doorway end) and keeps pushing
+//    the stylus forward: the navigation proxy meets the wall, the force rises
+//    and the command falls into the dead band, so the robot stops short of
+//    the wall while the hand still pushes.
 //  - "probe-cylinder": exploration mode, robot still; the probe goes to
 //    (1.42, -0.8) in W and sweeps along x = 1.42 to y = -1.6 and back,
 //    through the bin at (1.5, -1.2), r = 0.15, 8 cm off its centre line: the
@@ -123,6 +126,8 @@ class NavGoalHand final : public device::HandScript {
 
 // The default route of "nav-to-goal" (see the file comment).
 std::vector<Eigen::Vector2d> default_nav_goal_route();
+// The point "nav-to-wall" steers for, behind the wall (see the file comment).
+Eigen::Vector2d nav_to_wall_target();
 
 // ------------------------------------------------------------ scripts
 struct DemoScript {

@@ -95,6 +95,7 @@ struct RunResult {
   double err_rms = NAN, err_max = NAN, contact_rms = NAN, contact_max = NAN, contact_ticks = NAN;
   double mean_force = NAN, pose_err_max = NAN;
   std::string logs;
+  std::string dir;  // the run's files (logs, JSON)
 };
 
 // One run: robot, relay, operator with a script; then hemm-truth on its log.
@@ -103,6 +104,7 @@ RunResult run(const std::string& name, double rtt_ms, const std::string& script,
   r.name = name;
   r.rtt_target_ms = rtt_ms;
   const std::string dir = make_temp_dir();
+  r.dir = dir;
   const int robot_tcp = free_port(), robot_udp = free_port(), relay_tcp = free_port(), relay_udp = free_port();
   const double one_way = rtt_ms / 2.0;
   const double jitter = std::max(1.0, 0.1 * one_way);
@@ -221,14 +223,25 @@ void print_table(const std::vector<RunResult>& runs) {
   std::printf(
       "%-22s %7s %7s | %7s %6s %6s %6s %6s %6s | %6s | %6s %7s %6s %7s %5s | %7s %7s %7s %7s %6s\n", "", "ms", "ms",
       "", "ms", "ms", "us", "us", "", "N", "m", "m", "s", "steps", "st", "N", "N", "N", "N", "m");
+  // A number, or "-" where it does not apply (goal columns of a probe run).
+  auto col = [](double v, int width, int prec) {
+    char b[32];
+    if (std::isnan(v)) {
+      std::snprintf(b, sizeof b, "%*s", width, "-");
+    } else {
+      std::snprintf(b, sizeof b, "%*.*f", width, prec, v);
+    }
+    return std::string(b);
+  };
   for (const RunResult& r : runs) {
+    const bool nav = r.name == "nav-to-goal";
     std::printf(
-        "%-22s %7.0f %7.1f | %7.0f %6.3f %6.3f %6.0f %6.0f %6.0f | %6.3f | %6.3f %7.3f %6.1f %7.0f %5.0f | %7.3f "
+        "%-22s %7.0f %7.1f | %7.0f %6.3f %6.3f %6.0f %6.0f %6.0f | %6.3f | %s %s %s %7.0f %5.0f | %7.3f "
         "%7.3f %7.3f %7.3f %6.3f\n",
         r.name.c_str(), r.rtt_target_ms, r.rtt_measured_ms, r.ticks, r.period_median_ms, r.period_p99_ms,
-        r.wake_p99_us, r.compute_p99_us, r.misses, r.max_force, r.predicted_goal_dist, r.final_goal_dist,
-        r.time_to_goal_s,
-        r.contact_steps, r.guard_states, r.err_rms, r.err_max, r.contact_rms, r.contact_max, r.pose_err_max);
+        r.wake_p99_us, r.compute_p99_us, r.misses, r.max_force, col(r.predicted_goal_dist, 6, 3).c_str(),
+        col(nav ? r.final_goal_dist : NAN, 7, 3).c_str(), col(r.time_to_goal_s, 6, 1).c_str(), r.contact_steps,
+        r.guard_states, r.err_rms, r.err_max, r.contact_rms, r.contact_max, r.pose_err_max);
   }
   std::printf(
       "per50/per99: servo period median/p99 from the 1 kHz log; misses: deadline misses (station summary);\n"
@@ -278,6 +291,65 @@ TEST(LatencySuite, NavigationToAGoalAndProbingThroughTheRelayAt0To1000msRoundTri
     runs.push_back(std::move(r));
   }
   print_table(runs);
+}
+
+// HEMM Fig. 8: navigation mode; the SIMULATED hand steers for a point behind
+// the wall wall_mid_n (west face x = 2.95) and keeps pushing the stylus
+// forward. The navigation point meets the wall, the proxy holds it, the
+// command falls into the dead band: the robot stops short of the wall while
+// the hand still pushes and the force holds it back.
+TEST(LatencySuite, Figure8RobotStopsShortOfTheWallWhileTheHandKeepsPushing) {
+  for (const char* b : {"hemm-robot", "hemm-operator", "hemm-relay", "hemm-truth"})
+    if (!built(b)) GTEST_SKIP() << b << " is not built in " << kBin;
+  const RunResult r = run("nav-to-wall", 0.0, "nav-to-wall", 14.0);
+  ASSERT_TRUE(r.ok) << r.logs;
+  check_servo(r);
+  const CsvColumns servo = read_csv_columns(r.dir + "/op.csv");
+  const CsvColumns world = read_csv_columns(r.dir + "/op.csv.world.csv");
+  ASSERT_GT(world.rows, 10000u);
+  // The chassis (0.50 x 0.49 m, robot.xml) against the wall's face, from the
+  // true pose.
+  auto gap_to_wall = [&](std::size_t i) {
+    const double x = world["truth_x"][i], th = world["truth_theta"][i];
+    double front = -1e9;
+    for (double a : {0.25, -0.25})
+      for (double b : {0.245, -0.245}) front = std::max(front, x + std::cos(th) * a - std::sin(th) * b);
+    return 2.95 - front;
+  };
+  // The last 2 s of the run.
+  const auto& t = world["t_ns"];
+  std::size_t from = world.rows - 1;
+  while (from > 0 && t.back() - t[from] < 2e9) --from;
+  const auto &tx = world["truth_x"], &ty = world["truth_y"], &v = world["v"];
+  double moved = 0.0, v_max = 0.0, gap_min = 1e9;
+  std::vector<double> v_end;
+  for (std::size_t i = 0; i < world.rows; ++i) gap_min = std::min(gap_min, gap_to_wall(i));
+  for (std::size_t i = from; i < world.rows; ++i) {
+    moved = std::max(moved, std::hypot(tx[i] - tx[from], ty[i] - ty[from]));
+    v_max = std::max(v_max, std::abs(v[i]));
+    v_end.push_back(std::abs(v[i]));
+  }
+  const double v_median = percentile(v_end, 0.5);
+  const double gap = gap_to_wall(world.rows - 1);
+  // The hand: stylus pressed forward (-z in H) past the dead band (8 mm),
+  // the force pushing it back (+z).
+  const auto &dz = servo["dev_z"], &fz = servo["fz"], &fx = servo["fx"], &fy = servo["fy"];
+  const std::size_t last = servo.rows - 1;
+  const double f = std::sqrt(fx[last] * fx[last] + fy[last] * fy[last] + fz[last] * fz[last]);
+  std::printf("[ fig. 8 ] chassis stopped %.3f m from the wall (closest %.3f m), moved %.4f m in the last 2 s, "
+              "command |v| median %.3f max %.3f m/s; stylus z = %.1f mm, force %.2f N (fz %.2f); contact steps %.0f, "
+              "guard states %.0f\n",
+              gap, gap_min, moved, v_median, v_max, 1e3 * dz[last], f, fz[last], r.contact_steps, r.guard_states);
+  EXPECT_GT(gap_min, 0.0);   // short of the wall
+  EXPECT_LT(gap, 0.45);      // but it did drive up to it
+  EXPECT_LT(moved, 0.02);    // stopped
+  // By the operator's command: in the dead band (a noisy scan of the wall
+  // nudges the proxy, so the command flickers just past it now and then).
+  EXPECT_LT(v_median, 0.005);
+  EXPECT_LT(v_max, 0.06);
+  EXPECT_LT(dz[last], -0.008);  // the hand still pushes forward
+  EXPECT_GT(fz[last], 0.3);     // and the force holds it back
+  EXPECT_EQ(r.contact_steps, 0);
 }
 
 }  // namespace
