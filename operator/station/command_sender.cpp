@@ -5,14 +5,16 @@
 namespace hemm::op {
 
 CommandSender::CommandSender(asio::io_context& io, servo::LatestMailbox<StationSetpoint>& setpoints, SendStream send,
-                             SendSession send_session, ModelThread* model, const CommandSenderParams& p, Clock clock)
+                             SendSession send_session, ModelThread* model, const CommandSenderParams& p, Clock clock,
+                             LinkUp link_up)
     : timer_(io),
       setpoints_(setpoints),
       send_(std::move(send)),
       send_session_(std::move(send_session)),
       model_(model),
       p_(p),
-      clock_(std::move(clock)) {
+      clock_(std::move(clock)),
+      link_up_(std::move(link_up)) {
   if (!(p.rate_hz >= 100.0 && p.rate_hz <= 1000.0))
     throw std::invalid_argument("CommandSender: rate_hz must be in [100, 1000]");
   if (!send_ || !clock_) throw std::invalid_argument("CommandSender: send and clock are required");
@@ -50,6 +52,12 @@ void CommandSender::send_once() {
   }
   const std::int64_t now = clock_();
   if (!have_) return;  // the servo has not run yet: nothing to say
+  if (link_up_ && !link_up_()) {
+    // Nothing to send on; a re-opened link hears the mode again.
+    ++stats_.link_down;
+    sent_mode_ = wire::MODE_UNSPECIFIED;
+    return;
+  }
   const wire::Mode mode = to_wire_mode(latest_.mode);
   const bool fresh = now - latest_.t_ns <= p_.stale_after_ns;
   if (!fresh && latest_.moves_robot) ++stats_.stale;

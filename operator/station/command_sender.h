@@ -25,7 +25,8 @@ struct CommandSenderParams {
 
 struct CommandSenderStats {
   std::uint64_t commands_sent = 0;
-  std::uint64_t send_failures = 0;
+  std::uint64_t send_failures = 0;   // the link was up and the send failed
+  std::uint64_t link_down = 0;       // periods with no link (connecting, reconnecting, lost): nothing sent
   std::uint64_t mode_changes_sent = 0;
   std::uint64_t stale = 0;  // commands sent with the deadman released because the setpoint was stale
 };
@@ -35,11 +36,14 @@ class CommandSender {
   using SendStream = std::function<bool(const wire::StreamMessage&)>;
   using SendSession = std::function<void(const wire::SessionFrame&)>;
   using Clock = std::function<std::int64_t()>;
+  using LinkUp = std::function<bool()>;
 
   // Throws std::invalid_argument if rate_hz is outside [100, 1000]. model may
-  // be null (no prediction history).
+  // be null (no prediction history). link_up may be null (always up); while
+  // it says down nothing is sent (counted as link_down, not as failures).
   CommandSender(asio::io_context& io, servo::LatestMailbox<StationSetpoint>& setpoints, SendStream send,
-                SendSession send_session, ModelThread* model, const CommandSenderParams& p, Clock clock);
+                SendSession send_session, ModelThread* model, const CommandSenderParams& p, Clock clock,
+                LinkUp link_up = nullptr);
   void start();
   void stop();
   // One period's work (the timer calls it; tests may too, on the io thread).
@@ -57,6 +61,7 @@ class CommandSender {
   ModelThread* model_;
   CommandSenderParams p_;
   Clock clock_;
+  LinkUp link_up_;
   StationSetpoint latest_;
   bool have_ = false;
   wire::Mode sent_mode_ = wire::MODE_UNSPECIFIED;

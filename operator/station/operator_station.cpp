@@ -27,7 +27,7 @@ std::string to_string(const OperatorStationSummary& s) {
     << " scans_dropped=" << s.model.scans_dropped << " states_in=" << s.model.states_in
     << " states_rejected=" << s.model.states_rejected << " snapshots=" << s.model.snapshots << "\n"
     << "commands: sent=" << s.commands.commands_sent << " failures=" << s.commands.send_failures
-    << " mode_changes=" << s.commands.mode_changes_sent << " stale=" << s.commands.stale
+    << " link_down=" << s.commands.link_down << " mode_changes=" << s.commands.mode_changes_sent << " stale=" << s.commands.stale
     << " mode_switches=" << s.mode_switches << "\n"
     << "logs: servo written=" << s.servo_log_written << " dropped=" << s.servo_log_dropped
     << " world written=" << s.world_log_written << " dropped=" << s.world_log_dropped << "\n";
@@ -126,6 +126,7 @@ std::string to_json(const OperatorStationSummary& s) {
     JsonObject c(o, 2);
     c.u("sent", s.commands.commands_sent);
     c.u("send_failures", s.commands.send_failures);
+    c.u("link_down", s.commands.link_down);
     c.u("mode_changes_sent", s.commands.mode_changes_sent);
     c.u("stale", s.commands.stale);
     c.close();
@@ -219,7 +220,8 @@ OperatorStation::OperatorStation(asio::io_context& io, OperatorClient& client, c
   sender_ = std::make_unique<CommandSender>(
       io_, task_->setpoints(), [this](const wire::StreamMessage& m) { return client_.streams().send(m); },
       [this](const wire::SessionFrame& f) { client_.send_session_frame(f); }, model_.get(),
-      CommandSenderParams{o.command_rate_hz, 100'000'000}, [] { return steady_now_ns(); });
+      CommandSenderParams{o.command_rate_hz, 100'000'000}, [] { return steady_now_ns(); },
+      [this] { return client_.link_up(); });
 }
 
 OperatorStation::~OperatorStation() { stop(); }

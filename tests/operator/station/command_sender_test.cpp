@@ -19,6 +19,7 @@ struct Fixture {
   std::vector<hw::Command> sent;
   std::vector<hw::SessionFrame> frames;
   bool fail = false;
+  bool up = true;
   std::int64_t now = 1'000'000'000;
   hemm::servo::ModelChannel channel;
   ho::ModelThread model{channel, {}};
@@ -32,7 +33,8 @@ struct Fixture {
                            [this](const hw::SessionFrame& f) { frames.push_back(f); },
                            &model,
                            ho::CommandSenderParams{},
-                           [this] { return now; }};
+                           [this] { return now; },
+                           [this] { return up; }};
 };
 
 ho::StationSetpoint nav(std::int64_t t, double v, double w) {
@@ -106,6 +108,26 @@ TEST(CommandSender, DeadmanModeFramesAndHistory) {
   f.sender.send_once();
   ASSERT_EQ(f.frames.size(), frames_before + 1);
   EXPECT_EQ(f.frames.back().mode_change().mode(), hw::MODE_MANIPULATION);
+}
+
+// With the link down nothing is sent and it is not a failure; when it comes
+// back the session hears the mode again.
+TEST(CommandSender, LinkDownSendsNothingAndRepeatsTheModeAfterwards) {
+  Fixture f;
+  f.box.put(nav(f.now, 0.4, 0.1));
+  f.sender.send_once();
+  ASSERT_EQ(f.sent.size(), 1u);
+  ASSERT_EQ(f.frames.size(), 1u);
+  f.up = false;
+  for (int i = 0; i < 5; ++i) f.sender.send_once();
+  EXPECT_EQ(f.sent.size(), 1u);
+  EXPECT_EQ(f.sender.stats().link_down, 5u);
+  EXPECT_EQ(f.sender.stats().send_failures, 0u);
+  f.up = true;
+  f.sender.send_once();
+  EXPECT_EQ(f.sent.size(), 2u);
+  ASSERT_EQ(f.frames.size(), 2u);
+  EXPECT_EQ(f.frames[1].mode_change().mode(), hw::MODE_NAVIGATION);
 }
 
 TEST(CommandSender, SentCommandsDriveThePrediction) {
