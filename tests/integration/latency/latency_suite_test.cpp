@@ -28,6 +28,7 @@
 #include <string>
 #include <vector>
 
+#include "common/haptics/proxy/passivity.h"
 #include "tests/integration/latency/csv_columns.h"
 #include "tests/integration/link/child_process.h"
 
@@ -87,6 +88,8 @@ struct RunResult {
   double wake_p99_us = NAN, compute_p99_us = NAN, misses = NAN;
   std::size_t nan_forces = 0;
   double max_force = 0;
+  // passivity observer on the logged device force and position
+  double energy_generated_mJ = NAN, worst_episode_mJ = NAN;
   // robot (truth, from the robot station and the world log)
   double contact_steps = NAN, guard_states = NAN;
   double final_x = NAN, final_y = NAN, final_goal_dist = NAN, time_to_goal_s = NAN;
@@ -202,6 +205,19 @@ RunResult run(const std::string& name, double rtt_ms, const std::string& script,
       r.max_force = std::max(r.max_force, f);
     }
   }
+  {
+    std::vector<Eigen::Vector3d> force, position;
+    force.reserve(servo.rows);
+    position.reserve(servo.rows);
+    const auto &dx = servo["dev_x"], &dy = servo["dev_y"], &dz = servo["dev_z"];
+    for (std::size_t i = 0; i < servo.rows; ++i) {
+      force.emplace_back(fx[i], fy[i], fz[i]);
+      position.emplace_back(dx[i], dy[i], dz[i]);
+    }
+    const haptics::PassivityReport pr = haptics::passivity_observer(force, position, 0.0);
+    r.energy_generated_mJ = 1e3 * pr.generated;
+    r.worst_episode_mJ = 1e3 * std::min(0.0, pr.worst_episode_energy);
+  }
   const auto &tx = world["truth_x"], &ty = world["truth_y"], &has = world["has_truth"];
   for (std::size_t i = 0; i < world.rows; ++i) {
     if (has[i] == 0) continue;
@@ -217,12 +233,13 @@ RunResult run(const std::string& name, double rtt_ms, const std::string& script,
 void print_table(const std::vector<RunResult>& runs) {
   std::printf(
       "\n[ latency ] round trip through hemm-relay (jitter +-10 %% of one-way, >= 1 ms; 5 %% loss each way)\n"
-      "%-22s %7s %7s | %7s %6s %6s %6s %6s %6s | %6s | %6s %7s %6s %7s %5s | %7s %7s %7s %7s %6s\n",
-      "run", "rtt", "rtt_meas", "ticks", "per50", "per99", "wake99", "comp99", "misses", "|F|max", "goal_p", "goal_t",
-      "t_goal", "contact", "guard", "dF_rms", "dF_max", "cF_rms", "cF_max", "pose_e");
+      "%-22s %7s %7s | %7s %6s %6s %6s %6s %6s | %6s %6s %6s | %6s %7s %6s %7s %5s | %7s %7s %7s %7s %6s\n",
+      "run", "rtt", "rtt_meas", "ticks", "per50", "per99", "wake99", "comp99", "misses", "|F|max", "E_gen", "E_ep",
+      "goal_p", "goal_t", "t_goal", "contact", "guard", "dF_rms", "dF_max", "cF_rms", "cF_max", "pose_e");
   std::printf(
-      "%-22s %7s %7s | %7s %6s %6s %6s %6s %6s | %6s | %6s %7s %6s %7s %5s | %7s %7s %7s %7s %6s\n", "", "ms", "ms",
-      "", "ms", "ms", "us", "us", "", "N", "m", "m", "s", "steps", "st", "N", "N", "N", "N", "m");
+      "%-22s %7s %7s | %7s %6s %6s %6s %6s %6s | %6s %6s %6s | %6s %7s %6s %7s %5s | %7s %7s %7s %7s %6s\n", "",
+      "ms", "ms", "", "ms", "ms", "us", "us", "", "N", "mJ", "mJ", "m", "m", "s", "steps", "st", "N", "N", "N", "N",
+      "m");
   // A number, or "-" where it does not apply (goal columns of a probe run).
   auto col = [](double v, int width, int prec) {
     char b[32];
@@ -236,15 +253,18 @@ void print_table(const std::vector<RunResult>& runs) {
   for (const RunResult& r : runs) {
     const bool nav = r.name == "nav-to-goal";
     std::printf(
-        "%-22s %7.0f %7.1f | %7.0f %6.3f %6.3f %6.0f %6.0f %6.0f | %6.3f | %s %s %s %7.0f %5.0f | %7.3f "
-        "%7.3f %7.3f %7.3f %6.3f\n",
+        "%-22s %7.0f %7.1f | %7.0f %6.3f %6.3f %6.0f %6.0f %6.0f | %6.3f %6.3f %6.3f | %s %s %s %7.0f %5.0f | "
+        "%7.3f %7.3f %7.3f %7.3f %6.3f\n",
         r.name.c_str(), r.rtt_target_ms, r.rtt_measured_ms, r.ticks, r.period_median_ms, r.period_p99_ms,
-        r.wake_p99_us, r.compute_p99_us, r.misses, r.max_force, col(r.predicted_goal_dist, 6, 3).c_str(),
+        r.wake_p99_us, r.compute_p99_us, r.misses, r.max_force, r.energy_generated_mJ, r.worst_episode_mJ,
+        col(r.predicted_goal_dist, 6, 3).c_str(),
         col(nav ? r.final_goal_dist : NAN, 7, 3).c_str(), col(r.time_to_goal_s, 6, 1).c_str(), r.contact_steps,
         r.guard_states, r.err_rms, r.err_max, r.contact_rms, r.contact_max, r.pose_err_max);
   }
   std::printf(
       "per50/per99: servo period median/p99 from the 1 kHz log; misses: deadline misses (station summary);\n"
+      "E_gen: energy the rendering gave the hand beyond what it took (passivity observer on the logged force and\n"
+      "device position; E_ep: worst contact episode), millijoules;\n"
       "goal_p/goal_t: predicted / true base centre to goal at the end; t_goal: first arrival (script s);\n"
       "contact: sim steps with the robot touching the scene;\n"
       "guard: robot states with the robot's own collision guard limiting it; dF: |F_local_model - F_true_scene|\n"
@@ -262,6 +282,10 @@ void check_servo(const RunResult& r) {
   // Misses are reported; a shared 2-core VM stalls, so the bound is wide.
   EXPECT_LT(r.misses, 0.05 * r.ticks);
   EXPECT_LE(r.max_force, kDevicePeakForce + 1e-6);
+  // No unstable contact: an active rendering loop gives back joules. What is
+  // measured here (tenths of a millijoule to a few) is scan noise and the
+  // robot's own motion moving surfaces into the resting proxy.
+  EXPECT_LT(r.energy_generated_mJ, 10.0);
 }
 
 TEST(LatencySuite, NavigationToAGoalAndProbingThroughTheRelayAt0To1000msRoundTrip) {
@@ -269,7 +293,7 @@ TEST(LatencySuite, NavigationToAGoalAndProbingThroughTheRelayAt0To1000msRoundTri
     if (!built(b)) GTEST_SKIP() << b << " is not built in " << kBin;
   std::vector<RunResult> runs;
   for (double rtt : {0.0, 100.0, 300.0, 1000.0}) {
-    RunResult r = run("nav-to-goal", rtt, "nav-to-goal", 30.0);
+    RunResult r = run("nav-to-goal", rtt, "nav-to-goal", 25.0);
     if (r.ok) {
       SCOPED_TRACE("nav-to-goal rtt " + std::to_string(rtt));
       check_servo(r);
@@ -281,7 +305,7 @@ TEST(LatencySuite, NavigationToAGoalAndProbingThroughTheRelayAt0To1000msRoundTri
     runs.push_back(std::move(r));
   }
   for (double rtt : {0.0, 300.0}) {
-    RunResult r = run("probe-cylinder", rtt, "probe-cylinder", 19.0);
+    RunResult r = run("probe-cylinder", rtt, "probe-cylinder", 18.0);
     if (r.ok) {
       SCOPED_TRACE("probe-cylinder rtt " + std::to_string(rtt));
       check_servo(r);
