@@ -124,7 +124,7 @@ int run(int argc, char** argv) {
 
   op::OperatorClientOptions o;
   const auto& link = cfg.link();
-  o.station_name = link.station_name();
+  net::apply_link_config(link, *key, &o);
   o.robot_address = robot.empty() ? cfg.net().robot_address() : robot;
   o.session_port =
       static_cast<uint16_t>(session_port >= 0 ? session_port : static_cast<int>(cfg.net().session_port()));
@@ -132,15 +132,8 @@ int run(int argc, char** argv) {
   o.bind_address = cfg.net().bind_address();
   o.local_stream_port = static_cast<uint16_t>(cfg.net().local_stream_port());
   o.want_control = cfg.net().want_control();
-  o.psk = *key;
   if (test_version != 0) o.protocol_version = test_version;
-  o.heartbeat_period_ms = link.heartbeat_period_ms();
-  o.ping_period_ms = link.ping_period_ms();
-  o.link_timeout_ms = link.link_timeout_ms();
   o.connect_timeout_ms = link.connect_timeout_ms();
-  o.handshake_timeout_ms = link.handshake_timeout_ms();
-  o.max_frame_bytes = link.max_frame_bytes();
-  o.replay_window = link.replay_window();
   o.reconnect_for_ms = link.reconnect_for_ms();
 
   op::OperatorStationOptions so;

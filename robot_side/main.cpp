@@ -79,18 +79,10 @@ int run(int argc, char** argv) {
   if (!key) return net::kExitKey;
 
   robot::RobotServerOptions o;
-  const auto& link = cfg.link();
-  o.station_name = link.station_name();
+  net::apply_link_config(cfg.link(), *key, &o);
   o.listen_address = listen.empty() ? cfg.net().listen_address() : listen;
   o.session_port = static_cast<uint16_t>(session_port >= 0 ? session_port : static_cast<int>(cfg.net().session_port()));
   o.stream_port = static_cast<uint16_t>(stream_port >= 0 ? stream_port : static_cast<int>(cfg.net().stream_port()));
-  o.psk = *key;
-  o.heartbeat_period_ms = link.heartbeat_period_ms();
-  o.ping_period_ms = link.ping_period_ms();
-  o.link_timeout_ms = link.link_timeout_ms();
-  o.handshake_timeout_ms = link.handshake_timeout_ms();
-  o.max_frame_bytes = link.max_frame_bytes();
-  o.replay_window = link.replay_window();
 
   // The SIMULATED robot: the scene relative to the config file unless given.
   if (scene_path.empty()) scene_path = config::resolve_relative_to(config_path, cfg.sim().scene());

@@ -9,6 +9,7 @@
 #include <iostream>
 
 #include "common/config/config.h"
+#include "config_link.pb.h"
 
 namespace hemm::net {
 
@@ -59,6 +60,21 @@ std::optional<Key> load_station_key(const std::string& program, const std::strin
     spdlog::error("event=bad_key error=\"{}\"", key_error);
   }
   return key;
+}
+
+}  // namespace hemm::net
+
+namespace hemm::net {
+
+void apply_link_config(const config::LinkConfig& link, const Key& psk, LinkOptions* out) {
+  out->station_name = link.station_name();
+  out->psk = psk;
+  out->heartbeat_period_ms = link.heartbeat_period_ms();
+  out->ping_period_ms = link.ping_period_ms();
+  out->link_timeout_ms = link.link_timeout_ms();
+  out->handshake_timeout_ms = link.handshake_timeout_ms();
+  out->max_frame_bytes = link.max_frame_bytes();
+  out->replay_window = link.replay_window();
 }
 
 }  // namespace hemm::net

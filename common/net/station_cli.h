@@ -6,6 +6,11 @@
 #include <string>
 
 #include "common/net/crypto.h"
+#include "common/net/link_options.h"
+
+namespace hemm::config {
+class LinkConfig;
+}
 
 namespace hemm::net {
 
@@ -22,5 +27,9 @@ bool write_text_file(const std::string& path, const std::string& text, std::stri
 // with kExitKey.
 std::optional<Key> load_station_key(const std::string& program, const std::string& key_option,
                                     const std::string& config_path, const std::string& config_key_file);
+
+// The link section of a station's config (with its key) into the options
+// both stations share.
+void apply_link_config(const config::LinkConfig& link, const Key& psk, LinkOptions* out);
 
 }  // namespace hemm::net

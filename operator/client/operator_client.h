@@ -17,28 +17,21 @@
 
 #include "common/net/exit_codes.h"
 #include "common/net/handshake.h"
+#include "common/net/link_options.h"
 #include "common/net/session_connection.h"
 #include "common/net/stream_link.h"
 
 namespace hemm::op {
 
-struct OperatorClientOptions {
-  std::string station_name = "operator";
+struct OperatorClientOptions : net::LinkOptions {
+  OperatorClientOptions() { station_name = "operator"; }
   std::string robot_address = "127.0.0.1";
   uint16_t session_port = 47000;
   uint16_t stream_port = 0;  // 0: the port announced in Welcome
   std::string bind_address = "0.0.0.0";
   uint16_t local_stream_port = 0;
   bool want_control = true;
-  net::Key psk{};
-  uint32_t protocol_version = net::kProtocolVersion;
-  uint32_t heartbeat_period_ms = 50;
-  uint32_t ping_period_ms = 50;
-  uint32_t link_timeout_ms = 500;
   uint32_t connect_timeout_ms = 3000;
-  uint32_t handshake_timeout_ms = 3000;
-  uint32_t max_frame_bytes = 1 << 20;
-  uint32_t replay_window = 1024;
   uint32_t reconnect_for_ms = 30000;
 };
 

@@ -16,24 +16,17 @@
 #include <string>
 
 #include "common/net/handshake.h"
+#include "common/net/link_options.h"
 #include "common/net/session_connection.h"
 #include "common/net/stream_link.h"
 
 namespace hemm::robot {
 
-struct RobotServerOptions {
-  std::string station_name = "robot";
+struct RobotServerOptions : net::LinkOptions {
+  RobotServerOptions() { station_name = "robot"; }
   std::string listen_address = "127.0.0.1";
   uint16_t session_port = 47000;  // 0: any free port
   uint16_t stream_port = 47001;   // 0: any free port
-  net::Key psk{};
-  uint32_t protocol_version = net::kProtocolVersion;
-  uint32_t heartbeat_period_ms = 50;
-  uint32_t ping_period_ms = 50;
-  uint32_t link_timeout_ms = 500;
-  uint32_t handshake_timeout_ms = 3000;
-  uint32_t max_frame_bytes = 1 << 20;
-  uint32_t replay_window = 1024;
   size_t max_pending_handshakes = 8;
 };
 
