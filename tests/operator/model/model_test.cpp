@@ -58,6 +58,24 @@ TEST(ScanFromWire, ConvertsChunksAndMapsTheClock) {
   EXPECT_EQ(s.kind, hemm::mapping::SensorKind::kLaser);
 }
 
+TEST(ScanFromWire, NoReturnBecomesFreeSpaceAndDropoutsStayUnknown) {
+  hw::RangeScan m = wall_scan(1.0, {}, 1000, 0, 3);
+  m.set_valid(1, false);
+  m.set_valid(2, false);
+  m.add_no_return(false);
+  m.add_no_return(true);   // nothing up to range_max
+  m.add_no_return(false);  // a dropout
+  hemm::mapping::RangeScan2D s;
+  ASSERT_FALSE(ho::scan_from_wire(m, 0, &s));
+  EXPECT_EQ(s.valid[1], 1);  // says "free up to range_max" ...
+  EXPECT_FLOAT_EQ(s.ranges[1], 10.0f);
+  EXPECT_FALSE(hemm::mapping::beam_is_return(s, 1));  // ... and is never an obstacle
+  EXPECT_EQ(s.valid[2], 0);  // a dropout says nothing
+  EXPECT_TRUE(hemm::mapping::beam_is_return(s, 0));
+  m.add_no_return(true);  // one flag too many
+  EXPECT_TRUE(ho::scan_from_wire(m, 0, &s).has_value());
+}
+
 TEST(ScanFromWire, HostileInputIsRejectedWithoutChange) {
   const hw::RangeScan good = wall_scan(1.0, {}, 1000);
   hemm::mapping::RangeScan2D s;
