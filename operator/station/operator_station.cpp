@@ -26,6 +26,10 @@ std::string to_string(const OperatorStationSummary& s) {
     << "model: scans_in=" << s.model.scans_in << " scans_rejected=" << s.model.scans_rejected
     << " scans_dropped=" << s.model.scans_dropped << " states_in=" << s.model.states_in
     << " states_rejected=" << s.model.states_rejected << " snapshots=" << s.model.snapshots << "\n"
+    << "registration: accepted=" << s.model.registration.accepted << " rejected=" << s.model.registration.rejected
+    << " degenerate=" << s.model.registration.degenerate << " last_rms_m=" << s.model.registration.last_rms
+    << " correction=(" << s.model.registration.correction.x << ", " << s.model.registration.correction.y << ", "
+    << s.model.registration.correction.theta << ")\n"
     << "commands: sent=" << s.commands.commands_sent << " failures=" << s.commands.send_failures
     << " link_down=" << s.commands.link_down << " mode_changes=" << s.commands.mode_changes_sent << " stale=" << s.commands.stale
     << " mode_switches=" << s.mode_switches << "\n"
@@ -119,6 +123,18 @@ std::string to_json(const OperatorStationSummary& s) {
     m.u("commands_dropped", s.model.commands_dropped);
     m.u("snapshots", s.model.snapshots);
     m.u("freed", s.model.freed);
+    // Scan registration: how often a correction was accepted, its last fit
+    // (point-to-line RMS, m) and step (m), and the correction itself (map
+    // frame from odometry's: x, y in m, theta in rad).
+    m.u("registration_attempted", s.model.registration.attempted);
+    m.u("registration_accepted", s.model.registration.accepted);
+    m.u("registration_rejected", s.model.registration.rejected);
+    m.u("registration_degenerate", s.model.registration.degenerate);
+    m.d("registration_last_rms_m", s.model.registration.last_rms);
+    m.d("registration_last_step_m", s.model.registration.last_step);
+    m.d("correction_x_m", s.model.registration.correction.x);
+    m.d("correction_y_m", s.model.registration.correction.y);
+    m.d("correction_theta_rad", s.model.registration.correction.theta);
     m.close();
   }
   top.key("commands");
