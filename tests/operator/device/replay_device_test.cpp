@@ -60,6 +60,29 @@ TEST(ReplayDevice, RejectsEmptyOrUnorderedTrajectories) {
   EXPECT_THROW(ReplayDevice(two_segments(), phantom_omni_limits(), 0.0), std::invalid_argument);
 }
 
+// A version 1 file (older recordings, no velocities) loads and replays as it
+// always did: positions interpolated, velocity from the segment.
+TEST(ReplayDevice, PlaysAVersion1FileAsBefore) {
+  Trajectory t;
+  const auto err = parse_trajectory_csv("t_s,x,y,z,qw,qx,qy,qz,buttons\n"
+                                        "0,0,0,0,1,0,0,0,0\n"
+                                        "0.002,0.004,0,0,1,0,0,0,2\n",
+                                        "old.csv", phantom_omni_limits(), &t);
+  ASSERT_FALSE(err) << err->to_string();
+  ASSERT_FALSE(t.has_twist);
+  ReplayDevice dev(t, phantom_omni_limits());
+  DeviceSample s;
+  dev.read(s);
+  dev.write(DeviceCommand{});
+  dev.read(s);
+  EXPECT_NEAR(s.ee[0].position_H.x(), 0.002, 1e-15);
+  EXPECT_NEAR(s.ee[0].velocity_H.x(), 2.0, 1e-12);  // 4 mm in 2 ms
+  EXPECT_EQ(s.ee[0].handle.buttons, 0u);
+  dev.write(DeviceCommand{});
+  dev.read(s);
+  EXPECT_EQ(s.ee[0].handle.buttons, kButton2);
+}
+
 // Two end-effectors with recorded twists: velocities are interpolated like
 // positions (not differentiated), handles and enabled come from the sample at
 // or before, and both wrenches are recorded.
