@@ -15,6 +15,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <array>
+#include <cstddef>
 #include <cstdint>
 #include <string_view>
 
@@ -142,7 +143,7 @@ inline DeviceCommand force_command(const Eigen::Vector3d& force_H, int ee = 0) {
 }
 
 // Checks a backend's write() applies before acting on a command (the servo
-// task is not trusted to). Both are allocation-free.
+// task is not trusted to). All allocation-free.
 //
 // True if force, torque and grip force are all finite.
 bool wrench_is_finite(const EndEffectorCommand& c) noexcept;
