@@ -54,10 +54,14 @@ struct ModelThreadParams {
   RegistrationParams registration;
   // A registration correction reaches the published pose (and so the
   // device's mapping and force) at most this fast, never as a step: at 50
-  // snapshots/s, 0.05 m/s is 1 mm per snapshot (0.04 mm of device travel at
-  // the navigation scale, 0.012 N at 300 N/m).
-  double correction_blend_speed = 0.05;      // m/s
-  double correction_blend_turn_rate = 0.1;   // rad/s
+  // snapshots/s, 0.2 m/s is 4 mm per snapshot (0.16 mm of device travel at
+  // the navigation scale, 0.05 N at 300 N/m). Not slower: the map takes
+  // the full correction at once, so while the correction is still being
+  // blended in, the robot is drawn that far off the map; on the skid-steer
+  // base's slip during an approach (a few cm/s of correction), 0.05 m/s left
+  // the robot 2 cm nearer the wall than it was shown (the Fig. 8 run).
+  double correction_blend_speed = 0.2;       // m/s
+  double correction_blend_turn_rate = 0.3;   // rad/s
 };
 
 struct ModelStats {

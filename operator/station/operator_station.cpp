@@ -204,13 +204,16 @@ bool write_map_csv(const mapping::LocalMap& map, const std::string& path, std::s
 OperatorStation::OperatorStation(asio::io_context& io, OperatorClient& client, const OperatorStationOptions& o)
     : io_(io), client_(client), o_(o), link_timer_(io) {
   OperatorTaskParams tp = o.task;
-  if (!o.goal_route.empty() && (o.device != "sim-omni" || o.hand || o.script != "nav-to-goal"))
-    throw std::invalid_argument("a goal route needs the sim-omni device with --script nav-to-goal");
+  if (!o.goal_route.empty() &&
+      (o.device != "sim-omni" || o.hand || (o.script != "nav-to-goal" && o.script != "nav-to-wall")))
+    throw std::invalid_argument("a goal route needs the sim-omni device with --script nav-to-goal or nav-to-wall");
+  if (!o.probe_line.empty() && (o.device != "sim-omni" || o.hand || o.script != "probe-cylinder"))
+    throw std::invalid_argument("a probe line needs the sim-omni device with --script probe-cylinder");
   if (o.device == "sim-omni" && o.hand) {
     view_ = o.view;
     device_ = std::make_unique<device::SimulatedOmni>(device::SimulatedOmniModel{}, o.hand);
   } else if (o.device == "sim-omni") {
-    DemoScript d = make_demo_script(o.script, DemoScriptOptions{o.goal_route});
+    DemoScript d = make_demo_script(o.script, DemoScriptOptions{o.goal_route, o.probe_line});
     if (!d.hand) throw std::invalid_argument("unknown --script '" + o.script + "'");
     tp.initial_mode = d.mode;
     view_ = d.view;

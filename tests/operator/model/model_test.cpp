@@ -209,7 +209,7 @@ TEST(ModelThread, RegistrationCorrectionIsBlendedIntoThePublishedPose) {
   EXPECT_NEAR(s.registration.correction.x, -0.05, 0.01);  // the slip, found by registration
   EXPECT_NEAR(prev, 0.0, 0.01);                           // the published pose got there ...
   // ... after the odometry's own 5 cm jump (k = 10), in steps of at most
-  // correction_blend_speed * 20 ms = 1 mm per snapshot: no force step.
+  // correction_blend_speed * 20 ms = 4 mm per snapshot: no force step.
   EXPECT_LE(max_step, p.correction_blend_speed * 0.02 + 1e-9);
   EXPECT_GT(max_step, 0.0);
 }
