@@ -187,6 +187,7 @@ TEST(ModelThread, RegistrationCorrectionIsBlendedIntoThePublishedPose) {
   // speed, never in one step.
   hemm::servo::ModelChannel ch;
   ho::ModelThreadParams p;
+  p.registration.enabled = true;
   ho::ModelThread mt(ch, p);
   const std::int64_t t0 = 10'000'000'000, dt = 20'000'000;  // 50 snapshots/s
   double prev = 0.0, max_step = 0.0;

@@ -144,6 +144,7 @@ TEST(ScanRegistration, WrongMatchesAndDegenerateCorridorsAreNotAccepted) {
   target.build(map, 1000);
   ASSERT_GT(target.size(), 100u);
   RegistrationParams rp;
+  rp.enabled = true;
   mapping::RangeScan2D s = test::synth_scan(ray, Pose2{}, Pose2{}, 2, spec);
   s.T_W_R = Pose2{0.03, -0.025, 0.02};  // odometry off by 4 cm and 1.1 deg
   RegistrationResult r = register_scan(rp, s, target);
