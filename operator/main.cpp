@@ -119,13 +119,15 @@ int run(int argc, char** argv) {
       return net::kExitUsage;
     }
   }
-  const auto key = net::load_station_key("hemm-operator", key_path, config_path, cfg.link().key_file());
+  const std::string robot_address = robot.empty() ? cfg.net().robot_address() : robot;
+  const auto key =
+      net::load_station_key("hemm-operator", key_path, config_path, cfg.link().key_file(), robot_address);
   if (!key) return net::kExitKey;
 
   op::OperatorClientOptions o;
   const auto& link = cfg.link();
   net::apply_link_config(link, *key, &o);
-  o.robot_address = robot.empty() ? cfg.net().robot_address() : robot;
+  o.robot_address = robot_address;
   o.session_port =
       static_cast<uint16_t>(session_port >= 0 ? session_port : static_cast<int>(cfg.net().session_port()));
   o.stream_port = static_cast<uint16_t>(stream_port >= 0 ? stream_port : static_cast<int>(cfg.net().stream_port()));

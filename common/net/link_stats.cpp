@@ -46,6 +46,12 @@ void fields(const LinkStatistics& s, F&& emit) {
   emit("rejected_bad_tag", std::to_string(c.rejected_bad_tag));
   emit("rejected_replay", std::to_string(c.rejected_replay));
   emit("rejected_bad_payload", std::to_string(c.rejected_bad_payload));
+  const PathCounters& pc = s.path;
+  emit("path_challenges_sent", std::to_string(pc.challenges_sent));
+  emit("paths_validated", std::to_string(pc.validated));
+  emit("path_copies_ignored", std::to_string(pc.ignored));
+  emit("path_challenges_rate_limited", std::to_string(pc.rate_limited));
+  emit("path_responses_unmatched", std::to_string(pc.responses_unmatched));
 }
 
 }  // namespace
@@ -83,6 +89,10 @@ std::string to_summary(const LinkStatistics& s) {
   os << "  rejected: size " << c.rejected_bad_size << ", magic " << c.rejected_bad_magic << ", version "
      << c.rejected_bad_version << ", unknown session " << c.rejected_unknown_session << ", tag "
      << c.rejected_bad_tag << ", replay " << c.rejected_replay << ", payload " << c.rejected_bad_payload << "\n";
+  const PathCounters& pc = s.path;
+  os << "  paths: " << pc.validated << " validated, " << pc.challenges_sent << " challenges ("
+     << pc.rate_limited << " rate-limited), " << pc.ignored << " datagrams from other addresses ignored, "
+     << pc.responses_unmatched << " unmatched responses\n";
   return os.str();
 }
 

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "common/net/clock_sync.h"
+#include "common/net/path_validation.h"
 #include "common/net/stream_receiver.h"
 
 namespace hemm::net {
@@ -26,6 +27,7 @@ struct LinkStatistics {
   uint64_t pongs_received = 0;
   ClockEstimate clock;            // operator: robot clock minus ours; robot: operator's minus ours
   StreamCounters rx;
+  PathCounters path;              // robot: path validation of the operator's address
 };
 
 std::string to_json(const LinkStatistics& s);
