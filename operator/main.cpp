@@ -137,6 +137,7 @@ int run(int argc, char** argv) {
   if (test_version != 0) o.protocol_version = test_version;
   o.connect_timeout_ms = link.connect_timeout_ms();
   o.reconnect_for_ms = link.reconnect_for_ms();
+  o.connect_for_ms = link.connect_for_ms();
 
   op::OperatorStationOptions so;
   so.device = replay_file.empty() ? cfg.device().type() : "replay";

@@ -98,6 +98,8 @@ void apply_link_config(const config::LinkConfig& link, const Key& psk, LinkOptio
   out->handshake_timeout_ms = link.handshake_timeout_ms();
   out->max_frame_bytes = link.max_frame_bytes();
   out->replay_window = link.replay_window();
+  out->stale_margin_ms = link.stale_margin_ms();
+  out->rtt_ms = link.rtt_ms();
 }
 
 }  // namespace hemm::net

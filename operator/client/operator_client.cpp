@@ -37,7 +37,7 @@ OperatorClient::OperatorClient(asio::io_context& io, OperatorClientOptions o)
     : io_(io),
       o_(std::move(o)),
       streams_(io, net::StreamLinkParams{"operator", o_.heartbeat_period_ms, o_.ping_period_ms, o_.link_timeout_ms,
-                                         o_.replay_window, /*learn_peer_from_source=*/false}),
+                                         o_.replay_window, /*learn_peer_from_source=*/false, o_.rtt_ms}),
       timer_(io) {}
 
 OperatorClient::~OperatorClient() {

@@ -31,8 +31,9 @@ struct OperatorClientOptions : net::LinkOptions {
   std::string bind_address = "0.0.0.0";
   uint16_t local_stream_port = 0;
   bool want_control = true;
-  uint32_t connect_timeout_ms = 3000;
-  uint32_t reconnect_for_ms = 30000;
+  uint32_t connect_timeout_ms = 3000;  // one TCP connect attempt
+  uint32_t connect_for_ms = 30000;     // first contact: keep trying this long
+  uint32_t reconnect_for_ms = 30000;   // after a session was lost
 };
 
 class OperatorClient {

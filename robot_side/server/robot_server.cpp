@@ -35,7 +35,7 @@ RobotServer::RobotServer(asio::io_context& io, RobotServerOptions o)
       o_(std::move(o)),
       acceptor_(io),
       streams_(io, net::StreamLinkParams{"robot", o_.heartbeat_period_ms, o_.ping_period_ms, o_.link_timeout_ms,
-                                         o_.replay_window, /*learn_peer_from_source=*/true}) {
+                                         o_.replay_window, /*learn_peer_from_source=*/true, o_.rtt_ms}) {
   streams_.on_link_change([this](bool up) {
     // The controlling operator is only in control while its link is up.
     in_control_.store(up && active_ != nullptr && active_control_, std::memory_order_release);

@@ -52,6 +52,13 @@ class RobotServer {
   net::LinkStatistics statistics() const { return streams_.statistics(); }
 
   net::StreamLink& streams() { return streams_; }
+  // How old a message stamped on the operator's clock is on arrival (network
+  // thread): stale when older than the measured round trip plus
+  // stale_margin_ms, or when there is no clock estimate yet.
+  net::MessageAge message_age(int64_t operator_stamp_ns, int64_t arrival_ns) const {
+    return net::judge_message_age(streams_.clock(), operator_stamp_ns, arrival_ns,
+                                  int64_t{o_.stale_margin_ms} * 1'000'000);
+  }
   void on_session_frame(wire::SessionFrame::BodyCase kind, SessionHandler h) { handlers_[kind] = std::move(h); }
   // Sends a sealed frame to the active operator (no-op without one).
   void send_session_frame(const wire::SessionFrame& f);
