@@ -181,6 +181,11 @@ int run(int argc, char** argv) {
     if (stopping) return;
     stopping = true;
     spdlog::info("event=shutdown reason=\"{}\"", why);
+    if (!client.ever_opened()) {
+      // The run ended without ever reaching the robot: that is a failure.
+      exit_code = net::kExitPeerLost;
+      std::cerr << "hemm-operator: " << why << " before a session was opened (exit code " << exit_code << ")\n";
+    }
     client.stop(why);
     leave_soon();
   };

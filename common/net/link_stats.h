@@ -18,6 +18,8 @@ struct LinkStatistics {
   uint64_t sessions_opened = 0;
   uint64_t sessions_refused = 0;  // robot: refused (control taken); operator: 0
   uint64_t handshakes_failed = 0;
+  uint64_t handshakes_evicted = 0;  // robot: pending handshakes closed to make room (per-source limits)
+  uint64_t accept_errors = 0;       // robot: failed accepts (backed off)
   uint64_t link_lost_events = 0;
   uint64_t link_restored_events = 0;
   int64_t since_last_rx_ms = -1;  // -1: nothing received yet

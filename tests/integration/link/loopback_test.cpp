@@ -207,6 +207,19 @@ TEST(LinkLoopbackTest, KeyFileReadableByOthersIsWarnedAbout) {
       << read_file(dir + "/r.err");
 }
 
+TEST(LinkLoopbackTest, OperatorWhoseDurationEndsBeforeItEverConnectedExitsWith7) {
+  const std::string dir = make_temp_dir();
+  const int nobody = free_port();  // nothing listens there
+  ChildProcess op({kBin + "hemm-operator", "--config", std::string(HEMM_SOURCE_DIR) + "/deploy/configs/operator.pbtxt",
+                   "--session-port", std::to_string(nobody), "--duration", "1"},
+                  dir + "/o.out", dir + "/o.err");
+  const auto rc = op.wait(20s);
+  ASSERT_TRUE(rc.has_value());
+  EXPECT_EQ(*rc, 7) << read_file(dir + "/o.err");
+  EXPECT_NE(read_file(dir + "/o.err").find("before a session was opened"), std::string::npos)
+      << read_file(dir + "/o.err");
+}
+
 TEST(LinkLoopbackTest, BadConfigGivesExitCode2WithFileLineColumn) {
   const std::string dir = make_temp_dir();
   {

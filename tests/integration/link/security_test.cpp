@@ -5,8 +5,18 @@
 //   * an attacker that holds a copy of every genuine operator datagram and
 //     sends it from its own port ahead of the original (the original is
 //     75 ms late) receives nothing from the robot, and the operator keeps
-//     its streams.
+//     its streams;
+//   * a flood of idle connections from another host locks nobody out and
+//     writes a bounded log.
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
 #include <gtest/gtest.h>
+
+#include <atomic>
 
 #include <cstdio>
 #include <string>
@@ -192,6 +202,76 @@ TEST(LinkSecurityTest, AttackerWithCopiesOfGenuineDatagramsReceivesNothingAndThe
   // The robot saw the copies (first, they are faster) and moved nothing.
   EXPECT_GT(num(rj, "path_copies_ignored"), 0.5 * static_cast<double>(tap.attacker_sent()));
   EXPECT_EQ(num(rj, "paths_validated"), 1);
+}
+
+// Idle TCP connections from another host (127.0.0.2), more than the robot's
+// pending limits and re-opened as fast as the robot closes them, for the
+// whole run: a genuine operator (127.0.0.1) still gets its session, and the
+// robot's log stays small.
+TEST(LinkSecurityTest, IdleConnectionFloodNeitherLocksOutTheOperatorNorFloodsTheLog) {
+  Rig r;
+  r.start_robot(30);
+  std::atomic<bool> stop{false};
+  std::atomic<uint64_t> opened{0};
+  std::thread flood([&] {
+    std::vector<int> fds;
+    sockaddr_in robot{};
+    robot.sin_family = AF_INET;
+    robot.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    robot.sin_port = htons(static_cast<uint16_t>(r.robot_tcp));
+    sockaddr_in from{};
+    from.sin_family = AF_INET;
+    from.sin_addr.s_addr = htonl(0x7f000002);  // 127.0.0.2
+    while (!stop.load()) {
+      for (int i = 0; i < 10 && fds.size() < 100; ++i) {
+        const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_NONBLOCK, 0);
+        if (fd < 0) break;
+        if (::bind(fd, reinterpret_cast<sockaddr*>(&from), sizeof from) != 0) {
+          ::close(fd);
+          break;
+        }
+        ::connect(fd, reinterpret_cast<sockaddr*>(&robot), sizeof robot);
+        fds.push_back(fd);
+        ++opened;
+      }
+      std::vector<pollfd> pf;
+      for (int fd : fds) pf.push_back({fd, POLLIN, 0});
+      ::poll(pf.data(), pf.size(), 5);
+      std::vector<int> keep;
+      for (const pollfd& p : pf) {
+        char b[64];
+        if ((p.revents & (POLLIN | POLLHUP | POLLERR)) && ::recv(p.fd, b, sizeof b, 0) <= 0) {
+          ::close(p.fd);  // the robot closed it: open another
+        } else {
+          keep.push_back(p.fd);
+        }
+      }
+      fds.swap(keep);
+    }
+    for (int fd : fds) ::close(fd);
+  });
+  std::this_thread::sleep_for(1500ms);
+  const uint64_t before_operator = opened.load();
+  r.start_operator(r.robot_tcp, r.robot_udp, 3.0);
+  const auto rc = r.op->wait(60s);
+  const uint64_t total = opened.load();
+  stop.store(true);
+  flood.join();
+  ASSERT_TRUE(rc.has_value()) << r.logs();
+  EXPECT_EQ(*rc, 0) << r.logs();
+  r.robot->signal(SIGTERM);
+  ASSERT_TRUE(r.robot->wait(20s).has_value());
+  const std::string rj = read_file(r.dir + "/robot.json"), oj = read_file(r.dir + "/op.json");
+  const size_t log_bytes = read_file(r.dir + "/robot.err").size();
+  std::printf("[ flood ] %llu idle connections (%llu before the operator started); robot evicted %.0f; "
+              "operator sessions %.0f; robot log %zu bytes\n",
+              static_cast<unsigned long long>(total), static_cast<unsigned long long>(before_operator),
+              num(rj, "handshakes_evicted"), num(oj, "sessions_opened"), log_bytes);
+  EXPECT_GT(total, 1000u) << "the flood did not run";
+  EXPECT_EQ(num(oj, "sessions_opened"), 1) << r.logs();
+  EXPECT_EQ(num(rj, "sessions_opened"), 1);
+  EXPECT_GT(num(rj, "handshakes_evicted"), 500);
+  EXPECT_LT(log_bytes, 64u * 1024) << "a flood of connections must not flood the log";
 }
 
 }  // namespace
