@@ -65,7 +65,9 @@ struct PathValidatorParams {
 struct PathCounters {
   uint64_t challenges_sent = 0;
   uint64_t validated = 0;             // addresses validated (the first one included)
-  uint64_t ignored = 0;               // authenticated datagrams from another address while the peer was alive
+  // Robot: authenticated datagrams from another address while the peer was
+  // alive. Operator: path challenges from an address it does not send to.
+  uint64_t ignored = 0;
   uint64_t rate_limited = 0;          // challenges due but held back by min_interval_ns
   uint64_t responses_unmatched = 0;   // responses with an unknown, expired or malformed token
 };

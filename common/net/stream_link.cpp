@@ -216,6 +216,13 @@ void StreamLink::on_path_message(const wire::StreamMessage& m, const asio::ip::u
   if (m.has_path_challenge()) {
     // A station with a fixed peer answers; the robot never answers challenges.
     if (p_.learn_peer_from_source || !peer_) return;
+    // Only challenges that come from where we send: otherwise whoever sees the
+    // robot's challenge to *its* address could forward it here, have us
+    // answer, and so get its address validated.
+    if (from != *peer_) {
+      ++challenges_ignored_;
+      return;
+    }
     wire::StreamMessage r;
     r.mutable_path_response()->set_token(m.path_challenge().token());
     send(r);
@@ -292,6 +299,7 @@ void StreamLink::sync_stats() {
   std::lock_guard<std::mutex> lk(mu_);
   stats_.rx = rx_.counters();
   stats_.path = paths_.counters();
+  stats_.path.ignored += challenges_ignored_;
   stats_.since_last_rx_ms = ever_up_ ? (steady_now_ns() - last_rx_ns_) / 1000000 : -1;
 }
 

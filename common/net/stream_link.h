@@ -98,6 +98,7 @@ class StreamLink {
   StreamReceiver rx_;
   ClockOffsetEstimator clock_;
   PathValidator paths_;
+  uint64_t challenges_ignored_ = 0;  // operator: challenges not from its peer
   uint64_t session_id_ = 0;
   Key tx_key_{};
   uint64_t next_seq_ = 1;
