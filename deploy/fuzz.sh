@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
-# A fuzzing campaign (not part of CI): builds the libFuzzer targets of the
-# link (clang, ASan + UBSan, only the net component) and runs every target
-# for a set time, keeping each target's corpus and crash artifacts under
-# out/fuzz/<target>/ so that campaigns build on each other. Prints one line
-# per target (executions, exec/s, corpus size, crashes) and the total.
+# A fuzzing campaign (not part of CI): builds every libFuzzer target of the
+# project (clang, ASan + UBSan; only the fuzz_* targets and what they need)
+# and runs each for a set time, keeping each target's corpus and crash
+# artifacts under out/fuzz/<target>/ so that campaigns build on each other.
+# Prints one line per target (executions, exec/s, corpus size, crashes) and
+# the total.
 #
 # Usage: deploy/fuzz.sh [--seconds S] [--jobs N] [--build DIR] [--only NAME]
 #   --seconds S  time per target (default 600)
@@ -35,16 +36,17 @@ done
 
 if [[ ! -f "$build/build.ninja" ]]; then
   CC=clang CXX=clang++ cmake -S "$root" -B "$build" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-    -DHEMM_SANITIZE=ON -DHEMM_FUZZ=ON -DHEMM_BENCH=OFF -DHEMM_COMPONENTS=net
+    -DHEMM_SANITIZE=ON -DHEMM_FUZZ=ON -DHEMM_BENCH=OFF
 fi
-cmake --build "$build" -j"$jobs"
+mapfile -t all_targets < <(ninja -C "$build" -t targets all | awk -F: '/^fuzz_[A-Za-z0-9_]+:/ {print $1}' | sort -u)
+[[ ${#all_targets[@]} -gt 0 ]] || { echo "deploy/fuzz.sh: no fuzz_* targets in $build (HEMM_FUZZ off?)" >&2; exit 1; }
+cmake --build "$build" -j"$jobs" --target "${all_targets[@]}"
 
 out="$root/out/fuzz"
 mkdir -p "$out"
 shopt -s nullglob
 targets=()
-for t in "$build"/bin/fuzz_*; do
-  name="$(basename "$t")"
+for name in "${all_targets[@]}"; do
   [[ -n "$only" && "$name" != *"$only"* ]] && continue
   targets+=("$name")
 done
