@@ -74,18 +74,18 @@ wait
 
 total=0
 crashed=0
-printf '%-22s %14s %10s %8s %8s\n' target executions exec/s corpus crashes
+printf '%-28s %14s %10s %8s %8s\n' target executions exec/s corpus crashes
 for name in "${targets[@]}"; do
   dir="$out/$name"
   runs="$(grep -Eo 'stat::number_of_executed_units: *[0-9]+' "$dir/log.txt" | grep -Eo '[0-9]+$' | tail -1 || true)"
   rate="$(grep -Eo 'stat::average_exec_per_sec: *[0-9]+' "$dir/log.txt" | grep -Eo '[0-9]+$' | tail -1 || true)"
   corpus="$(find "$dir/corpus" -type f | wc -l)"
   crashes="$(find "$dir/crashes" -type f | wc -l)"
-  printf '%-22s %14s %10s %8s %8s\n' "$name" "${runs:-?}" "${rate:-?}" "$corpus" "$crashes"
+  printf '%-28s %14s %10s %8s %8s\n' "$name" "${runs:-?}" "${rate:-?}" "$corpus" "$crashes"
   total=$((total + ${runs:-0}))
   crashed=$((crashed + crashes))
 done
-printf '%-22s %14s\n' total "$total"
+printf '%-28s %14s\n' total "$total"
 if [[ $crashed -gt 0 ]]; then
   echo "deploy/fuzz.sh: $crashed crashing input(s); see $out/*/crashes/ and $out/*/log.txt" >&2
   exit 1
