@@ -220,7 +220,7 @@ TEST(Manipulation, ArmTargetFollowsTheProxyInR) {
                                                          << want.p_R.transpose();
 }
 
-TEST(Tick, NeverAllocates) {
+TEST(Tick, NeverAllocatesOrFrees) {
   ho::OperatorTaskParams p;
   auto log = ho::make_station_logger(256);  // not started: pushes fill the ring, then count drops
   Runner r(p, &log);
@@ -228,13 +228,16 @@ TEST(Tick, NeverAllocates) {
   r.move(*snap, H(0, 0, 0), H(0.001, 0, 0), 10, 0);  // warm up
   hemm::test::count_allocations_on_this_thread(true);
   const std::uint64_t before = hemm::test::counted_allocations();
+  const std::uint64_t frees_before = hemm::test::counted_frees();
   for (int i = 0; i < 3000; ++i) {
     const double s = std::sin(i * 0.005);
     r.tick(*snap, H(0.022 * s, 0.01 * s, 0), (i / 500) % 2 == 1 ? hd::kButton1 : 0u);
   }
   const std::uint64_t allocs = hemm::test::counted_allocations() - before;
+  const std::uint64_t frees = hemm::test::counted_frees() - frees_before;
   hemm::test::count_allocations_on_this_thread(false);
   EXPECT_EQ(allocs, 0u);
+  EXPECT_EQ(frees, 0u);
   EXPECT_GE(r.task.mode_switches(), 2u);
 }
 
