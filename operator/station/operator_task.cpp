@@ -48,8 +48,9 @@ OperatorServoTask::OperatorServoTask(const OperatorTaskParams& p, StationLogger*
   if (std::string e = haptics::validate(p.proxy); !e.empty())
     throw std::invalid_argument("OperatorServoTask: proxy: " + e);
   if (!(p.exploration_range > 0) || !(p.navigation_look_ahead > 0) || !(p.arm_reach > 0) ||
-      !(p.relax_speed > 0) || !(p.max_extrapolation_s >= 0))
-    throw std::invalid_argument("OperatorServoTask: ranges, reach, relax speed must be positive");
+      !(p.relax_speed > 0) || !(p.max_extrapolation_s >= 0) || !(p.engage_move > 0) ||
+      !std::isfinite(p.engage_move))
+    throw std::invalid_argument("OperatorServoTask: ranges, reach, relax speed, engage_move must be positive");
   explore_ = math::make_exploration_map(p.workspace, p.exploration_range);
   navigate_ = math::make_navigation_map(p.workspace, p.navigation_look_ahead);
   if (!p.navigation_point_origin_R.allFinite() || p.navigation_point_origin_R.norm() > 5.0)
@@ -78,6 +79,15 @@ void OperatorServoTask::switch_to(math::Mode next, const Eigen::Vector3d& p_B) n
   anchor_ = math::reanchor_at_switch(map_of(next), T_W_R_, p_B, proxy3, goal_W_, map_of(mode_).scale);
   mode_ = next;
   ++switches_;
+  hold_motion(p_B);
+}
+
+void OperatorServoTask::hold_motion(const Eigen::Vector3d& p_B) noexcept {
+  if (!held_) ++holds_;
+  held_ = true;
+  hold_moved_ = false;
+  hold_neutral_ = false;
+  hold_ref_B_ = p_B;
 }
 
 void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelSnapshot& model,
@@ -113,6 +123,8 @@ void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelS
   goal_W_ = math::anchored_point_W(sm, anchor_, T_W_R_, p_B);
   if (first_) {
     haptics::proxy_reset(proxy_, goal_W_.head<2>());
+    ++holds_;  // start-up: held from the first tick
+    hold_ref_B_ = p_B;
     first_ = false;
   }
   haptics::proxy_tick(p_.proxy, map, proxy_, goal_W_, sm.scale);
@@ -126,10 +138,18 @@ void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelS
   sp.t_ns = in.t_ns;
   sp.tick = ticks_;
   sp.mode = mode_;
-  if (mode_ == math::Mode::kNavigation) {
-    const math::BaseCommand c = math::navigation_command(navigate_, proxy_B + anchor_.offset_B);
-    sp.v = c.v;
-    sp.omega = c.omega;
+  math::BaseCommand nav_cmd;
+  if (mode_ == math::Mode::kNavigation) nav_cmd = math::navigation_command(navigate_, proxy_B + anchor_.offset_B);
+  if (held_) {
+    if ((p_B - hold_ref_B_).norm() >= p_.engage_move) hold_moved_ = true;
+    if (mode_ != math::Mode::kNavigation || (nav_cmd.v == 0.0 && nav_cmd.omega == 0.0)) hold_neutral_ = true;
+    held_ = !(hold_moved_ && hold_neutral_);
+  }
+  if (held_) {
+    // Nothing moves: zero command, no arm target, deadman released.
+  } else if (mode_ == math::Mode::kNavigation) {
+    sp.v = nav_cmd.v;
+    sp.omega = nav_cmd.omega;
     sp.moves_robot = true;
   } else if (mode_ == math::Mode::kManipulation) {
     const math::ManipulationTarget t = math::manipulation_target(manipulate_, proxy_B + anchor_.offset_B);

@@ -25,6 +25,17 @@
 // At a switch the new map is re-anchored (reanchor_at_switch) so the force is
 // continuous, then the anchor relaxes at relax_speed (device m/s).
 //
+// Motion hold. The re-anchored proxy is where the OLD mode left it, so the
+// new mode's command taken from it is not what the hand asks for (switching
+// exploration -> navigation with the stylus centred would back the robot up;
+// with the exploration proxy far ahead it would drive at full speed). So at
+// start-up and at every switch the robot is held (v = omega = 0, no arm
+// target, deadman released) until the hand has moved the stylus engage_move
+// from where it was when the hold began AND, in navigation, the command has
+// been in its dead band at least once since (a joystick's zero-start
+// interlock: motion starts from rest, never at the speed the proxy happens
+// to give).
+//
 // The robot pose used on each tick is the snapshot's prediction extrapolated
 // to the tick time with the command acting (bounded by max_extrapolation_s).
 // The tick never allocates, locks or blocks. Setpoints go to a newest-wins
@@ -118,6 +129,10 @@ struct OperatorTaskParams {
   Eigen::Vector3d arm_workspace_centre_R{0.35, 0.0, 0.30};
   double arm_reach = 0.5;
   double relax_speed = 0.02;  // device m/s at which a switch's anchor fades
+  // Stylus travel (device m) that counts as "the hand moved" for the motion
+  // hold: well above a hand's tremor on the Omni (~0.1 mm), a quarter of the
+  // navigation dead band.
+  double engage_move = 0.002;
   double max_extrapolation_s = 0.5;
   math::Mode initial_mode = math::Mode::kExploration;
 };
@@ -141,12 +156,16 @@ class OperatorServoTask final : public servo::ServoTask {
   const StationSetpoint& last_setpoint() const noexcept { return last_; }
   const math::Pose2& robot_pose() const noexcept { return T_W_R_; }
   std::uint64_t mode_switches() const noexcept { return switches_; }
+  // True while motion is held (see "Motion hold" above).
+  bool motion_held() const noexcept { return held_; }
+  std::uint64_t motion_holds() const noexcept { return holds_; }  // holds begun
   const OperatorTaskParams& params() const noexcept { return p_; }
   // The scaled map of a mode (B -> R).
   const math::ScaledMap& map_of(math::Mode m) const noexcept;
 
  private:
   void switch_to(math::Mode next, const Eigen::Vector3d& p_B) noexcept;
+  void hold_motion(const Eigen::Vector3d& p_B) noexcept;
 
   OperatorTaskParams p_;
   math::ExplorationMap explore_;
@@ -161,6 +180,10 @@ class OperatorServoTask final : public servo::ServoTask {
   std::uint32_t buttons_prev_ = 0;
   bool first_ = true;
   std::uint64_t switches_ = 0;
+  bool held_ = true;
+  bool hold_moved_ = false, hold_neutral_ = false;
+  Eigen::Vector3d hold_ref_B_ = Eigen::Vector3d::Zero();
+  std::uint64_t holds_ = 0;
   std::uint64_t ticks_ = 0;
   StationSetpoint last_;
   servo::LatestMailbox<StationSetpoint> setpoints_;

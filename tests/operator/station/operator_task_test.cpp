@@ -204,6 +204,91 @@ TEST(Modes, AnchorRelaxesAtBoundedForceRate) {
   EXPECT_NEAR(out.force_H.norm(), 0.0, 1e-9);
 }
 
+// Issue 9 item 10: a switch re-anchors the map for the force, and the
+// command used to follow the re-anchored proxy: switching exploration ->
+// navigation commanded -0.16 m/s with the stylus centred and 0.7 m/s with
+// the exploration proxy far ahead. No motion may follow a switch until the
+// hand moves (and, in navigation, the command has passed through neutral).
+struct SwitchRun {
+  double max_abs_v = 0.0, max_abs_omega = 0.0;
+  bool any_moves = false;
+  void note(const ho::StationSetpoint& sp) {
+    max_abs_v = std::max(max_abs_v, std::abs(sp.v));
+    max_abs_omega = std::max(max_abs_omega, std::abs(sp.omega));
+    any_moves = any_moves || sp.moves_robot;
+  }
+};
+
+TEST(ModeSwitch, NoMotionAfterSwitchingToNavigationWithTheStylusCentredUntilTheHandMoves) {
+  ho::OperatorTaskParams p;
+  Runner r(p);
+  const auto free_space = wall_snapshot({20, -1}, {20, 1}, {-1, 0}, {0, 0, 0});  // nothing near
+  r.move(*free_space, H(0, 0, 0), H(0, 0, 0), 1, 500);
+  r.tick(*free_space, H(0, 0, 0), hd::kButton2);  // -> navigation, stylus centred
+  ASSERT_EQ(r.task.mode(), hm::Mode::kNavigation);
+  SwitchRun after;
+  for (int i = 0; i < 1500; ++i) {
+    r.tick(*free_space, H(0, 0, 0), 0);
+    after.note(r.task.last_setpoint());
+  }
+  EXPECT_EQ(after.max_abs_v, 0.0);
+  EXPECT_EQ(after.max_abs_omega, 0.0);
+  EXPECT_FALSE(after.any_moves);
+  // The hand pushes forward 20 mm: the robot is driven.
+  r.move(*free_space, H(0, 0, 0), H(0.020, 0, 0), 200, 100);
+  EXPECT_TRUE(r.task.last_setpoint().moves_robot);
+  EXPECT_GT(r.task.last_setpoint().v, 0.2);
+}
+
+TEST(ModeSwitch, NoMotionAfterSwitchingToNavigationWithTheProxyFarAheadUntilTheHandReturnsThroughNeutral) {
+  ho::OperatorTaskParams p;
+  Runner r(p);
+  const auto free_space = wall_snapshot({20, -1}, {20, 1}, {-1, 0}, {0, 0, 0});
+  // Exploration: stylus 20 mm forward = the proxy 1 m ahead of the robot.
+  r.move(*free_space, H(0, 0, 0), H(0.020, 0, 0), 300, 300);
+  ASSERT_NEAR(r.task.proxy().proxy_W.x(), 1.0, 1e-6);
+  r.tick(*free_space, H(0.020, 0, 0), hd::kButton2);  // -> navigation
+  ASSERT_EQ(r.task.mode(), hm::Mode::kNavigation);
+  SwitchRun held;
+  for (int i = 0; i < 1500; ++i) {  // the hand stays
+    r.tick(*free_space, H(0.020, 0, 0), 0);
+    held.note(r.task.last_setpoint());
+  }
+  EXPECT_EQ(held.max_abs_v, 0.0);
+  EXPECT_FALSE(held.any_moves);
+  // The hand moves further forward: still no motion (it never passed neutral).
+  SwitchRun further;
+  for (int i = 1; i <= 200; ++i) {
+    r.tick(*free_space, H(0.020 + 0.005 * i / 200.0, 0, 0), 0);
+    further.note(r.task.last_setpoint());
+  }
+  EXPECT_EQ(further.max_abs_v, 0.0);
+  EXPECT_FALSE(further.any_moves);
+  // Back to the centre (through neutral), then forward: the robot is driven.
+  r.move(*free_space, H(0.025, 0, 0), H(0, 0, 0), 500, 100);
+  r.move(*free_space, H(0, 0, 0), H(0.020, 0, 0), 200, 100);
+  EXPECT_TRUE(r.task.last_setpoint().moves_robot);
+  EXPECT_GT(r.task.last_setpoint().v, 0.2);
+}
+
+TEST(ModeSwitch, NoArmMotionAfterSwitchingToManipulationUntilTheHandMoves) {
+  ho::OperatorTaskParams p;
+  p.initial_mode = hm::Mode::kNavigation;
+  Runner r(p);
+  const auto free_space = wall_snapshot({20, -1}, {20, 1}, {-1, 0}, {0, 0, 0});
+  r.move(*free_space, H(0, 0, 0), H(0.004, 0.003, 0), 100, 100);
+  r.tick(*free_space, H(0.004, 0.003, 0), hd::kButton1);  // navigation -> manipulation
+  ASSERT_EQ(r.task.mode(), hm::Mode::kManipulation);
+  for (int i = 0; i < 1000; ++i) {
+    r.tick(*free_space, H(0.004, 0.003, 0), 0);
+    ASSERT_FALSE(r.task.last_setpoint().arm_valid) << "tick " << i;
+    ASSERT_FALSE(r.task.last_setpoint().moves_robot) << "tick " << i;
+  }
+  r.move(*free_space, H(0.004, 0.003, 0), H(0.004, 0.003, 0.010), 100, 10);
+  EXPECT_TRUE(r.task.last_setpoint().arm_valid);
+  EXPECT_TRUE(r.task.last_setpoint().moves_robot);
+}
+
 TEST(Manipulation, ArmTargetFollowsTheProxyInR) {
   ho::OperatorTaskParams p;
   p.initial_mode = hm::Mode::kManipulation;
