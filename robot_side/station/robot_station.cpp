@@ -64,6 +64,7 @@ struct RobotStation::Shared {
   std::atomic<uint64_t> lateness_n{0};
   std::atomic<uint64_t> commands_received{0}, commands_without_control{0}, commands_malformed{0},
       commands_mode_mismatch{0}, commands_applied{0}, commands_rejected{0};
+  std::atomic<uint64_t> arm_refused_floor{0}, arm_refused_base{0}, arm_refused_scene{0};
   std::atomic<uint64_t> states_sent{0}, scans_sent{0}, scan_chunks_sent{0}, send_failures{0};
   std::atomic<uint64_t> mode_changes{0}, estop_changes{0}, requests_refused{0};
   std::atomic<bool> estop{false};
@@ -121,6 +122,9 @@ std::string to_json(const RobotStationStatistics& s, const std::string& indent) 
   f("commands_mode_mismatch", s.commands_mode_mismatch);
   f("commands_applied", s.commands_applied);
   f("commands_rejected", s.commands_rejected);
+  f("arm_refused_floor", s.arm_refused_floor);
+  f("arm_refused_base", s.arm_refused_base);
+  f("arm_refused_scene", s.arm_refused_scene);
   f("states_sent", s.states_sent);
   f("scans_sent", s.scans_sent);
   f("scan_chunks_sent", s.scan_chunks_sent);
@@ -141,7 +145,9 @@ std::string to_log_fields(const RobotStationStatistics& s) {
      << " contact_steps=" << s.contact_steps << " guard_states=" << s.guard_states
      << " max_lateness_us=" << s.max_lateness_ns / 1000 << " mean_lateness_us=" << s.mean_lateness_ns / 1000.0
      << " commands_received=" << s.commands_received << " commands_applied=" << s.commands_applied
-     << " commands_rejected=" << s.commands_rejected << " commands_without_control=" << s.commands_without_control
+     << " commands_rejected=" << s.commands_rejected << " arm_refused_floor=" << s.arm_refused_floor
+     << " arm_refused_base=" << s.arm_refused_base << " arm_refused_scene=" << s.arm_refused_scene
+     << " commands_without_control=" << s.commands_without_control
      << " commands_malformed=" << s.commands_malformed << " commands_mode_mismatch=" << s.commands_mode_mismatch
      << " states_sent=" << s.states_sent << " scans_sent=" << s.scans_sent
      << " scan_chunks_sent=" << s.scan_chunks_sent << " send_failures=" << s.send_failures
@@ -161,6 +167,8 @@ std::string to_summary(const RobotStationStatistics& s) {
      << "  commands: " << s.commands_received << " received, " << s.commands_applied << " applied, "
      << s.commands_rejected << " rejected by the robot, " << s.commands_without_control << " without control, "
      << s.commands_malformed << " malformed, " << s.commands_mode_mismatch << " wrong mode\n"
+     << "  arm targets refused: " << s.arm_refused_floor << " into the floor, " << s.arm_refused_base
+     << " into the base, " << s.arm_refused_scene << " into seen geometry\n"
      << "  sent: " << s.states_sent << " states, " << s.scans_sent << " scans (" << s.scan_chunks_sent
      << " chunks), " << s.send_failures << " send failures\n"
      << "  session: " << s.mode_changes << " mode changes, " << s.estop_changes << " e-stop changes, "
@@ -281,6 +289,9 @@ RobotStationStatistics RobotStation::statistics() const {
   s.commands_mode_mismatch = sh.commands_mode_mismatch.load();
   s.commands_applied = sh.commands_applied.load();
   s.commands_rejected = sh.commands_rejected.load();
+  s.arm_refused_floor = sh.arm_refused_floor.load();
+  s.arm_refused_base = sh.arm_refused_base.load();
+  s.arm_refused_scene = sh.arm_refused_scene.load();
   s.states_sent = sh.states_sent.load();
   s.scans_sent = sh.scans_sent.load();
   s.scan_chunks_sent = sh.scan_chunks_sent.load();
@@ -409,6 +420,10 @@ void RobotStation::run() {
         }
       } else if (auto err = robot_.set_command(*c, robot_.time_ns())) {
         const uint64_t n = ++sh.commands_rejected;
+        const SimulatedRobot::ArmRefusals ar = robot_.arm_refusals();
+        sh.arm_refused_floor.store(ar.floor);
+        sh.arm_refused_base.store(ar.base);
+        sh.arm_refused_scene.store(ar.scene);
         if (is_power_of_two(n)) spdlog::warn("event=command_rejected count={} error=\"{}\"", n, *err);
       } else {
         ++sh.commands_applied;

@@ -67,7 +67,11 @@ struct RobotStationStatistics {
   uint64_t commands_malformed = 0;       // dropped: failed wire validation
   uint64_t commands_mode_mismatch = 0;   // dropped: not in the session's mode
   uint64_t commands_applied = 0;
-  uint64_t commands_rejected = 0;        // rejected by the robot (limits, IK)
+  uint64_t commands_rejected = 0;        // rejected by the robot (limits, IK, arm keep-out)
+  // Of those, arm targets refused because the arm would reach into ...
+  uint64_t arm_refused_floor = 0;        // ... the floor
+  uint64_t arm_refused_base = 0;         // ... the robot's base
+  uint64_t arm_refused_scene = 0;        // ... something its sensors have seen
   uint64_t states_sent = 0;
   uint64_t scans_sent = 0;               // scans whose every chunk was sent
   uint64_t scan_chunks_sent = 0;
