@@ -7,6 +7,9 @@
 #include <sstream>
 #include <stdexcept>
 
+#include <spdlog/spdlog.h>
+
+#include "common/net/station_cli.h"
 #include "operator/device/replay_device.h"
 #include "operator/device/simulated_omni.h"
 #include "operator/device/trajectory_csv.h"
@@ -14,6 +17,10 @@
 
 namespace hemm::op {
 namespace {
+// The robot answers an EStop within a round trip and a simulation step; this
+// allows for round trips of seconds (the link's own limit is 2 s).
+constexpr std::chrono::milliseconds kAckTimeout{5000};
+
 std::int64_t steady_now_ns() {
   return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch())
       .count();
@@ -29,6 +36,9 @@ std::string to_string(const OperatorStationSummary& s) {
     << "commands: sent=" << s.commands.commands_sent << " failures=" << s.commands.send_failures
     << " link_down=" << s.commands.link_down << " mode_changes=" << s.commands.mode_changes_sent << " stale=" << s.commands.stale
     << " mode_switches=" << s.mode_switches << "\n"
+    << "e-stop: device presses=" << s.estop_presses << " sent=" << s.commands.estops_sent
+    << " acknowledged=" << s.estop_acks << " refused=" << s.estop_refusals << " robot reports "
+    << (s.robot_estop < 0 ? "nothing" : s.robot_estop ? "engaged" : "released") << "\n"
     << "logs: servo written=" << s.servo_log_written << " dropped=" << s.servo_log_dropped
     << " world written=" << s.world_log_written << " dropped=" << s.world_log_dropped << "\n";
   o << "robot (predicted): x=" << s.robot_pose.x << " y=" << s.robot_pose.y << " theta=" << s.robot_pose.theta
@@ -129,9 +139,19 @@ std::string to_json(const OperatorStationSummary& s) {
     c.u("link_down", s.commands.link_down);
     c.u("mode_changes_sent", s.commands.mode_changes_sent);
     c.u("stale", s.commands.stale);
+    c.u("estops_sent", s.commands.estops_sent);
     c.close();
   }
   top.u("mode_switches", s.mode_switches);
+  top.key("estop");
+  {
+    JsonObject e(o, 2);
+    e.u("device_presses", s.estop_presses);
+    e.u("acknowledged", s.estop_acks);
+    e.u("refused", s.estop_refusals);
+    if (s.robot_estop < 0) e.null("robot_engaged"); else e.b("robot_engaged", s.robot_estop == 1);
+    e.close();
+  }
   top.key("logs");
   {
     JsonObject l(o, 2);
@@ -237,6 +257,9 @@ servo::RealtimeStatus OperatorStation::start() {
                        [this](const net::DatagramHeader&, int64_t, const wire::StreamMessage& m) {
                          model_->submit_scan(std::make_shared<const wire::RangeScan>(m.range_scan()));
                        });
+  client_.on_session_frame(wire::SessionFrame::kAck, [this](const wire::SessionFrame& f) { on_ack(f.ack()); });
+  client_.on_session_frame(wire::SessionFrame::kEstop,
+                           [this](const wire::SessionFrame& f) { on_robot_estop(f.estop()); });
   if (servo_log_) {
     if (auto e = servo_log_->start(o_.log_path)) throw std::runtime_error(*e);
     if (auto e = world_log_->start(o_.log_path + ".world.csv")) throw std::runtime_error(*e);
@@ -265,6 +288,54 @@ void OperatorStation::poll_link() {
   });
 }
 
+void OperatorStation::request_estop(bool engaged, const std::string& reason, Reply done) {
+  const std::uint64_t id = stopped_ ? 0 : sender_->send_estop(engaged, reason);
+  if (id == 0) {
+    done(std::string("error no link to the robot: nothing sent") +
+         (engaged ? " (without a link the robot stops by itself)" : ""));
+    return;
+  }
+  spdlog::warn("event=estop_request request_id={} engaged={} reason=\"{}\"", id, engaged, net::printable_text(reason));
+  PendingAck p;
+  p.engaged = engaged;
+  p.done = std::move(done);
+  p.timer = std::make_unique<asio::steady_timer>(io_, kAckTimeout);
+  p.timer->async_wait([this, id](const asio::error_code& ec) {
+    if (ec) return;
+    auto it = pending_acks_.find(id);
+    if (it == pending_acks_.end()) return;
+    const Reply d = std::move(it->second.done);
+    pending_acks_.erase(it);
+    d("error request_id=" + std::to_string(id) + " no acknowledgement from the robot within " +
+      std::to_string(kAckTimeout.count()) + " ms");
+  });
+  pending_acks_.emplace(id, std::move(p));
+}
+
+void OperatorStation::on_ack(const wire::Ack& a) {
+  const std::string reason = net::printable_text(a.reason());
+  spdlog::info("event=ack request_id={} ok={} reason=\"{}\"", a.request_id(), a.ok(), reason);
+  auto it = pending_acks_.find(a.request_id());
+  if (it == pending_acks_.end()) return;
+  ++(a.ok() ? estop_acks_ : estop_refusals_);
+  it->second.timer->cancel();
+  const Reply d = std::move(it->second.done);
+  pending_acks_.erase(it);
+  d(std::string(a.ok() ? "ok" : "error") + " request_id=" + std::to_string(a.request_id()) + " " + reason);
+}
+
+void OperatorStation::on_robot_estop(const wire::EStop& e) {
+  robot_estop_ = e.engaged() ? 1 : 0;
+  spdlog::warn("event=robot_estop engaged={} reason=\"{}\"", e.engaged(), net::printable_text(e.reason()));
+}
+
+std::string OperatorStation::status_line() const {
+  return std::string("ok session=") + (client_.session_open() ? "open" : "closed") +
+         " link=" + (client_.link_up() ? "up" : "down") + " estop=" +
+         (robot_estop_ < 0 ? "unknown" : robot_estop_ ? "engaged" : "released") + " mode=" +
+         wire::Mode_Name(to_wire_mode(sender_->mode()));
+}
+
 void OperatorStation::stop() {
   if (!started_ || stopped_) return;
   stopped_ = true;
@@ -277,6 +348,9 @@ void OperatorStation::stop() {
     link_timer_.cancel();
     client_.streams().on(wire::StreamMessage::kRobotState, nullptr);
     client_.streams().on(wire::StreamMessage::kRangeScan, nullptr);
+    client_.on_session_frame(wire::SessionFrame::kAck, nullptr);
+    client_.on_session_frame(wire::SessionFrame::kEstop, nullptr);
+    for (auto& [id, p] : pending_acks_) p.timer->cancel();
   };
   if (io_.stopped() || io_.get_executor().running_in_this_thread()) {
     detach();
@@ -305,6 +379,10 @@ OperatorStationSummary OperatorStation::summary() const {
   s.model = model_->stats();
   s.commands = sender_->stats();
   s.mode_switches = task_->mode_switches();
+  s.estop_presses = task_->estop_presses();
+  s.estop_acks = estop_acks_;
+  s.estop_refusals = estop_refusals_;
+  s.robot_estop = robot_estop_;
   if (servo_log_) {
     s.servo_log_written = servo_log_->written();
     s.servo_log_dropped = servo_log_->dropped();

@@ -104,10 +104,15 @@ void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelS
   const Eigen::Vector3d p_B = in.position_H.allFinite() ? Eigen::Vector3d(R * in.position_H) : Eigen::Vector3d::Zero();
 
   // Buttons: rising edges switch modes (not on the very first tick: a held
-  // button at start-up is not a press).
+  // button at start-up is not a press). Both down is the e-stop.
+  constexpr std::uint32_t kBoth = device::kButton1 | device::kButton2;
   const std::uint32_t rising = first_ ? 0u : (in.buttons & ~buttons_prev_);
+  const bool estop_press = !first_ && (in.buttons & kBoth) == kBoth && (buttons_prev_ & kBoth) != kBoth;
   buttons_prev_ = in.buttons;
-  if (!first_) {
+  if (estop_press) {
+    ++estop_presses_;
+    hold_motion(p_B);
+  } else if (!first_) {
     if (rising & device::kButton1) {
       switch_to(mode_ == math::Mode::kExploration   ? math::Mode::kNavigation
                 : mode_ == math::Mode::kNavigation ? math::Mode::kManipulation
@@ -138,6 +143,7 @@ void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelS
   sp.t_ns = in.t_ns;
   sp.tick = ticks_;
   sp.mode = mode_;
+  sp.estop_presses = estop_presses_;
   math::BaseCommand nav_cmd;
   if (mode_ == math::Mode::kNavigation) nav_cmd = math::navigation_command(navigate_, proxy_B + anchor_.offset_B);
   if (held_) {

@@ -8,7 +8,11 @@
 //
 // Modes (button 1, rising edge: exploration -> navigation -> manipulation ->
 // exploration; button 2, rising edge: toggles exploration <-> navigation,
-// from manipulation it goes to navigation):
+// from manipulation it goes to navigation). Both buttons down together is the
+// e-stop (counted in StationSetpoint::estop_presses; the command sender sends
+// it): a press of both on the same tick switches no mode, and the robot is
+// held (see "Motion hold") so that a release of the e-stop moves nothing
+// until the hand does:
 //  - exploration (E_T_H): the stylus point mapped around the robot's present
 //    (predicted) pose is the proxy's goal; the proxy rests on the map's
 //    surfaces. The robot does not move (v = omega = 0, no deadman).
@@ -69,6 +73,7 @@ struct StationSetpoint {
   Eigen::Vector3d arm_target_R = Eigen::Vector3d::Zero();  // manipulation
   bool arm_valid = false;
   bool moves_robot = false;  // deadman: the mode commands motion
+  std::uint64_t estop_presses = 0;  // e-stop presses on the device so far (both buttons together)
 };
 
 // One record per tick, W frame, for the plots (deploy/plots/plot_run.py).
@@ -156,6 +161,7 @@ class OperatorServoTask final : public servo::ServoTask {
   const StationSetpoint& last_setpoint() const noexcept { return last_; }
   const math::Pose2& robot_pose() const noexcept { return T_W_R_; }
   std::uint64_t mode_switches() const noexcept { return switches_; }
+  std::uint64_t estop_presses() const noexcept { return estop_presses_; }
   // True while motion is held (see "Motion hold" above).
   bool motion_held() const noexcept { return held_; }
   std::uint64_t motion_holds() const noexcept { return holds_; }  // holds begun
@@ -178,6 +184,7 @@ class OperatorServoTask final : public servo::ServoTask {
   math::Pose2 T_W_R_;
   Eigen::Vector3d goal_W_ = Eigen::Vector3d::Zero();
   std::uint32_t buttons_prev_ = 0;
+  std::uint64_t estop_presses_ = 0;
   bool first_ = true;
   std::uint64_t switches_ = 0;
   bool held_ = true;

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "common/net/mailbox.h"
+#include "common/net/station_cli.h"
 #include "config_robot.pb.h"
 #include "robot_side/sim/realtime.h"
 
@@ -18,7 +19,8 @@ namespace {
 
 // Requests from the session channel, applied by the simulation thread.
 struct Request {
-  enum class Kind { kMode, kEStop } kind = Kind::kMode;
+  // kEStop: from the operator (a session frame); kLocalEStop: at the robot.
+  enum class Kind { kMode, kEStop, kLocalEStop } kind = Kind::kMode;
   wire::Mode mode = wire::MODE_UNSPECIFIED;
   uint64_t request_id = 0;
   bool engaged = false;
@@ -27,13 +29,6 @@ struct Request {
 
 // A bound on queued session requests: a flooding peer gets refusals, not memory.
 constexpr size_t kMaxQueuedRequests = 64;
-
-// Peer text goes back into frames and logs: printable ASCII, bounded.
-std::string printable(const std::string& s) {
-  std::string out;
-  for (char c : s.substr(0, 200)) out.push_back((c >= 0x20 && c <= 0x7e && c != '"') ? c : '_');
-  return out;
-}
 
 bool is_power_of_two(uint64_t n) { return n != 0 && (n & (n - 1)) == 0; }
 
@@ -67,7 +62,7 @@ struct RobotStation::Shared {
   std::atomic<uint64_t> arm_refused_floor{0}, arm_refused_base{0}, arm_refused_scene{0};
   std::atomic<uint64_t> states_sent{0}, scans_sent{0}, scan_chunks_sent{0}, send_failures{0};
   std::atomic<uint64_t> mode_changes{0}, estop_changes{0}, requests_refused{0};
-  std::atomic<bool> estop{false};
+  std::atomic<bool> estop{false}, estop_local{false};
   std::atomic<int> mode{0};
   std::atomic<uint32_t> safety{0};
 };
@@ -91,7 +86,8 @@ void refuse(RobotStation::Shared& sh, uint64_t request_id, const std::string& wh
 // Network thread: queue a request for the simulation thread, or refuse it.
 void queue_request(const SharedPtr& sh, Request r) {
   std::lock_guard<std::mutex> lk(sh->req_mu);
-  if (sh->requests.size() >= kMaxQueuedRequests) {
+  // The robot's own e-stop is never refused.
+  if (sh->requests.size() >= kMaxQueuedRequests && r.kind != Request::Kind::kLocalEStop) {
     refuse(*sh, r.request_id, "too many pending requests");
     send_now(*sh, make_ack(r.request_id, false, "too many pending requests"));
     return;
@@ -133,6 +129,7 @@ std::string to_json(const RobotStationStatistics& s, const std::string& indent) 
   f("estop_changes", s.estop_changes);
   f("requests_refused", s.requests_refused);
   f("estop", s.estop ? "true" : "false");
+  f("estop_local", s.estop_local ? "true" : "false");
   f("mode", s.mode);
   f("safety", s.safety);
   os << "\n" << indent << "}";
@@ -152,7 +149,8 @@ std::string to_log_fields(const RobotStationStatistics& s) {
      << " states_sent=" << s.states_sent << " scans_sent=" << s.scans_sent
      << " scan_chunks_sent=" << s.scan_chunks_sent << " send_failures=" << s.send_failures
      << " mode_changes=" << s.mode_changes << " estop_changes=" << s.estop_changes
-     << " requests_refused=" << s.requests_refused << " estop=" << s.estop << " mode=" << s.mode
+     << " requests_refused=" << s.requests_refused << " estop=" << s.estop << " estop_local=" << s.estop_local
+     << " mode=" << s.mode
      << " safety=" << s.safety;
   return os.str();
 }
@@ -172,7 +170,8 @@ std::string to_summary(const RobotStationStatistics& s) {
      << "  sent: " << s.states_sent << " states, " << s.scans_sent << " scans (" << s.scan_chunks_sent
      << " chunks), " << s.send_failures << " send failures\n"
      << "  session: " << s.mode_changes << " mode changes, " << s.estop_changes << " e-stop changes, "
-     << s.requests_refused << " requests refused; e-stop " << (s.estop ? "engaged" : "released") << "\n";
+     << s.requests_refused << " requests refused; e-stop " << (s.estop ? "engaged" : "released")
+     << (s.estop_local ? " (at the robot)" : "") << "\n";
   return os.str();
 }
 
@@ -251,20 +250,29 @@ bool RobotStation::start(std::string* error) {
     const wire::EStop& e = f.estop();
     // Anyone authenticated may stop the robot; only the controller may release it.
     if (!e.engaged() && !sh->server->operator_in_control()) {
-      refuse(*sh, 0, "e-stop release without control");
-      send_now(*sh, make_ack(0, false, "only the controlling operator may release the e-stop"));
+      refuse(*sh, e.request_id(), "e-stop release without control");
+      send_now(*sh, make_ack(e.request_id(), false, "only the controlling operator may release the e-stop"));
       return;
     }
     Request r;
     r.kind = Request::Kind::kEStop;
+    r.request_id = e.request_id();
     r.engaged = e.engaged();
-    r.reason = printable(e.reason());
+    r.reason = net::printable_text(e.reason());
     queue_request(sh, std::move(r));
   });
 
   shared_->stop.store(false, std::memory_order_release);
   thread_ = std::thread([this] { run(); });
   return true;
+}
+
+void RobotStation::local_estop(bool engaged, const std::string& reason) {
+  Request r;
+  r.kind = Request::Kind::kLocalEStop;
+  r.engaged = engaged;
+  r.reason = net::printable_text(reason);
+  queue_request(shared_, std::move(r));
 }
 
 void RobotStation::stop() {
@@ -300,6 +308,7 @@ RobotStationStatistics RobotStation::statistics() const {
   s.estop_changes = sh.estop_changes.load();
   s.requests_refused = sh.requests_refused.load();
   s.estop = sh.estop.load();
+  s.estop_local = sh.estop_local.load();
   s.mode = sh.mode.load();
   s.safety = sh.safety.load();
   return s;
@@ -326,6 +335,24 @@ void RobotStation::run() {
   uint64_t last_seq = 0;
   bool was_in_control = false;
   std::vector<Request> requests;
+  // The e-stop has two sources: the operator's and the robot's own (local);
+  // the robot is stopped while either is engaged, and each is released only
+  // where it was engaged.
+  bool remote_estop = false, local_estop = false;
+  auto apply_estop = [&](const std::string& why) {
+    const bool engaged = remote_estop || local_estop;
+    const bool was = robot_.estop();
+    robot_.set_estop(engaged);
+    sh.estop.store(engaged);
+    sh.estop_local.store(local_estop);
+    if (was != engaged) ++sh.estop_changes;
+    spdlog::warn("event=estop engaged={} local={} remote={} reason=\"{}\"", engaged, local_estop, remote_estop, why);
+    // Report the state to the operator (who may not be the one who changed it).
+    wire::SessionFrame rep;
+    rep.mutable_estop()->set_engaged(engaged);
+    rep.mutable_estop()->set_reason(why);
+    post_frame(sp, std::move(rep));
+  };
 
   while (!sh.stop.load(std::memory_order_acquire)) {
     if (o_.realtime) {
@@ -385,24 +412,25 @@ void RobotStation::run() {
         sh.mode.store(session_mode);
         spdlog::info("event=mode_change mode={} request_id={}", wire::Mode_Name(r.mode), r.request_id);
         post_frame(sp, make_ack(r.request_id, true, "mode " + wire::Mode_Name(r.mode)));
+      } else if (r.kind == Request::Kind::kLocalEStop) {
+        if (r.engaged == local_estop) continue;
+        local_estop = r.engaged;
+        apply_estop((r.engaged ? "engaged at the robot: " : "released at the robot: ") + r.reason);
       } else {
         if (!r.engaged && !in_control) {
           refuse(sh, r.request_id, "e-stop release without control");
           post_frame(sp, make_ack(r.request_id, false, "only the controlling operator may release the e-stop"));
           continue;
         }
-        const bool was = robot_.estop();
-        robot_.set_estop(r.engaged);
-        sh.estop.store(r.engaged);
+        if (!r.engaged && local_estop) {
+          refuse(sh, r.request_id, "e-stop engaged at the robot");
+          post_frame(sp, make_ack(r.request_id, false, "the e-stop is engaged at the robot: only the robot can release it"));
+          continue;
+        }
         post_frame(sp, make_ack(r.request_id, true, r.engaged ? "e-stop engaged" : "e-stop released"));
-        if (was != r.engaged) {
-          ++sh.estop_changes;
-          spdlog::warn("event=estop engaged={} reason=\"{}\"", r.engaged, r.reason);
-          // Report the new state (the operator may not be the one who asked).
-          wire::SessionFrame rep;
-          rep.mutable_estop()->set_engaged(r.engaged);
-          rep.mutable_estop()->set_reason((r.engaged ? "engaged by operator: " : "released by operator: ") + r.reason);
-          post_frame(sp, std::move(rep));
+        if (r.engaged != remote_estop) {
+          remote_estop = r.engaged;
+          apply_estop((r.engaged ? "engaged by operator: " : "released by operator: ") + r.reason);
         }
       }
     }

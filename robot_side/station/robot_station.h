@@ -14,7 +14,8 @@
 // while its link is up; without one the robot reports SAFETY_NO_OPERATOR and
 // decelerates; with the link down it also reports SAFETY_LINK_LOST. Mode
 // changes need control; engaging the e-stop does not (any authenticated
-// session may stop the robot), releasing it does.
+// session may stop the robot), releasing it does. The robot station has its
+// own e-stop too (local_estop), which only the robot station releases.
 //
 // Session mode: until the controlling operator sends a ModeChange, commands
 // carry their own mode. After one, a command in another mode is dropped
@@ -80,6 +81,7 @@ struct RobotStationStatistics {
   uint64_t estop_changes = 0;
   uint64_t requests_refused = 0;         // ModeChange/EStop answered with Ack ok=false
   bool estop = false;
+  bool estop_local = false;              // engaged at the robot (local_estop), not by the operator
   int mode = 0;                          // session mode (wire::Mode; 0: commands choose)
   uint32_t safety = 0;                   // newest state's SafetyFlags
 };
@@ -105,6 +107,10 @@ class RobotStation {
   // thread. Call before the io_context runs or on its thread. False with
   // *error if not loaded or already started.
   bool start(std::string* error);
+  // The robot's own e-stop (a key, a signal or a control command at the
+  // robot station; any thread). While engaged the robot is stopped whatever
+  // the operator says; only this releases it. The operator is told.
+  void local_estop(bool engaged, const std::string& reason);
   // Stops and joins the simulation thread (idempotent; any thread, also the
   // network thread). The server keeps running: stop it (Bye) afterwards.
   void stop();

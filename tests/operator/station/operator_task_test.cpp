@@ -289,6 +289,34 @@ TEST(ModeSwitch, NoArmMotionAfterSwitchingToManipulationUntilTheHandMoves) {
   EXPECT_TRUE(r.task.last_setpoint().moves_robot);
 }
 
+// Issue 9 item 9: both device buttons together are the e-stop: counted once
+// per press, no mode switch, the robot held until the hand moves again.
+TEST(EStop, BothButtonsTogetherAreAnEStopAndSwitchNoMode) {
+  ho::OperatorTaskParams p;
+  p.initial_mode = hm::Mode::kNavigation;
+  Runner r(p);
+  const auto free_space = wall_snapshot({20, -1}, {20, 1}, {-1, 0}, {0, 0, 0});
+  r.move(*free_space, H(0, 0, 0), H(0.020, 0, 0), 200, 100);
+  ASSERT_TRUE(r.task.last_setpoint().moves_robot);
+  const std::uint32_t both = hd::kButton1 | hd::kButton2;
+  for (int i = 0; i < 50; ++i) r.tick(*free_space, H(0.020, 0, 0), both);  // pressed and held
+  EXPECT_EQ(r.task.estop_presses(), 1u);
+  EXPECT_EQ(r.task.last_setpoint().estop_presses, 1u);
+  EXPECT_EQ(r.task.mode(), hm::Mode::kNavigation);
+  EXPECT_EQ(r.task.mode_switches(), 0u);
+  EXPECT_FALSE(r.task.last_setpoint().moves_robot);
+  EXPECT_EQ(r.task.last_setpoint().v, 0.0);
+  for (int i = 0; i < 50; ++i) r.tick(*free_space, H(0.020, 0, 0), 0);  // released: still held
+  EXPECT_FALSE(r.task.last_setpoint().moves_robot);
+  r.tick(*free_space, H(0.020, 0, 0), both);  // a second press
+  EXPECT_EQ(r.task.estop_presses(), 2u);
+  r.tick(*free_space, H(0.020, 0, 0), 0);
+  // One button alone is a mode switch, not an e-stop.
+  r.tick(*free_space, H(0.020, 0, 0), hd::kButton2);
+  EXPECT_EQ(r.task.estop_presses(), 2u);
+  EXPECT_EQ(r.task.mode(), hm::Mode::kExploration);
+}
+
 TEST(Manipulation, ArmTargetFollowsTheProxyInR) {
   ho::OperatorTaskParams p;
   p.initial_mode = hm::Mode::kManipulation;
@@ -316,7 +344,8 @@ TEST(Tick, NeverAllocatesOrFrees) {
   const std::uint64_t frees_before = hemm::test::counted_frees();
   for (int i = 0; i < 3000; ++i) {
     const double s = std::sin(i * 0.005);
-    r.tick(*snap, H(0.022 * s, 0.01 * s, 0), (i / 500) % 2 == 1 ? hd::kButton1 : 0u);
+    const std::uint32_t buttons = (i / 500) % 2 == 1 ? hd::kButton1 : (i % 700 < 20 ? hd::kButton1 | hd::kButton2 : 0u);
+    r.tick(*snap, H(0.022 * s, 0.01 * s, 0), buttons);
   }
   const std::uint64_t allocs = hemm::test::counted_allocations() - before;
   const std::uint64_t frees = hemm::test::counted_frees() - frees_before;
@@ -324,6 +353,7 @@ TEST(Tick, NeverAllocatesOrFrees) {
   EXPECT_EQ(allocs, 0u);
   EXPECT_EQ(frees, 0u);
   EXPECT_GE(r.task.mode_switches(), 2u);
+  EXPECT_GE(r.task.estop_presses(), 2u);
 }
 
 TEST(Task, RejectsBadParams) {
