@@ -32,7 +32,8 @@ std::string to_string(const OperatorStationSummary& s) {
   o << "servo: " << servo::to_string(s.timing) << "\n"
     << "model: scans_in=" << s.model.scans_in << " scans_rejected=" << s.model.scans_rejected
     << " scans_dropped=" << s.model.scans_dropped << " states_in=" << s.model.states_in
-    << " states_rejected=" << s.model.states_rejected << " snapshots=" << s.model.snapshots << "\n"
+    << " states_rejected=" << s.model.states_rejected << " snapshots=" << s.model.snapshots
+    << " robot_restarts=" << s.model.resyncs << "\n"
     << "registration: accepted=" << s.model.registration.accepted << " rejected=" << s.model.registration.rejected
     << " degenerate=" << s.model.registration.degenerate << " last_rms_m=" << s.model.registration.last_rms
     << " correction=(" << s.model.registration.correction.x << ", " << s.model.registration.correction.y << ", "
@@ -145,6 +146,8 @@ std::string to_json(const OperatorStationSummary& s) {
     m.d("correction_x_m", s.model.registration.correction.x);
     m.d("correction_y_m", s.model.registration.correction.y);
     m.d("correction_theta_rad", s.model.registration.correction.theta);
+    m.u("resyncs", s.model.resyncs);
+    m.u("old_epoch_dropped", s.model.old_epoch_dropped);
     m.close();
   }
   top.key("commands");

@@ -27,18 +27,18 @@ wire::Mode to_wire_mode(math::Mode m) {
 const char* station_log_header() {
   return "t_ns,mode,robot_x,robot_y,robot_theta,goal_x,goal_y,goal_z,proxy_x,proxy_y,fw_x,fw_y,"
          "fh_x,fh_y,fh_z,v,omega,contacts,model_version,model_age_ns,scale,state_stamp_ns,odom_x,odom_y,odom_theta,"
-         "truth_x,truth_y,truth_theta,has_truth";
+         "truth_x,truth_y,truth_theta,has_truth,force_gain";
 }
 
 std::size_t format_station_log_record(const StationLogRecord& r, char* buf, std::size_t size) {
   const int n = std::snprintf(
       buf, size,
       "%" PRId64 ",%u,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%d,%" PRIu64
-      ",%" PRId64 ",%.6f,%" PRId64 ",%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%d\n",
+      ",%" PRId64 ",%.6f,%" PRId64 ",%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%d,%.4f\n",
       r.t_ns, r.mode, r.robot[0], r.robot[1], r.robot[2], r.goal_W[0], r.goal_W[1], r.goal_W[2], r.proxy_W[0],
       r.proxy_W[1], r.force_W[0], r.force_W[1], r.force_H[0], r.force_H[1], r.force_H[2], r.v, r.omega, r.contacts,
       r.model_version, r.model_age_ns, r.scale, r.state_stamp_ns, r.odom[0], r.odom[1], r.odom[2], r.truth[0],
-      r.truth[1], r.truth[2], r.has_truth);
+      r.truth[1], r.truth[2], r.has_truth, r.force_gain);
   if (n < 0 || static_cast<std::size_t>(n) >= size) return 0;
   return static_cast<std::size_t>(n);
 }
@@ -104,6 +104,28 @@ void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelS
   const Eigen::Vector3d& p_H = in.ee[0].position_H;  // the Omni's stylus: end-effector 0
   const Eigen::Vector3d p_B = p_H.allFinite() ? Eigen::Vector3d(R * p_H) : Eigen::Vector3d::Zero();
 
+  // A model going stale (or a robot restart being taken in): the force fades
+  // (never a step: the gain moves at most 1 / fade per second whatever its
+  // target does) and the robot is held.
+  bool stale = false;
+  double gain_target = 1.0, fade_s = 1.0;
+  if (snap != nullptr) {
+    fade_s = static_cast<double>(snap->fade_ns) * 1e-9;
+    if (snap->have_data) {
+      const std::int64_t over = in.t_ns - snap->data_stamp_ns - snap->stale_after_ns;
+      stale = over > 0;
+      gain_target = std::clamp(1.0 - static_cast<double>(over) / static_cast<double>(snap->fade_ns), 0.0, 1.0);
+    }
+    if (snap->resyncing) {
+      stale = true;
+      gain_target = 0.0;
+    }
+  }
+  const double gain_step = p_.proxy.period / std::max(fade_s, 1e-3);
+  force_gain_ += std::clamp(gain_target - force_gain_, -gain_step, gain_step);
+  const bool resynced = snap != nullptr && snap->resyncs != resyncs_seen_;
+  if (resynced) resyncs_seen_ = snap->resyncs;
+
   // Buttons: rising edges switch modes (not on the very first tick: a held
   // button at start-up is not a press). Both down is the e-stop.
   constexpr std::uint32_t kBoth = device::kButton1 | device::kButton2;
@@ -114,7 +136,9 @@ void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelS
   if (estop_press) {
     ++estop_presses_;
     hold_motion(p_B);
-  } else if (!first_) {
+  }
+  if (stale) hold_motion(p_B);  // held from where the hand is when the model is fresh again
+  if (!estop_press && !first_) {
     if (rising & device::kButton1) {
       switch_to(mode_ == math::Mode::kExploration   ? math::Mode::kNavigation
                 : mode_ == math::Mode::kNavigation ? math::Mode::kManipulation
@@ -128,9 +152,11 @@ void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelS
 
   const math::ScaledMap& sm = map_of(mode_);
   goal_W_ = math::anchored_point_W(sm, anchor_, T_W_R_, p_B);
-  if (first_) {
+  if (first_ || resynced) {
+    // Start-up, or a restarted robot's map and pose just took over (the force
+    // has faded out): the proxy starts again at the goal.
     haptics::proxy_reset(proxy_, goal_W_.head<2>());
-    ++holds_;  // start-up: held from the first tick
+    if (first_) ++holds_;  // start-up: held from the first tick
     hold_ref_B_ = p_B;
     first_ = false;
   }
@@ -168,7 +194,8 @@ void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelS
   last_ = sp;
   setpoints_.put(sp);
 
-  const Eigen::Vector3d F_B = math::force_W_to_B(T_W_R_, proxy_.force_W);
+  const Eigen::Vector3d F_W = force_gain_ * proxy_.force_W;  // rendered
+  const Eigen::Vector3d F_B = math::force_W_to_B(T_W_R_, F_W);
   const Eigen::Vector3d F_H = R.transpose() * F_B;
   out.command.ee[0].force_H = F_H.allFinite() ? F_H : Eigen::Vector3d::Zero();
   out.publish_setpoint = false;  // the base / arm command travels in StationSetpoint
@@ -180,7 +207,8 @@ void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelS
     view_->T_W_R = T_W_R_;
     view_->t_ns = in.t_ns;
     view_->mode = mode_;
-    view_->valid = snap != nullptr && snap->have_state;
+    view_->valid = snap != nullptr && snap->have_state && !stale;
+    view_->resyncs = resyncs_seen_;
   }
 
   if (log_ != nullptr) {
@@ -193,8 +221,9 @@ void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelS
     for (int i = 0; i < 3; ++i) r.goal_W[i] = goal_W_[i];
     r.proxy_W[0] = proxy_.proxy_W.x();
     r.proxy_W[1] = proxy_.proxy_W.y();
-    r.force_W[0] = proxy_.force_W.x();
-    r.force_W[1] = proxy_.force_W.y();
+    r.force_W[0] = F_W.x();
+    r.force_W[1] = F_W.y();
+    r.force_gain = force_gain_;
     for (int i = 0; i < 3; ++i) r.force_H[i] = out.command.ee[0].force_H[i];
     r.v = sp.v;
     r.omega = sp.omega;

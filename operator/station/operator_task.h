@@ -42,6 +42,15 @@
 //
 // The robot pose used on each tick is the snapshot's prediction extrapolated
 // to the tick time with the command acting (bounded by max_extrapolation_s).
+//
+// A stale model (ModelThread: its newest robot data older than RTT / 2 +
+// fresh_s) is not rendered at full force: the force is scaled by a gain that
+// falls linearly to zero over fade_s as the model ages, and moves at most
+// 1 / fade_s per second (so fresh data after an outage brings the force back
+// over fade_s, not in one tick). While stale, or while a restarted robot is
+// taken in, the robot is held (the motion hold below) and the view says
+// invalid; when the restarted robot's map takes over the proxy starts again
+// at the goal.
 // The tick never allocates, locks or blocks. Setpoints go to a newest-wins
 // mailbox (StationSetpoint: the servo's ServoSetpoint has no room for the
 // base / arm command), a W-frame log record into an optional logger.
@@ -97,6 +106,7 @@ struct StationLogRecord {
   double odom[3] = {0, 0, 0};
   double truth[3] = {0, 0, 0};
   int has_truth = 0;
+  double force_gain = 1.0;          // the stale-model fade (1: fresh)
 };
 const char* station_log_header();
 std::size_t format_station_log_record(const StationLogRecord& r, char* buf, std::size_t size);
@@ -117,7 +127,8 @@ struct OperatorView {
   math::Pose2 T_W_R;          // predicted robot pose in W
   std::int64_t t_ns = 0;      // the tick's time
   math::Mode mode = math::Mode::kExploration;
-  bool valid = false;         // false until the model has a RobotState
+  bool valid = false;         // false until the model has a RobotState, and while it is stale
+  std::uint64_t resyncs = 0;  // robot restarts taken in: a closed-loop hand restarts its task from the robot's state
 };
 
 struct OperatorTaskParams {
@@ -162,6 +173,7 @@ class OperatorServoTask final : public servo::ServoTask {
   const math::Pose2& robot_pose() const noexcept { return T_W_R_; }
   std::uint64_t mode_switches() const noexcept { return switches_; }
   std::uint64_t estop_presses() const noexcept { return estop_presses_; }
+  double force_gain() const noexcept { return force_gain_; }
   // True while motion is held (see "Motion hold" above).
   bool motion_held() const noexcept { return held_; }
   std::uint64_t motion_holds() const noexcept { return holds_; }  // holds begun
@@ -187,6 +199,8 @@ class OperatorServoTask final : public servo::ServoTask {
   std::uint64_t estop_presses_ = 0;
   bool first_ = true;
   std::uint64_t switches_ = 0;
+  double force_gain_ = 1.0;         // stale-model fade
+  std::uint64_t resyncs_seen_ = 0;
   bool held_ = true;
   bool hold_moved_ = false, hold_neutral_ = false;
   Eigen::Vector3d hold_ref_B_ = Eigen::Vector3d::Zero();

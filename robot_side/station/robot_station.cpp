@@ -6,6 +6,7 @@
 #include <atomic>
 #include <chrono>
 #include <mutex>
+#include <random>
 #include <sstream>
 #include <vector>
 
@@ -177,6 +178,8 @@ std::string to_summary(const RobotStationStatistics& s) {
 
 RobotStation::RobotStation(asio::io_context& io, RobotServer& server, RobotStationOptions o)
     : io_(io), server_(server), o_(o), shared_(std::make_shared<Shared>()) {
+  std::random_device rd;
+  while (frame_epoch_ == 0) frame_epoch_ = (static_cast<uint64_t>(rd()) << 32) ^ rd();
   shared_->server = &server_;
   shared_->io = &io_;
 }
@@ -482,6 +485,7 @@ void RobotStation::run() {
       if (streaming) {
         wire::StreamMessage m;
         to_wire(st, m.mutable_robot_state());
+        m.mutable_robot_state()->set_frame_epoch(frame_epoch_);
         asio::post(io_, [sp, m = std::move(m)] {
           Shared& s = *sp;
           if (!s.server->link_up()) return;
@@ -499,6 +503,7 @@ void RobotStation::run() {
       for (const RangeScanData& scan : scans) {
         std::vector<wire::StreamMessage> msgs;
         for (wire::RangeScan& chunk : to_wire_chunks(scan, o_.max_scan_payload_bytes)) {
+          chunk.set_frame_epoch(frame_epoch_);
           msgs.emplace_back();
           *msgs.back().mutable_range_scan() = std::move(chunk);
         }

@@ -126,6 +126,9 @@ class RobotStation {
   bool sonar_enabled() const { return sonar_on_; }
   int64_t timestep_ns() const { return robot_.timestep_ns(); }
   const RobotStationOptions& options() const { return o_; }
+  // Random, non-zero, fixed for this station's life (its odometry frame W):
+  // sent with every state and scan, so the operator knows a restarted robot.
+  uint64_t frame_epoch() const { return frame_epoch_; }
 
   struct Shared;  // state shared with the network thread (robot_station.cpp)
 
@@ -140,6 +143,7 @@ class RobotStation {
   std::shared_ptr<Shared> shared_;
   std::thread thread_;
   bool attached_ = false;
+  uint64_t frame_epoch_ = 0;
 };
 
 }  // namespace hemm::robot

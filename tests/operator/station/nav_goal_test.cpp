@@ -254,6 +254,36 @@ TEST(NavGoalHand, MovesTheStylusAtBoundedSpeedAndFollowsTheRoute) {
   EXPECT_NEAR(hand.first_arrival_s(), 4.001, 1e-9);
 }
 
+// Issue 9 item 8: the hand's route progress follows the robot, not a model
+// that went stale: it never advances while the view is invalid, and when the
+// robot restarted (view.resyncs) the route starts again from where the new
+// robot is.
+TEST(NavGoalHand, RouteProgressIsResynchronisedFromTheRestartedRobot) {
+  auto view = std::make_shared<ho::OperatorView>();
+  ho::NavGoalParams p;
+  ho::NavGoalHand hand(view, {{1.2, 0.0}, {1.0, -0.7}}, p);
+  *view = view_at(0.6, 0.0, 0.0);
+  hand.at(0.001);
+  EXPECT_EQ(hand.goal_index(), 0u);
+  // The model went stale: its extrapolated pose passes the first goal, but
+  // the view is invalid: no progress, stylus to the centre.
+  *view = view_at(1.2, 0.0, 0.0);
+  view->valid = false;
+  for (int i = 2; i <= 1000; ++i) hand.at(i * 0.001);
+  EXPECT_EQ(hand.goal_index(), 0u);
+  EXPECT_TRUE(hand.at(1.001).position_H.isZero(1e-12));
+  // The old robot had passed it before it died...
+  *view = view_at(1.1, 0.0, 0.0);
+  hand.at(1.002);
+  EXPECT_EQ(hand.goal_index(), 1u);
+  // ... and the restarted robot stands at the start of the route: back to the first goal.
+  *view = view_at(0.0, 0.0, 0.0);
+  view->resyncs = 1;
+  hand.at(1.003);
+  EXPECT_EQ(hand.goal_index(), 0u);
+  EXPECT_FALSE(hand.arrived());
+}
+
 // ---------------------------------------------------------------- closed loop
 
 // home.xml's obstacles near the route, as the 2D footprints the base must not

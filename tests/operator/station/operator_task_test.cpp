@@ -317,6 +317,95 @@ TEST(EStop, BothButtonsTogetherAreAnEStopAndSwitchNoMode) {
   EXPECT_EQ(r.task.mode(), hm::Mode::kExploration);
 }
 
+// Issue 9 item 8: a model going stale (no robot data: the robot died, the
+// link went) fades its force to zero over fade_s, never in one tick, and the
+// robot is held; fresh data brings the force back at the same bounded rate.
+TEST(StaleModel, ForceFadesWithoutAStepAndTheRobotIsHeld) {
+  ho::OperatorTaskParams p;
+  p.initial_mode = hm::Mode::kNavigation;
+  p.navigation_point_origin_R = Eigen::Vector3d::Zero();
+  Runner r(p);
+  // Wall x = 0.76 ahead of the robot; data stamped at t = 0, fresh for 1 s, fade 1 s.
+  auto stale = wall_snapshot({0.76, -3}, {0.76, 3}, {-1, 0}, {0, 0, 0});
+  stale->have_data = true;
+  stale->data_stamp_ns = 0;
+  stale->stale_after_ns = 1'000'000'000;
+  stale->fade_ns = 1'000'000'000;
+  // Stylus 30 mm forward: the navigation point 0.75 m ahead, 0.02 m past the
+  // proxy's stop at the wall (0.24 N, under the continuous rating's ramp).
+  std::vector<double> f;
+  std::vector<bool> moves;
+  for (int i = 1; i <= 3000; ++i) {
+    const hs::TickOutput out = r.tick(*stale, H(std::min(1.0, i / 300.0) * 0.030, 0, 0));
+    f.push_back(out.command.ee[0].force_H.norm());
+    moves.push_back(r.task.last_setpoint().moves_robot);
+  }
+  const double f0 = f[899];  // t = 0.9 s: still fresh
+  EXPECT_NEAR(f0, 300.0 * 0.02 / 25.0, 0.01);
+  EXPECT_TRUE(moves[899]);
+  EXPECT_NEAR(f[1499], 0.5 * f0, 0.03 * f0);  // halfway through the fade
+  EXPECT_LT(f[2000], 1e-9);                   // gone by stale_after + fade
+  double max_step = 0.0;
+  for (std::size_t i = 600; i < f.size(); ++i) max_step = std::max(max_step, std::abs(f[i] - f[i - 1]));
+  EXPECT_LT(max_step, 1.2 * f0 * 1e-3) << "a step in the force";  // <= f0 per ms of fade
+  for (std::size_t i = 1001; i < moves.size(); ++i) ASSERT_FALSE(moves[i]) << "moves at tick " << i;
+  EXPECT_EQ(r.task.force_gain(), 0.0);
+  // Fresh data again: the force comes back over the fade time, no step; the
+  // robot stays held until the hand moves.
+  auto fresh = wall_snapshot({0.76, -3}, {0.76, 3}, {-1, 0}, {0, 0, 0});
+  fresh->have_data = true;
+  fresh->data_stamp_ns = r.t;
+  fresh->stale_after_ns = 10'000'000'000;
+  fresh->fade_ns = 1'000'000'000;
+  std::vector<double> g;
+  for (int i = 0; i < 1200; ++i) {
+    g.push_back(r.tick(*fresh, H(0.030, 0, 0)).command.ee[0].force_H.norm());
+    ASSERT_FALSE(r.task.last_setpoint().moves_robot);
+  }
+  max_step = 0.0;
+  for (std::size_t i = 1; i < g.size(); ++i) max_step = std::max(max_step, std::abs(g[i] - g[i - 1]));
+  EXPECT_LT(max_step, 1.2 * f0 * 1e-3);
+  EXPECT_NEAR(g[499], 0.5 * f0, 0.05 * f0);
+  EXPECT_NEAR(g.back(), f0, 0.02 * f0);
+}
+
+// Issue 9 item 8: while a restarted robot is taken in (resyncing) the force
+// is faded out and the robot held; when its map takes over, the view counts
+// the resync (the closed-loop hand restarts its route from it).
+TEST(StaleModel, ARobotRestartFadesHoldsAndIsCountedInTheView) {
+  ho::OperatorTaskParams p;
+  p.initial_mode = hm::Mode::kNavigation;
+  ho::OperatorView view;
+  ho::OperatorServoTask task(p, nullptr, &view);
+  auto tick = [&](const hs::ModelSnapshot& m, std::int64_t t, const Eigen::Vector3d& p_H) {
+    hd::DeviceSample s;
+    s.t_ns = t;
+    s.ee[0].position_H = p_H;
+    hs::TickOutput out;
+    task.tick(s, m, out);
+    return out;
+  };
+  auto snap = wall_snapshot({20, -3}, {20, 3}, {-1, 0}, {0, 0, 0});
+  snap->have_data = true;
+  snap->data_stamp_ns = 0;
+  snap->stale_after_ns = 10'000'000'000;
+  snap->resyncing = true;
+  for (int i = 1; i <= 1500; ++i) tick(*snap, i * 1'000'000LL, H(0.01 * std::min(1.0, i / 100.0), 0, 0));
+  EXPECT_EQ(task.force_gain(), 0.0);
+  EXPECT_FALSE(task.last_setpoint().moves_robot);
+  EXPECT_FALSE(view.valid);
+  EXPECT_EQ(view.resyncs, 0u);
+  auto taken = wall_snapshot({20, -3}, {20, 3}, {-1, 0}, {0, 0, 0});
+  taken->have_data = true;
+  taken->data_stamp_ns = 1'500'000'000;
+  taken->stale_after_ns = 10'000'000'000;
+  taken->resyncs = 1;
+  tick(*taken, 1'501'000'000, H(0.01, 0, 0));
+  EXPECT_TRUE(view.valid);
+  EXPECT_EQ(view.resyncs, 1u);
+  EXPECT_FALSE(task.last_setpoint().moves_robot);  // held until the hand moves again
+}
+
 TEST(Manipulation, ArmTargetFollowsTheProxyInR) {
   ho::OperatorTaskParams p;
   p.initial_mode = hm::Mode::kManipulation;
