@@ -32,7 +32,9 @@ std::string with_robot_json(std::string link_json, const robot::RobotStationStat
   if (close == std::string::npos) return link_json;
   std::string out = link_json.substr(0, close);
   while (!out.empty() && (out.back() == '\n' || out.back() == ' ')) out.pop_back();
-  return out + ",\n  \"robot\": " + robot::to_json(rs, "  ") + "\n}\n";
+  std::string robot = robot::to_json(rs);
+  while (!robot.empty() && robot.back() == '\n') robot.pop_back();
+  return out + ",\n  \"robot\": " + robot + "\n}\n";
 }
 
 int run(int argc, char** argv) {

@@ -29,6 +29,10 @@
 #include "operator/station/command_sender.h"
 #include "operator/station/operator_task.h"
 
+namespace hemm::report {
+class OperatorStation;  // report.pb.h
+}  // namespace hemm::report
+
 namespace hemm::op {
 
 struct OperatorStationOptions {
@@ -78,8 +82,10 @@ struct OperatorStationSummary {
   double goal_distance_m = -1.0;
 };
 std::string to_string(const OperatorStationSummary& s);
-// The summary as one JSON object (units in the keys; non-finite numbers as
-// null). Keys: see operator_station.cpp, to_json.
+// The summary as a report message (proto/report.proto: units in the keys;
+// unknown values left out) and as its JSON (protobuf's printer, see
+// config::to_json: 64-bit counters are quoted, non-finite numbers "NaN").
+report::OperatorStation to_report(const OperatorStationSummary& s);
 std::string to_json(const OperatorStationSummary& s);
 
 class OperatorStation {

@@ -10,9 +10,11 @@
 #include <sstream>
 #include <vector>
 
+#include "common/config/config.h"
 #include "common/net/mailbox.h"
 #include "common/net/station_cli.h"
 #include "config_robot.pb.h"
+#include "report.pb.h"
 #include "robot_side/sim/realtime.h"
 
 namespace hemm::robot {
@@ -98,44 +100,39 @@ void queue_request(const SharedPtr& sh, Request r) {
 
 }  // namespace
 
-std::string to_json(const RobotStationStatistics& s, const std::string& indent) {
-  std::ostringstream os;
-  os << "{";
-  bool first = true;
-  auto f = [&](const char* k, auto v) {
-    os << (first ? "\n" : ",\n") << indent << "  \"" << k << "\": " << v;
-    first = false;
-  };
-  f("sim_steps", s.sim_steps);
-  f("late_steps", s.late_steps);
-  f("resyncs", s.resyncs);
-  f("contact_steps", s.contact_steps);
-  f("guard_states", s.guard_states);
-  f("max_lateness_ns", s.max_lateness_ns);
-  f("mean_lateness_ns", s.mean_lateness_ns);
-  f("commands_received", s.commands_received);
-  f("commands_without_control", s.commands_without_control);
-  f("commands_malformed", s.commands_malformed);
-  f("commands_mode_mismatch", s.commands_mode_mismatch);
-  f("commands_applied", s.commands_applied);
-  f("commands_rejected", s.commands_rejected);
-  f("arm_refused_floor", s.arm_refused_floor);
-  f("arm_refused_base", s.arm_refused_base);
-  f("arm_refused_scene", s.arm_refused_scene);
-  f("states_sent", s.states_sent);
-  f("scans_sent", s.scans_sent);
-  f("scan_chunks_sent", s.scan_chunks_sent);
-  f("send_failures", s.send_failures);
-  f("mode_changes", s.mode_changes);
-  f("estop_changes", s.estop_changes);
-  f("requests_refused", s.requests_refused);
-  f("estop", s.estop ? "true" : "false");
-  f("estop_local", s.estop_local ? "true" : "false");
-  f("mode", s.mode);
-  f("safety", s.safety);
-  os << "\n" << indent << "}";
-  return os.str();
+report::RobotStation to_report(const RobotStationStatistics& s) {
+  report::RobotStation r;
+  r.set_sim_steps(s.sim_steps);
+  r.set_late_steps(s.late_steps);
+  r.set_resyncs(s.resyncs);
+  r.set_contact_steps(s.contact_steps);
+  r.set_guard_states(s.guard_states);
+  r.set_max_lateness_ns(s.max_lateness_ns);
+  r.set_mean_lateness_ns(s.mean_lateness_ns);
+  r.set_commands_received(s.commands_received);
+  r.set_commands_without_control(s.commands_without_control);
+  r.set_commands_malformed(s.commands_malformed);
+  r.set_commands_mode_mismatch(s.commands_mode_mismatch);
+  r.set_commands_applied(s.commands_applied);
+  r.set_commands_rejected(s.commands_rejected);
+  r.set_arm_refused_floor(s.arm_refused_floor);
+  r.set_arm_refused_base(s.arm_refused_base);
+  r.set_arm_refused_scene(s.arm_refused_scene);
+  r.set_states_sent(s.states_sent);
+  r.set_scans_sent(s.scans_sent);
+  r.set_scan_chunks_sent(s.scan_chunks_sent);
+  r.set_send_failures(s.send_failures);
+  r.set_mode_changes(s.mode_changes);
+  r.set_estop_changes(s.estop_changes);
+  r.set_requests_refused(s.requests_refused);
+  r.set_estop(s.estop);
+  r.set_estop_local(s.estop_local);
+  r.set_mode(s.mode);
+  r.set_safety(s.safety);
+  return r;
 }
+
+std::string to_json(const RobotStationStatistics& s) { return config::to_json(to_report(s)); }
 
 std::string to_log_fields(const RobotStationStatistics& s) {
   std::ostringstream os;

@@ -40,6 +40,10 @@
 #include "robot_side/sim/simulated_robot.h"
 #include "robot_side/sim/wire_convert.h"
 
+namespace hemm::report {
+class RobotStation;  // report.pb.h
+}  // namespace hemm::report
+
 namespace hemm::config {
 class RobotConfig;
 }
@@ -86,8 +90,10 @@ struct RobotStationStatistics {
   uint32_t safety = 0;                   // newest state's SafetyFlags
 };
 
-// {"sim_steps": ..., ...} on one line per field, no trailing newline.
-std::string to_json(const RobotStationStatistics& s, const std::string& indent = "  ");
+// The statistics as a report message (proto/report.proto) and as its JSON
+// (protobuf's printer, see config::to_json; ends with a newline).
+report::RobotStation to_report(const RobotStationStatistics& s);
+std::string to_json(const RobotStationStatistics& s);
 // key=value fields on one line.
 std::string to_log_fields(const RobotStationStatistics& s);
 // A human-readable multi-line summary (ends with a newline).

@@ -117,7 +117,8 @@ bool wait_for_text(const std::string& path, const std::string& needle, std::chro
 }
 
 std::optional<double> json_number(const std::string& json, const std::string& key) {
-  const std::regex re("\"" + key + "\"\\s*:\\s*(-?[0-9.eE+-]+|true|false)");
+  // Quoted numbers too: protobuf's JSON prints 64-bit integers as strings.
+  const std::regex re("\"" + key + "\"\\s*:\\s*\"?(-?[0-9.eE+-]+|true|false)");
   std::smatch m;
   if (!std::regex_search(json, m, re)) return std::nullopt;
   if (m[1] == "true") return 1.0;
