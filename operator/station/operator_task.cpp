@@ -130,7 +130,9 @@ void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelS
   // button at start-up is not a press). Both down is the e-stop.
   constexpr std::uint32_t kBoth = device::kButton1 | device::kButton2;
   const std::uint32_t buttons = in.ee[0].handle.buttons;
-  const std::uint32_t rising = first_ ? 0u : (buttons & ~buttons_prev_);
+  const std::uint32_t pressed =
+      view_presses_ != nullptr ? view_presses_->exchange(0, std::memory_order_relaxed) : 0u;
+  const std::uint32_t rising = first_ ? 0u : ((buttons & ~buttons_prev_) | pressed);
   const bool estop_press = !first_ && (buttons & kBoth) == kBoth && (buttons_prev_ & kBoth) != kBoth;
   buttons_prev_ = buttons;
   if (estop_press) {
@@ -211,7 +213,7 @@ void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelS
     view_->resyncs = resyncs_seen_;
   }
 
-  if (log_ != nullptr) {
+  if (log_ != nullptr || view_ticks_ != nullptr) {
     StationLogRecord r;
     r.t_ns = in.t_ns;
     r.mode = out.mode;
@@ -242,7 +244,8 @@ void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelS
       r.truth[2] = st.T_W_R_truth.theta;
       r.has_truth = st.has_truth ? 1 : 0;
     }
-    log_->push(r);
+    if (log_ != nullptr) log_->push(r);
+    if (view_ticks_ != nullptr) view_ticks_->put(r);
   }
 }
 
