@@ -3,11 +3,13 @@
 #include <google/protobuf/descriptor.h>
 #include <google/protobuf/io/tokenizer.h>
 #include <google/protobuf/text_format.h>
+#include <google/protobuf/util/json_util.h>
 
 #include <filesystem>
 #include <fstream>
 #include <memory>
 #include <sstream>
+#include <stdexcept>
 
 #include "config_operator.pb.h"
 #include "config_robot.pb.h"
@@ -228,6 +230,17 @@ std::string resolve_relative_to(const std::string& config_path, const std::strin
   std::filesystem::path p(path);
   if (p.is_absolute()) return path;
   return (std::filesystem::path(config_path).parent_path() / p).lexically_normal().string();
+}
+
+std::string to_json(const google::protobuf::Message& report) {
+  google::protobuf::util::JsonPrintOptions o;
+  o.add_whitespace = true;
+  o.always_print_primitive_fields = true;
+  o.preserve_proto_field_names = true;
+  std::string out;
+  if (const auto st = google::protobuf::util::MessageToJsonString(report, &out, o); !st.ok())
+    throw std::runtime_error("cannot print " + report.GetTypeName() + " as JSON: " + st.ToString());
+  return out;  // add_whitespace ends it with a newline
 }
 
 }  // namespace hemm::config

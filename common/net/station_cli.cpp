@@ -1,5 +1,7 @@
 #include "common/net/station_cli.h"
 
+#include <CLI/CLI.hpp>
+#include <unistd.h>
 #include <google/protobuf/stubs/logging.h>
 #include <asio.hpp>
 #include <spdlog/sinks/stdout_sinks.h>
@@ -10,6 +12,9 @@
 #include <iostream>
 
 #include "common/config/config.h"
+#include "common/net/exit_codes.h"
+#include "common/net/handshake.h"
+#include "common/net/station_control.h"
 #include "config_link.pb.h"
 
 namespace hemm::net {
@@ -28,6 +33,12 @@ bool setup_station_logging(const std::string& station, const std::string& level)
     spdlog::debug("event=protobuf_log message=\"{}\"", msg);
   });
   return true;
+}
+
+std::string printable_text(const std::string& s) {
+  std::string out;
+  for (char c : truncate_text(s, kMaxReasonBytes)) out.push_back((c >= 0x20 && c <= 0x7e && c != '"') ? c : '_');
+  return out;
 }
 
 bool write_text_file(const std::string& path, const std::string& text, std::string* error) {
@@ -100,6 +111,49 @@ void apply_link_config(const config::LinkConfig& link, const Key& psk, LinkOptio
   out->replay_window = link.replay_window();
   out->stale_margin_ms = link.stale_margin_ms();
   out->rtt_ms = link.rtt_ms();
+}
+
+void add_station_control_options(CLI::App& app, const std::string& station, StationControlOptions* out) {
+  app.add_option("--control-socket", out->socket,
+                 "listen on this Unix socket (owner-only) for the e-stop: `" + station +
+                     " estop|release|status --control-socket PATH`");
+  app.add_flag("--no-keys", out->no_keys,
+               "do not read e-stop keys from the terminal (by default, when stdin is a terminal: space or e engages "
+               "the e-stop, R releases it)");
+  struct Sub {
+    const char* name;
+    const char* help;
+  };
+  for (const Sub& c : {Sub{"estop", "engage the e-stop of a running "}, Sub{"release", "release the e-stop of a running "},
+                       Sub{"status", "print the session and e-stop state of a running "}}) {
+    CLI::App* sub = app.add_subcommand(c.name, c.help + station + " through its --control-socket");
+    sub->footer("Exit codes: 0 done, 6 refused (the reply says why), 7 no station answered on the socket.");
+    sub->add_option("--control-socket", out->command_socket, "the running station's --control-socket path")
+        ->required();
+    sub->callback([out, name = std::string(c.name)] { out->command = name; });
+  }
+}
+
+void start_estop_keys(TerminalKeys& keys, const StationControlOptions& o) {
+  if (o.no_keys || !::isatty(STDIN_FILENO)) return;
+  std::string error;
+  if (keys.start(&error)) {
+    spdlog::info("event=estop_keys keys=\"space or e: e-stop, R: release\"");
+  } else {
+    spdlog::warn("event=estop_keys_off reason=\"{}\"", error);
+  }
+}
+
+int run_control_command(const std::string& program, const StationControlOptions& o) {
+  std::string error;
+  // The operator's station waits for the robot's Ack (up to 5 s) before it replies.
+  const auto reply = control_request(o.command_socket, o.command, std::chrono::milliseconds(8000), &error);
+  if (!reply) {
+    std::cerr << program << ": " << error << "\n";
+    return kExitPeerLost;
+  }
+  std::cout << *reply << std::endl;
+  return reply->rfind("ok", 0) == 0 ? kExitOk : kExitRefused;
 }
 
 }  // namespace hemm::net

@@ -11,12 +11,19 @@
 namespace hemm::config {
 class LinkConfig;
 }
+namespace CLI {
+class App;
+}
 
 namespace hemm::net {
 
 // Logs go to stderr, one line per event: "<time> level=<l> station=<name> event=... key=value ...".
 // Returns false if `level` is not a spdlog level name.
 bool setup_station_logging(const std::string& station, const std::string& level);
+
+// Peer- or user-supplied text for a log line or a reply: at most
+// kMaxReasonBytes, printable ASCII, no double quotes (each other byte '_').
+std::string printable_text(const std::string& s);
 
 // Writes `text` to `path` atomically enough for tests (write + rename).
 bool write_text_file(const std::string& path, const std::string& text, std::string* error);
@@ -38,5 +45,23 @@ bool is_loopback_address(const std::string& address);
 // The link section of a station's config (with its key) into the options
 // both stations share.
 void apply_link_config(const config::LinkConfig& link, const Key& psk, LinkOptions* out);
+
+// Local control of a running station (station_control.h): the options
+// --control-socket PATH (listen for e-stop commands there) and --no-keys
+// (no e-stop keys from the terminal), and the subcommands `estop`,
+// `release` and `status`, each with --control-socket PATH, which send that
+// command to a running station instead of starting one.
+struct StationControlOptions {
+  std::string socket;     // --control-socket: empty, none
+  bool no_keys = false;   // --no-keys
+  std::string command;    // a subcommand given: run it, not the station
+  std::string command_socket;
+};
+void add_station_control_options(CLI::App& app, const std::string& station, StationControlOptions* out);
+// Starts the e-stop keys (space or e: engage, R: release) when stdin is a
+// terminal and --no-keys was not given; logs which.
+class TerminalKeys;
+void start_estop_keys(TerminalKeys& keys, const StationControlOptions& o);
+int run_control_command(const std::string& program, const StationControlOptions& o);
 
 }  // namespace hemm::net

@@ -14,8 +14,11 @@ namespace hemm::test {
 
 class ChildProcess {
  public:
-  // Starts argv[0] with stdout/stderr redirected to the given files.
-  ChildProcess(std::vector<std::string> argv, const std::string& stdout_path, const std::string& stderr_path);
+  // Starts argv[0] with stdout/stderr redirected to the given files and
+  // stdin from stdin_path (never the test's own terminal: a station reads
+  // keys from a terminal on stdin).
+  ChildProcess(std::vector<std::string> argv, const std::string& stdout_path, const std::string& stderr_path,
+               const std::string& stdin_path = "/dev/null");
   ~ChildProcess();  // SIGKILL + reap if still running
   ChildProcess(const ChildProcess&) = delete;
   ChildProcess& operator=(const ChildProcess&) = delete;

@@ -259,10 +259,11 @@ hw::SessionFrame mode_change(hw::Mode mode, uint64_t id) {
   return f;
 }
 
-hw::SessionFrame estop_frame(bool engaged) {
+hw::SessionFrame estop_frame(bool engaged, uint64_t request_id = 0) {
   hw::SessionFrame f;
   f.mutable_estop()->set_engaged(engaged);
   f.mutable_estop()->set_reason("test");
+  f.mutable_estop()->set_request_id(request_id);
   return f;
 }
 
@@ -602,6 +603,48 @@ TEST(RobotStationLoopback, EStopStopsBaseAndReleaseAllowsMotion) {
   EXPECT_TRUE(wait_until([&] { auto s = op.last_state(); return s && s->v() > 0.25; }, 2.0));
   EXPECT_EQ(op.last_state()->safety() & hw::SAFETY_ESTOP, 0u);
   EXPECT_EQ(robot.station->statistics().estop_changes, 2u);
+}
+
+// Issue 9 item 9: the e-stop's Ack names its request, and the robot station
+// has its own e-stop: while it is engaged the robot stays stopped, the
+// operator cannot release it (refused, named), and only the robot releases it.
+TEST(RobotStationLoopback, EStopAckNamesTheRequestAndTheRobotsOwnEStopIsReleasedOnlyThere) {
+  RobotSide robot(test_config());
+  robot.start();
+  FakeOperator op(robot.server->session_port(), true);
+  ASSERT_TRUE(op.wait_connected());
+  op.set_command(nav_command(kSpeed));
+  ASSERT_TRUE(wait_until([&] { auto s = op.last_state(); return s && s->v() > 0.25; }, 3.0));
+
+  // Operator e-stop with a request id: the Ack carries it.
+  op.send_frame(estop_frame(true, 41));
+  ASSERT_TRUE(wait_until([&] { return op.ack_for(41).has_value(); }, 2.0));
+  EXPECT_TRUE(op.ack_for(41)->ok());
+  EXPECT_EQ(op.ack_for(41)->reason(), "e-stop engaged");
+  op.send_frame(estop_frame(false, 42));
+  ASSERT_TRUE(wait_until([&] { return op.ack_for(42).has_value(); }, 2.0));
+  EXPECT_TRUE(op.ack_for(42)->ok());
+  ASSERT_TRUE(wait_until([&] { auto s = op.last_state(); return s && s->v() > 0.25; }, 2.0));
+
+  // The robot's own e-stop: stopped, reported to the operator.
+  robot.station->local_estop(true, "test key");
+  ASSERT_TRUE(wait_until([&] { auto s = op.last_state(); return s && std::abs(s->v()) < 0.01; }, 1.5));
+  EXPECT_TRUE(robot.station->statistics().estop);
+  EXPECT_TRUE(robot.station->statistics().estop_local);
+  ASSERT_TRUE(wait_until([&] { return op.estop_reports(true) == 2; }, 1.0));
+  // The operator cannot release it: refused, by its request id.
+  op.send_frame(estop_frame(false, 43));
+  ASSERT_TRUE(wait_until([&] { return op.ack_for(43).has_value(); }, 2.0));
+  EXPECT_FALSE(op.ack_for(43)->ok());
+  EXPECT_NE(op.ack_for(43)->reason().find("at the robot"), std::string::npos) << op.ack_for(43)->reason();
+  sleep_s(0.3);
+  EXPECT_LT(std::abs(op.last_state()->v()), 0.01);
+  EXPECT_NE(op.last_state()->safety() & hw::SAFETY_ESTOP, 0u);
+  // Released at the robot: motion resumes (the operator never engaged it).
+  robot.station->local_estop(false, "test key");
+  EXPECT_TRUE(wait_until([&] { auto s = op.last_state(); return s && s->v() > 0.25; }, 2.0));
+  EXPECT_FALSE(robot.station->statistics().estop_local);
+  EXPECT_EQ(robot.station->statistics().estop_changes, 4u);
 }
 
 // Link loss: the operator's UDP goes away without Bye while it commands
