@@ -27,7 +27,9 @@ std::string to_string(const OperatorStationSummary& s) {
     << " scans_dropped=" << s.model.scans_dropped << " states_in=" << s.model.states_in
     << " states_rejected=" << s.model.states_rejected << " snapshots=" << s.model.snapshots << "\n"
     << "registration: accepted=" << s.model.registration.accepted << " rejected=" << s.model.registration.rejected
-    << " degenerate=" << s.model.registration.degenerate << " last_rms_m=" << s.model.registration.last_rms
+    << " degenerate=" << s.model.registration.degenerate << " limited=" << s.model.registration.limited
+    << " last_rms_m=" << s.model.registration.last_rms << " max_rms_m=" << s.model.registration.max_rms
+    << " max_step_m=" << s.model.registration.max_step
     << " correction=(" << s.model.registration.correction.x << ", " << s.model.registration.correction.y << ", "
     << s.model.registration.correction.theta << ")\n"
     << "commands: sent=" << s.commands.commands_sent << " failures=" << s.commands.send_failures
@@ -123,15 +125,21 @@ std::string to_json(const OperatorStationSummary& s) {
     m.u("commands_dropped", s.model.commands_dropped);
     m.u("snapshots", s.model.snapshots);
     m.u("freed", s.model.freed);
-    // Scan registration: how often a correction was accepted, its last fit
-    // (point-to-line RMS, m) and step (m), and the correction itself (map
-    // frame from odometry's: x, y in m, theta in rad).
+    // Scan registration: how often a correction was accepted (limited: its
+    // step cut to the correction rate), its fit (point-to-line RMS, m; share
+    // of returns matched) and step (m, as applied), and the correction itself
+    // (map frame from odometry's: x, y in m, theta in rad), which places the
+    // scans and makes the published pose alike.
     m.u("registration_attempted", s.model.registration.attempted);
     m.u("registration_accepted", s.model.registration.accepted);
     m.u("registration_rejected", s.model.registration.rejected);
     m.u("registration_degenerate", s.model.registration.degenerate);
+    m.u("registration_limited", s.model.registration.limited);
     m.d("registration_last_rms_m", s.model.registration.last_rms);
+    m.d("registration_max_rms_m", s.model.registration.max_rms);
+    m.d("registration_last_inlier_ratio", s.model.registration.last_inlier_ratio);
     m.d("registration_last_step_m", s.model.registration.last_step);
+    m.d("registration_max_step_m", s.model.registration.max_step);
     m.d("correction_x_m", s.model.registration.correction.x);
     m.d("correction_y_m", s.model.registration.correction.y);
     m.d("correction_theta_rad", s.model.registration.correction.theta);
