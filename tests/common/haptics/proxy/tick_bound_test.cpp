@@ -60,7 +60,9 @@ TEST(ProxyTickBound, DenseMapWorstCaseIsCappedAndTimed) {
               snap.segments.size(), p50, p99, mx, static_cast<unsigned long long>(d.max_work),
               static_cast<unsigned long long>(bound), static_cast<unsigned long long>(d.shrunk_queries));
   EXPECT_EQ(d.shrunk_queries, 4000u);  // the case is a hard one: every tick's query overflowed
-  EXPECT_LT(p50, 400.0);              // well inside the 1 ms period
+#ifndef HEMM_SANITIZE
+  EXPECT_LT(p50, 400.0);  // well inside the 1 ms period; sanitizers slow this 5-10x, so only the work bound holds there
+#endif
 }
 
 }  // namespace
