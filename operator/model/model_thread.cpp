@@ -22,9 +22,6 @@ ModelThread::ModelThread(servo::ModelChannel& channel, const ModelThreadParams& 
       history_(p.history) {
   if (std::string e = mapping::validate(p.map); !e.empty()) throw std::invalid_argument("ModelThread: " + e);
   if (std::string e = validate(p.registration); !e.empty()) throw std::invalid_argument("ModelThread: " + e);
-  if (!(p.correction_blend_speed > 0.0) || !(p.correction_blend_turn_rate > 0.0) ||
-      !std::isfinite(p.correction_blend_speed) || !std::isfinite(p.correction_blend_turn_rate))
-    throw std::invalid_argument("ModelThread: correction blend rates must be finite and > 0");
   if (!(p.rate_hz > 0.0 && p.rate_hz <= 1000.0)) throw std::invalid_argument("ModelThread: rate_hz outside (0, 1000]");
   if (!(p.fresh_s >= 0.0 && p.fade_s > 0.0 && p.fade_s < 60.0 && p.fresh_s < 60.0))
     throw std::invalid_argument("ModelThread: need fresh_s >= 0 and fade_s > 0 (both under a minute)");
@@ -55,7 +52,6 @@ ModelStats ModelThread::stats() const {
   s.freed = freed_.load();
   std::lock_guard<std::mutex> lock(stats_mutex_);  // never taken by the servo thread
   s.registration = reg_stats_;
-  s.correction_shown = shown_stats_;
   s.resyncs = resyncs_.load();
   s.old_epoch_dropped = old_epoch_dropped_.load();
   return s;
@@ -128,12 +124,15 @@ void ModelThread::step(std::int64_t now_ns) {
     if (r == Route::kDrop) continue;
     const bool next = r == Route::kNext;
     if (!e) {
-      // Placed by the corrected odometry, registered against the map. A
-      // restarted robot's scans (next) are in its new odometry frame and its
-      // map starts empty: placed by its odometry alone.
-      if (!next) localizer_.place(scan, map_);
-      std::string err = mapping::add_scan(p_.map, next ? next_map_ : map_, scan);
-      if (!err.empty()) e = std::move(err);
+      // Placed by the corrected odometry, registered against the map; the
+      // correction it ends with is the one the published pose uses, and a
+      // scan whose correction was cut to the rate limit is kept out of the
+      // map. A restarted robot's scans (next) are in its new odometry frame
+      // and its map starts empty: placed by its odometry alone.
+      if (next || !localizer_.place(scan, map_).limited) {
+        std::string err = mapping::add_scan(p_.map, next ? next_map_ : map_, scan);
+        if (!err.empty()) e = std::move(err);
+      }
     }
     if (e) {
       scans_rejected_.fetch_add(1);
@@ -155,14 +154,16 @@ void ModelThread::step(std::int64_t now_ns) {
     data_stamp_ns_ = next_data_stamp_ns_;
     have_data_ = next_have_data_;
     localizer_.restart();  // a new odometry frame: no correction yet
-    shown_ = math::Pose2{};
     retire(epoch_);
     epoch_ = next_epoch_;
     resyncing_ = false;
     resyncs_.fetch_add(1);
   }
 
-  blend_correction(now_ns);
+  {
+    std::lock_guard<std::mutex> lock(stats_mutex_);
+    reg_stats_ = localizer_.stats();
+  }
   auto snap = std::make_unique<OperatorModelSnapshot>();
   snap->stamp_ns = now_ns;
   snap->version = ++version_;
@@ -172,7 +173,7 @@ void ModelThread::step(std::int64_t now_ns) {
     snap->T_W_R = frozen_pose_;  // v = omega = 0: held where the old robot was last seen
     snap->state = state_;
   } else if (have_state_) {
-    PredictionInput in{math::compose(shown_, state_.T_W_R_odom), state_.stamp_local_ns, state_.v, state_.omega};
+    PredictionInput in{localizer_.correct(state_.T_W_R_odom), state_.stamp_local_ns, state_.v, state_.omega};
     snap->T_W_R = predict_pose(in, history_, delay, now_ns, p_.max_prediction_s);
     snap->state = state_;
     // The motion acting now: the newest command that reached the robot.
@@ -204,29 +205,6 @@ void ModelThread::step(std::int64_t now_ns) {
   channel_.publish(std::move(snap));  // also frees what the servo retired
   snapshots_.fetch_add(1);
   freed_.store(channel_.freed_by_collect());
-}
-
-void ModelThread::blend_correction(std::int64_t now_ns) {
-  const math::Pose2& target = localizer_.stats().correction;
-  const double dt = last_step_ns_ == 0 ? 0.0 : std::clamp(static_cast<double>(now_ns - last_step_ns_) * 1e-9, 0.0, 0.1);
-  last_step_ns_ = now_ns;
-  // Moves the shown correction toward the estimate at bounded speed. The
-  // correction's translation depends on its rotation about W's origin, so
-  // the blend is on the pose of the robot it maps: from shown * odom toward
-  // target * odom, then expressed back as a correction.
-  const math::Pose2 odom = have_state_ ? state_.T_W_R_odom : math::Pose2{};
-  const math::Pose2 from = math::compose(shown_, odom), to = math::compose(target, odom);
-  const Eigen::Vector2d d(to.x - from.x, to.y - from.y);
-  const double dth = math::wrap_angle(to.theta - from.theta);
-  const double max_d = p_.correction_blend_speed * dt, max_th = p_.correction_blend_turn_rate * dt;
-  const double dn = d.norm();
-  const Eigen::Vector2d step = dn > max_d ? Eigen::Vector2d(d * (max_d / dn)) : d;
-  const double th = std::clamp(dth, -max_th, max_th);
-  const math::Pose2 next{from.x + step.x(), from.y + step.y(), math::wrap_angle(from.theta + th)};
-  shown_ = math::compose(next, math::inverse(odom));
-  std::lock_guard<std::mutex> lock(stats_mutex_);
-  reg_stats_ = localizer_.stats();
-  shown_stats_ = shown_;
 }
 
 void ModelThread::start() {

@@ -54,7 +54,8 @@ namespace hemm::op {
 struct OperatorModelSnapshot final : servo::ModelSnapshot {
   mapping::MapSnapshot map;
   // Predicted robot pose at stamp_ns, in the map frame: odometry corrected by
-  // scan registration (the correction blended in, see ModelThreadParams).
+  // scan registration, with the very correction the map's scans were placed
+  // by (the robot and its map agree).
   math::Pose2 T_W_R;
   double v = 0.0;             // command acting at stamp_ns (for extrapolation)
   double omega = 0.0;
@@ -78,17 +79,7 @@ struct ModelThreadParams {
   std::size_t command_queue = 1024;      // power of two
   std::size_t history = 4096;            // sent commands kept for prediction
   double max_prediction_s = 2.0;
-  RegistrationParams registration;
-  // A registration correction reaches the published pose (and so the
-  // device's mapping and force) at most this fast, never as a step: at 50
-  // snapshots/s, 0.2 m/s is 4 mm per snapshot (0.16 mm of device travel at
-  // the navigation scale, 0.05 N at 300 N/m). Not slower: the map takes
-  // the full correction at once, so while the correction is still being
-  // blended in, the robot is drawn that far off the map; on the skid-steer
-  // base's slip during an approach (a few cm/s of correction), 0.05 m/s left
-  // the robot 2 cm nearer the wall than it was shown (the Fig. 8 run).
-  double correction_blend_speed = 0.2;       // m/s
-  double correction_blend_turn_rate = 0.3;   // rad/s
+  RegistrationParams registration;  // its correction-rate limit keeps the force smooth
   double fresh_s = 0.25;   // model age beyond the one-way delay that still counts as fresh
   double fade_s = 1.0;     // a going-stale model's force fades to zero over this
 };
@@ -102,8 +93,7 @@ struct ModelStats {
   std::uint64_t commands_dropped = 0;
   std::uint64_t snapshots = 0;
   std::uint64_t freed = 0;
-  LocalizerStats registration;   // scan registration: counts, last fit, the correction
-  math::Pose2 correction_shown;  // the blended correction the published pose uses
+  LocalizerStats registration;   // scan registration: counts, fit, the correction (scans and pose)
   std::uint64_t resyncs = 0;          // robot restarts (new frame epochs) taken in
   std::uint64_t old_epoch_dropped = 0;  // states and scans of a robot that restarted
 };
@@ -142,7 +132,6 @@ class ModelThread {
 
  private:
   void run();
-  void blend_correction(std::int64_t now_ns);
 
   servo::ModelChannel& channel_;
   ModelThreadParams p_;
@@ -160,8 +149,6 @@ class ModelThread {
   // model-thread state
   mapping::LocalMap map_;
   Localizer localizer_;
-  math::Pose2 shown_;                   // blended correction (toward localizer_'s)
-  std::int64_t last_step_ns_ = 0;
   CommandHistory history_;
   RobotStateSample state_;
   bool have_state_ = false;
@@ -189,7 +176,6 @@ class ModelThread {
   // Registration figures for stats() (read from other threads).
   mutable std::mutex stats_mutex_;
   LocalizerStats reg_stats_;
-  math::Pose2 shown_stats_;
   std::atomic<bool> stop_{false};
   std::thread thread_;
 };

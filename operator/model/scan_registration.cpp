@@ -25,6 +25,11 @@ std::string validate(const RegistrationParams& p) {
   if (p.max_iterations < 1 || p.max_iterations > 200) return "registration: max_iterations in [1, 200]";
   if (p.min_points < 3 || p.min_target_points < 3) return "registration: min_points and min_target_points >= 3";
   if (p.min_inlier_ratio > 1.0 || p.min_constraint > 0.5) return "registration: ratio <= 1, min_constraint <= 0.5";
+  const double w[] = {p.correction_per_metre,      p.correction_per_radian, p.turn_correction_per_radian,
+                      p.turn_correction_per_metre, p.max_correction_speed,  p.max_correction_turn_rate,
+                      p.hold_out_translation,      p.hold_out_rotation};
+  for (double x : w)
+    if (!std::isfinite(x) || x < 0.0) return "registration: correction limits must be finite and >= 0";
   return {};
 }
 
@@ -263,20 +268,50 @@ RegistrationResult register_scan(const RegistrationParams& p, const mapping::Ran
     r.reason = "step too large";
     return r;
   }
-  // The motion found is about the sensor origin o: p' = R (p - o) + o + t.
-  // As a W transform: T = Trans(o + t) * Rot(yaw) * Trans(-o).
-  const math::Pose2 to_o{-o.x(), -o.y(), 0.0}, from_o{o.x() + tr.x(), o.y() + tr.y(), yaw};
-  r.delta = math::compose(from_o, to_o);
+  r.delta_about = Vector2d(o.x(), o.y());
+  r.translation = tr;
+  r.yaw = yaw;
+  r.delta = motion_about(r.delta_about, tr, yaw);
   r.accepted = true;
   return r;
+}
+
+math::Pose2 motion_about(const Vector2d& o, const Vector2d& t, double yaw) {
+  // p' = R (p - o) + o + t, as a W transform: Trans(o + t) * Rot(yaw) * Trans(-o).
+  const math::Pose2 to_o{-o.x(), -o.y(), 0.0}, from_o{o.x() + t.x(), o.y() + t.y(), yaw};
+  return math::compose(from_o, to_o);
 }
 
 Localizer::Localizer(const RegistrationParams& p) : p_(p) {}
 
 RegistrationResult Localizer::place(mapping::RangeScan2D& scan, const mapping::LocalMap& map) {
+  const math::Pose2 odom_pose = scan.T_W_R;
   scan.T_W_R = correct(scan.T_W_R);
   RegistrationResult r;
   if (!p_.enabled || scan.kind != mapping::SensorKind::kLaser) return r;
+  // The odometry's motion and the scan time since the previous laser scan
+  // bound the correction's change (a gap allows no more than 0.1 s worth);
+  // the chunks of one scan share its stamp and so its allowance; a scan older
+  // than the newest (reordered) may not change it at all.
+  if (scan.stamp_ns > budget_stamp_ns_) {
+    const math::Pose2& odom = odom_pose;
+    double ds = 0.0, dth = 0.0, dt = 0.1;
+    if (budget_stamp_ns_ != 0) {
+      ds = std::hypot(odom.x - budget_odom_.x, odom.y - budget_odom_.y);
+      dth = std::abs(math::wrap_angle(odom.theta - budget_odom_.theta));
+      dt = std::min(static_cast<double>(scan.stamp_ns - budget_stamp_ns_) * 1e-9, 0.1);
+    }
+    budget_stamp_ns_ = scan.stamp_ns;
+    budget_odom_ = odom;
+    budget_translation_ =
+        std::min(p_.max_correction_speed * dt, p_.correction_per_metre * ds + p_.correction_per_radian * dth);
+    budget_yaw_ = std::min(p_.max_correction_turn_rate * dt,
+                           p_.turn_correction_per_radian * dth + p_.turn_correction_per_metre * ds);
+  }
+  const bool older = scan.stamp_ns < budget_stamp_ns_;
+  double zero_t = 0.0, zero_yaw = 0.0;
+  double& allow_t = older ? zero_t : budget_translation_;
+  double& allow_yaw = older ? zero_yaw : budget_yaw_;
   if (!target_valid_) {
     target_.build(map, std::numeric_limits<std::int64_t>::max());
     target_valid_ = true;
@@ -290,10 +325,29 @@ RegistrationResult Localizer::place(mapping::RangeScan2D& scan, const mapping::L
   }
   ++stats_.accepted;
   if (r.degenerate) ++stats_.degenerate;
+  // The same fraction of the translation and the rotation, about the same
+  // point: the applied step is on the line to the found one.
+  const double tn = r.translation.norm();
+  double f = 1.0;
+  if (tn > allow_t) f = std::min(f, allow_t / tn);
+  if (std::abs(r.yaw) > allow_yaw) f = std::min(f, allow_yaw / std::abs(r.yaw));
+  allow_t = std::max(0.0, allow_t - f * tn);
+  allow_yaw = std::max(0.0, allow_yaw - f * std::abs(r.yaw));
+  if (f < 1.0) {
+    // Held out of the map only when what is left exceeds the laser's noise.
+    r.limited = (1.0 - f) * tn > p_.hold_out_translation || (1.0 - f) * std::abs(r.yaw) > p_.hold_out_rotation;
+    if (r.limited) ++stats_.limited;
+    r.delta = motion_about(r.delta_about, f * r.translation, f * r.yaw);
+  }
   stats_.last_rms = r.rms;
-  stats_.last_step = std::hypot(r.delta.x, r.delta.y);
+  stats_.last_inlier_ratio = r.inlier_ratio;
+  stats_.max_rms = std::max(stats_.max_rms, r.rms);
+  // The robot's own displacement by the step (not the sensor's).
+  const math::Pose2 moved = math::compose(r.delta, scan.T_W_R);
+  stats_.last_step = std::hypot(moved.x - scan.T_W_R.x, moved.y - scan.T_W_R.y);
+  stats_.max_step = std::max(stats_.max_step, stats_.last_step);
   stats_.correction = math::compose(r.delta, stats_.correction);
-  scan.T_W_R = math::compose(r.delta, scan.T_W_R);
+  scan.T_W_R = moved;
   return r;
 }
 

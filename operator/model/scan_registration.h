@@ -16,10 +16,19 @@
 // eigenvalue of the mean n n^T below min_constraint) is dropped rather than
 // let ICP slide the scan along the walls.
 //
-// The estimate is a correction T_M_W (map frame from odometry's world frame)
-// applied to every odometry pose: T_M_R = T_M_W * T_W_R_odom. Sonar scans and
-// the pose prediction use the same correction. Model thread only; PCL stays
-// in the .cpp.
+// The estimate is one correction T_M_W (map frame from odometry's world
+// frame) applied to every odometry pose: T_M_R = T_M_W * T_W_R_odom. Laser and
+// sonar scans are placed with it and the published (and predicted) pose is
+// made with it, so the robot and its map agree by construction. It changes
+// only by accepted registrations, each limited in proportion to the
+// odometry's motion since the previous scan (slip happens while moving) and
+// to the scan time (RegistrationParams): the step the force sees is bounded,
+// and at rest the estimate does not wander. A scan whose step was cut is
+// placed by the cut correction too; if what is left exceeds the laser's noise
+// it is held out of the map (RegistrationResult::limited) rather than drawing
+// the map after the odometry's error; the next scan's registration finds the
+// rest.
+// Model thread only; PCL stays in the .cpp.
 #pragma once
 
 #include <cstdint>
@@ -32,12 +41,7 @@
 namespace hemm::op {
 
 struct RegistrationParams {
-  // Off by default in the station for now: with it on, the Fig. 8 run
-  // (nav-to-wall) ended 2 cm nearer the wall, in the collision guard, with
-  // the command creeping -- the published pose takes the correction blended
-  // (correction_blend_speed) while new scans take it at once, so during an
-  // approach the robot is drawn off its map. To be resolved before it is on.
-  bool enabled = false;
+  bool enabled = true;
   double max_correspondence = 0.15;  // m: nearest map point farther than this is not a match
   int max_iterations = 30;
   int min_points = 30;               // scan returns needed to try
@@ -47,6 +51,24 @@ struct RegistrationParams {
   double max_step_translation = 0.25;  // m per accepted registration
   double max_step_rotation = 0.12;     // rad per accepted registration
   double min_constraint = 0.08;      // smallest eigenvalue of mean(n n^T) for a direction to be corrected
+  // How much the correction may change per scan. Odometry drifts only
+  // while the base moves (slip), so a scan may correct in proportion to the
+  // odometry's motion since the previous scan -- at rest nothing: otherwise
+  // registering against a map made of its own latest scans lets the estimate
+  // random-walk (+-2 cm, 0.02 rad seen at rest before a wall) -- and never
+  // faster than max_correction_speed / _turn_rate (at the 30 Hz laser 0.3 m/s
+  // is 10 mm per scan, 0.4 mm of device travel at the navigation scale).
+  // The slipping base loses ~3 % of its travel and ~10 % of its turns.
+  double correction_per_metre = 0.1;        // m per m travelled
+  double correction_per_radian = 0.05;      // m per rad turned (the sensor sits ahead of the axle)
+  double turn_correction_per_radian = 0.2;  // rad per rad turned
+  double turn_correction_per_metre = 0.1;   // rad per m travelled
+  double max_correction_speed = 0.3;        // m/s
+  double max_correction_turn_rate = 0.5;    // rad/s
+  // A scan whose correction was cut by more than this is held out of the
+  // map (it disagrees with it by more than the laser's noise).
+  double hold_out_translation = 0.01;  // m
+  double hold_out_rotation = 0.01;     // rad
 };
 
 // Empty when usable.
@@ -56,10 +78,16 @@ struct RegistrationResult {
   bool attempted = false;
   bool accepted = false;
   math::Pose2 delta;          // T_M_M': applied on the left of the scan's pose when accepted
+  // delta as found: a rotation by yaw about the point delta_about (W, the
+  // sensor's position) and a translation (m).
+  Eigen::Vector2d delta_about = Eigen::Vector2d::Zero();
+  Eigen::Vector2d translation = Eigen::Vector2d::Zero();
+  double yaw = 0.0;
   double rms = 0.0;           // m, point-to-line after ICP
   double inlier_ratio = 0.0;
   int points = 0;             // scan returns used
   bool degenerate = false;    // a direction was left uncorrected (corridor)
+  bool limited = false;       // accepted, step cut by more than the hold-out: keep the scan out of the map
   std::string reason;         // why not accepted
 };
 
@@ -86,13 +114,20 @@ class RegistrationTarget {
 RegistrationResult register_scan(const RegistrationParams& p, const mapping::RangeScan2D& scan,
                                  const RegistrationTarget& target);
 
+// The W motion "rotate by yaw about o, then translate by t".
+math::Pose2 motion_about(const Eigen::Vector2d& o, const Eigen::Vector2d& t, double yaw);
+
 struct LocalizerStats {
   std::uint64_t attempted = 0;
   std::uint64_t accepted = 0;
   std::uint64_t rejected = 0;       // attempted, failed the fit check
   std::uint64_t degenerate = 0;     // accepted with a direction left out
+  std::uint64_t limited = 0;        // accepted, cut, held out of the map
   double last_rms = 0.0;            // m
-  double last_step = 0.0;           // m, translation of the last accepted step
+  double last_inlier_ratio = 0.0;
+  double last_step = 0.0;           // m, translation of the last accepted step (as applied)
+  double max_rms = 0.0;             // m, largest accepted fit RMS
+  double max_step = 0.0;            // m, largest applied step
   math::Pose2 correction;           // T_M_W
 };
 
@@ -102,8 +137,8 @@ class Localizer {
   explicit Localizer(const RegistrationParams& p = {});
   // Places the scan: T_W_R <- correction * odometry; for a laser scan with
   // registration enabled, registers it against the map (the target is built
-  // once per begin_step) and, if accepted, updates the correction and the
-  // scan's pose.
+  // once per begin_step) and, if accepted, updates the correction (by at most
+  // the correction rate since the previous scan) and places the scan with it.
   RegistrationResult place(mapping::RangeScan2D& scan, const mapping::LocalMap& map);
   // New model step: the map has changed, rebuild the target when next needed.
   void begin_step() { target_valid_ = false; }
@@ -121,6 +156,11 @@ class Localizer {
   RegistrationParams p_;
   RegistrationTarget target_;
   bool target_valid_ = false;
+  // What the correction may still change by for the newest scan stamp, and
+  // that scan's odometry pose (the motion to the next one sets its budget).
+  std::int64_t budget_stamp_ns_ = 0;  // 0: no scan yet
+  math::Pose2 budget_odom_;
+  double budget_translation_ = 0.0, budget_yaw_ = 0.0;
   LocalizerStats stats_;
 };
 

@@ -37,7 +37,9 @@ std::string to_string(const OperatorStationSummary& s) {
     << " states_rejected=" << s.model.states_rejected << " snapshots=" << s.model.snapshots
     << " robot_restarts=" << s.model.resyncs << "\n"
     << "registration: accepted=" << s.model.registration.accepted << " rejected=" << s.model.registration.rejected
-    << " degenerate=" << s.model.registration.degenerate << " last_rms_m=" << s.model.registration.last_rms
+    << " degenerate=" << s.model.registration.degenerate << " limited=" << s.model.registration.limited
+    << " last_rms_m=" << s.model.registration.last_rms << " max_rms_m=" << s.model.registration.max_rms
+    << " max_step_m=" << s.model.registration.max_step
     << " correction=(" << s.model.registration.correction.x << ", " << s.model.registration.correction.y << ", "
     << s.model.registration.correction.theta << ")\n"
     << "commands: sent=" << s.commands.commands_sent << " failures=" << s.commands.send_failures
@@ -93,6 +95,10 @@ report::OperatorStation to_report(const OperatorStationSummary& s) {
   m.set_registration_degenerate(s.model.registration.degenerate);
   m.set_registration_last_rms_m(s.model.registration.last_rms);
   m.set_registration_last_step_m(s.model.registration.last_step);
+  m.set_registration_limited(s.model.registration.limited);
+  m.set_registration_max_rms_m(s.model.registration.max_rms);
+  m.set_registration_last_inlier_ratio(s.model.registration.last_inlier_ratio);
+  m.set_registration_max_step_m(s.model.registration.max_step);
   m.set_correction_x_m(s.model.registration.correction.x);
   m.set_correction_y_m(s.model.registration.correction.y);
   m.set_correction_theta_rad(s.model.registration.correction.theta);
