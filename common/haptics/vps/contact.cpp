@@ -28,7 +28,7 @@ void evaluate_pair(const Voxmap& vm, const Eigen::Isometry3d& T_W_V, const Eigen
     const Eigen::Vector3d c = R * node.centre + t;
     // Points within `radius` of c lie at most floor(r/s)+1 voxels (Chebyshev)
     // from c's voxel; skip when even then they cannot reach a contact layer.
-    const int reach = static_cast<int>(node.radius * inv_s) + 1;
+    const int reach = grid_floor(node.radius * inv_s) + 1;  // radius may come from a file: no raw cast
     if (clearance_voxels(vm, voxel_of(vm, c)) > reach + max_layer) continue;
     if (node.left >= 0 && top + 2 <= static_cast<int>(stack.size())) {
       stack[top++] = node.right;

@@ -112,10 +112,23 @@ struct VoxelSample {
   std::uint8_t flags;
 };
 
+// Every query below is total: a non-finite or huge coordinate is never cast
+// to int (undefined behaviour); it lands at +-kGridFar voxels, outside every
+// grid (grids have at most 2^23 voxels per axis), so it samples as far outside,
+// has a large clearance and never makes contact.
+inline constexpr int kGridFar = 1 << 28;
+
+// floor(g) as an int, with NaN mapped to -kGridFar and the result clamped to
+// [-kGridFar, kGridFar].
+inline int grid_floor(double g) {
+  if (!(g > -static_cast<double>(kGridFar))) return -kGridFar;  // also NaN
+  if (g >= static_cast<double>(kGridFar)) return kGridFar;
+  return static_cast<int>(std::floor(g));
+}
+
 inline Eigen::Vector3i voxel_of(const Voxmap& vm, const Eigen::Vector3d& x_V) {
   const Eigen::Vector3d g = (x_V - vm.origin) / vm.voxel_size;
-  return Eigen::Vector3i(static_cast<int>(std::floor(g.x())), static_cast<int>(std::floor(g.y())),
-                         static_cast<int>(std::floor(g.z())));
+  return Eigen::Vector3i(grid_floor(g.x()), grid_floor(g.y()), grid_floor(g.z()));
 }
 
 inline Eigen::Vector3d voxel_centre(const Voxmap& vm, const Eigen::Vector3i& v) {
@@ -174,9 +187,11 @@ inline int clearance_voxels(const Voxmap& vm, const Eigen::Vector3i& v) {
 // (continuous across voxel boundaries).
 inline double sdf_trilinear(const Voxmap& vm, const Eigen::Vector3d& x_V) {
   const Eigen::Vector3d g = (x_V - vm.origin) / vm.voxel_size - Eigen::Vector3d::Constant(0.5);
-  const Eigen::Vector3d f0(std::floor(g.x()), std::floor(g.y()), std::floor(g.z()));
-  const Eigen::Vector3d t = g - f0;
-  const Eigen::Vector3i i0 = f0.cast<int>();
+  // Outside the grid (or not finite) the field is the far-outside value.
+  if (!(g.array() > -1.0).all() || !(g.array() < vm.dims().cast<double>().array()).all())
+    return vm.far_outside_sdf();
+  const Eigen::Vector3i i0(grid_floor(g.x()), grid_floor(g.y()), grid_floor(g.z()));
+  const Eigen::Vector3d t = g - i0.cast<double>();
   double s[8];
   for (int c = 0; c < 8; ++c) {
     s[c] = sample_voxel(vm, i0 + Eigen::Vector3i(c & 1, (c >> 1) & 1, (c >> 2) & 1)).sdf;

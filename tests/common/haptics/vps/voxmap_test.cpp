@@ -4,6 +4,7 @@
 #include <atomic>
 #include <cmath>
 #include <cstdlib>
+#include <limits>
 #include <new>
 #include <random>
 
@@ -126,6 +127,52 @@ TEST(Voxmap, SphereSignedDistanceLayersAndSparsity) {
     const double r = R + 0.8 * s * u(rng);
     EXPECT_NEAR(sdf_trilinear(vm, r * dir), r - R, 0.15 * s);
   }
+}
+
+TEST(Voxmap, QueriesAreTotalForNonFiniteAndHugeCoordinates) {
+  // NaN, infinities and coordinates far beyond int range must give "outside"
+  // without casting them to int (run under UBSan: float-cast-overflow).
+  VoxmapParams p;
+  p.voxel_size = 0.005;
+  Voxmap vm;
+  ASSERT_FALSE(build_voxmap(mesh::make_icosphere(0.05, 3), p, &vm, nullptr));
+  const double nan = std::nan(""), inf = std::numeric_limits<double>::infinity();
+  const std::vector<Eigen::Vector3d> bad = {
+      {nan, 0, 0},        {0, nan, 0},      {0, 0, nan},        {inf, 0, 0},         {-inf, 0, 0},
+      {0, 0, inf},        {1e30, 0, 0},     {0, -1e30, 0},      {0, 0, 3e9 * 0.005}, {-1.2e7, 1.2e7, 0},
+      {nan, inf, -inf},   {1e300, 1e300, 1e300}};
+  for (const Eigen::Vector3d& x : bad) {
+    const Eigen::Vector3i v = voxel_of(vm, x);
+    EXPECT_FALSE(in_grid(vm, v)) << x.transpose();
+    EXPECT_EQ(sample_voxel(vm, v).layer, kLayerFarOutside);
+    EXPECT_GT(clearance_voxels(vm, v), vm.layers_out);
+    EXPECT_EQ(sdf_trilinear(vm, x), vm.far_outside_sdf()) << x.transpose();
+    EXPECT_TRUE(sdf_gradient(vm, x).allFinite());
+  }
+  // The same through a pair evaluation: a non-finite or absurd pose touches nothing.
+  PointShellParams pp;
+  pp.voxel_size = 0.005;
+  PointShell ps;
+  ASSERT_FALSE(build_pointshell(mesh::make_icosphere(0.02, 3), pp, Eigen::Vector3d::Zero(), &ps));
+  ContactParams cp;
+  for (const Eigen::Vector3d& x : bad) {
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.translation() = x;
+    PairResult r;
+    evaluate_pair(vm, Eigen::Isometry3d::Identity(), Eigen::Vector3d::Zero(), ps, T, cp, &r);
+    EXPECT_EQ(r.contacts, 0);
+    EXPECT_TRUE(r.on_shell.force.isZero());
+  }
+  // A sphere node with an absurd radius (as a hostile cache could carry) is
+  // merely not culled.
+  PointShell huge = ps;
+  huge.nodes[0].radius = 1e300;
+  Eigen::Isometry3d away = Eigen::Isometry3d::Identity();
+  away.translation() = Eigen::Vector3d(1.0, 0, 0);
+  PairResult r;
+  evaluate_pair(vm, Eigen::Isometry3d::Identity(), Eigen::Vector3d::Zero(), huge, away, cp, &r);
+  EXPECT_EQ(r.contacts, 0);
+  EXPECT_GT(r.nodes_visited, 1);  // the root was not culled, its children were
 }
 
 TEST(Voxmap, OpenAndNonManifoldMeshesFallBackToUnsigned) {
