@@ -304,7 +304,7 @@ int main(int argc, char** argv) {
       return 1;
     }
     std::printf("voxmap: %zu surface voxels, %zu blocks, %.2f MB; pointshell: %zu points; %.2f s; wrote %s (%zu bytes)\n",
-                info.surface_voxels, vm.blocks.size(), vm.memory_bytes() / 1e6, ps.points.size(), secs,
+                info.surface_voxels, vm.blocks.size(), vm.memory_bytes() / 1e6, ps.size(), secs,
                 out_path.c_str(), bytes.size());
     return 0;
   }
@@ -327,9 +327,14 @@ int main(int argc, char** argv) {
       return 1;
     }
     std::fprintf(out, "t,fx,fy,fz,tx,ty,tz,contacts,max_penetration\n");
+    // The rows are a trajectory: one pair state carries which side of a thin
+    // wall each point came from from row to row.
+    vps::PairState state;
+    vps::init_pair_state(tool_ps, &state);
     for (const PoseRow& r : rows) {
       vps::PairResult res;
-      vps::evaluate_pair(scene_vm, Eigen::Isometry3d::Identity(), scene_ps.reference_point, tool_ps, r.T_S_T, cp, &res);
+      vps::evaluate_pair(scene_vm, Eigen::Isometry3d::Identity(), scene_ps.reference_point, tool_ps, r.T_S_T, cp,
+                         &state, &res);
       const auto& w = res.on_shell;
       std::fprintf(out, "%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%d,%.9g\n", r.t, w.force.x(), w.force.y(), w.force.z(),
                    w.torque.x(), w.torque.y(), w.torque.z(), res.contacts, res.max_penetration);

@@ -153,8 +153,8 @@ int run_report(const ReportOptions& o, std::FILE* out) {
                " blocks\n  scene voxmap memory %.1f MB (a dense grid of the same extent would need %.1f MB)\n"
                "  tools: %zu + %zu pointshell points (voxel %.1f mm), left voxmap %.2f MB, %.2f s\n",
                o.scene_voxel * 1e3, scene_build, scene_info.surface_voxels, scene_info.allocated_blocks,
-               scene_info.uniform_inside_blocks, mem_scene / 1e6, dense_bytes / 1e6, right_ps.points.size(),
-               left_ps.points.size(), o.shell_voxel * 1e3, left_vm.memory_bytes() / 1e6, tools_build);
+               scene_info.uniform_inside_blocks, mem_scene / 1e6, dense_bytes / 1e6, right_ps.size(),
+               left_ps.size(), o.shell_voxel * 1e3, left_vm.memory_bytes() / 1e6, tools_build);
 
   // ---- trajectory: right box over the top of the centre sphere, left sphere on
   // its upper +x flank; penetrations 0.5..3 mm, the tools brush each other.
@@ -196,7 +196,7 @@ int run_report(const ReportOptions& o, std::FILE* out) {
     for (const Poses& p : traj) {
       const double cpu0 = thread_cpu_seconds();
       const auto c0 = Clock::now();
-      vps::evaluate_bimanual(model, T_W_S, p.right, p.left, &data);
+      vps::evaluate_bimanual(model, T_W_S, p.right, p.left, nullptr, &data);
       cycle_us.push_back(seconds_since(c0) * 1e6);
       cycle_cpu_us.push_back((thread_cpu_seconds() - cpu0) * 1e6);
       if (rep != 0) continue;
@@ -226,7 +226,7 @@ int run_report(const ReportOptions& o, std::FILE* out) {
                o.ticks, o.repeats, percentile(cycle_us, 0.5), percentile(cycle_us, 0.99),
                percentile(cycle_us, 1.0), percentile(cycle_cpu_us, 0.5), percentile(cycle_cpu_us, 0.99),
                static_cast<double>(tested) / o.ticks,
-               right_ps.points.size() * 2 + left_ps.points.size(), contacts_rl, o.ticks);
+               right_ps.size() * 2 + left_ps.size(), contacts_rl, o.ticks);
   if (analytic) {
     std::fprintf(out,
                  "\nForce error against closed forms at this resolution (pressure model, K = %.0e N/m^3)\n"
@@ -257,7 +257,7 @@ int run_report(const ReportOptions& o, std::FILE* out) {
       for (std::size_t k = 0; k < traj.size(); k += 2) {
         const Poses& p = traj[k];
         const double cpu0 = thread_cpu_seconds();
-        vps::evaluate_bimanual(m2, T_W_S, p.right, p.left, &data);
+        vps::evaluate_bimanual(m2, T_W_S, p.right, p.left, nullptr, &data);
         cpu.push_back((thread_cpu_seconds() - cpu0) * 1e6);
         const double fr = plane_sphere_force(K, R, p.right_h);
         const double fl = sphere_sphere_force(K, RL, R, p.left_d);
@@ -265,7 +265,7 @@ int run_report(const ReportOptions& o, std::FILE* out) {
         if (fl > 0) el.push_back(std::abs(data.left_scene.on_shell.force.norm() - fl) / fl);
       }
       std::fprintf(out, "  %8.1f mm | %10zu | %13.1f us | %10.1f us | %17.2f%% | %12.2f%%\n", sv * 1e3,
-                   rps.points.size() + lps.points.size(), percentile(cpu, 0.5), percentile(cpu, 0.99),
+                   rps.size() + lps.size(), percentile(cpu, 0.5), percentile(cpu, 0.99),
                    100 * percentile(er, 0.5), 100 * percentile(el, 0.5));
     }
   }
@@ -293,7 +293,7 @@ int run_report(const ReportOptions& o, std::FILE* out) {
       for (std::size_t k = 0; k < traj.size(); k += 2) {
         const Poses& p = traj[k];
         const double cpu0 = thread_cpu_seconds();
-        vps::evaluate_bimanual(m2, T_W_S, p.right, p.left, &data);
+        vps::evaluate_bimanual(m2, T_W_S, p.right, p.left, nullptr, &data);
         cpu.push_back((thread_cpu_seconds() - cpu0) * 1e6);
         const double fr = plane_sphere_force(K, R, p.right_h);
         const double fl = sphere_sphere_force(K, RL, R, p.left_d);

@@ -37,10 +37,10 @@ void BM_PairCycle(benchmark::State& state) {
   vps::PairResult r;
   const Eigen::Isometry3d T = at(Eigen::Vector3d(0.01, 0.02, 1.0).normalized() * (0.14 - 0.002));
   for (auto _ : state) {
-    vps::evaluate_pair(vm, Eigen::Isometry3d::Identity(), Eigen::Vector3d::Zero(), ps, T, cp, &r);
+    vps::evaluate_pair(vm, Eigen::Isometry3d::Identity(), Eigen::Vector3d::Zero(), ps, T, cp, nullptr, &r);
     benchmark::DoNotOptimize(r);
   }
-  state.counters["points"] = static_cast<double>(ps.points.size());
+  state.counters["points"] = static_cast<double>(ps.size());
   state.counters["tested"] = r.points_tested;
   state.counters["contacts"] = r.contacts;
   state.counters["voxmap_MB"] = vm.memory_bytes() / 1e6;

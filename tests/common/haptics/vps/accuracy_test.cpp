@@ -75,7 +75,7 @@ PairResult eval(const Voxmap& vm, const PointShell& ps, const Eigen::Isometry3d&
   cp.stiffness = kK;
   cp.model = model;
   PairResult r;
-  evaluate_pair(vm, Eigen::Isometry3d::Identity(), Eigen::Vector3d::Zero(), ps, T_W_P, cp, &r);
+  evaluate_pair(vm, Eigen::Isometry3d::Identity(), Eigen::Vector3d::Zero(), ps, T_W_P, cp, nullptr, &r);
   return r;
 }
 

@@ -113,6 +113,8 @@ LoopResult run_loop(const CouplingParams& cpl, double device_mass, double device
   RigidBodyState tool_state;
   tool_state.position = x;
   Eigen::Vector3d F = Eigen::Vector3d::Zero();  // held device force
+  PairState pair;
+  init_pair_state(tool, &pair);
   double port = 0.0, dissipated = 0.0;
   // Hand target: down at 0.1 m/s to 3 mm past contact (the tool's bottom is
   // 10 mm below the device point), tapping in and out of contact at tap_hz
@@ -140,7 +142,8 @@ LoopResult run_loop(const CouplingParams& cpl, double device_mass, double device
   for (int k = 0; k < ticks; ++k) {
     // Controller: sample, contact, coupling, hold.
     PairResult r;
-    evaluate_pair(wall, Eigen::Isometry3d::Identity(), Eigen::Vector3d::Zero(), tool, tool_state.pose(), cp, &r);
+    evaluate_pair(wall, Eigen::Isometry3d::Identity(), Eigen::Vector3d::Zero(), tool, tool_state.pose(), cp, &pair,
+                  &r);
     out.contact = out.contact || r.contacts > 0;
     out.max_penetration = std::max(out.max_penetration, r.max_penetration);
     Wrench dw;

@@ -116,12 +116,14 @@ TEST(VpsPegInHole, BimanualInsertionCompletesStablyWithoutTunnelling) {
   const int insert_ticks = static_cast<int>((pins_start.z() - z_end) / speed * 1000) + 1;
   const int total = insert_ticks + 500;
   BimanualData data;
+  BimanualState state;
+  init_bimanual_state(model, &state);
   double max_pen = 0, max_lateral = 0, max_speed = 0;
   double energy_hold_start = 0, energy_end = 0, max_ke_late = 0;
   for (int tick = 0; tick < total; ++tick) {
     Eigen::Vector3d v_r;
     const Eigen::Isometry3d dev_r = device_right(tick, &v_r);
-    evaluate_bimanual(model, Eigen::Isometry3d::Identity(), pins.mesh_pose(), holes.mesh_pose(), &data);
+    evaluate_bimanual(model, Eigen::Isometry3d::Identity(), pins.mesh_pose(), holes.mesh_pose(), &state, &data);
     Wrench dr, dl;
     step_virtual_coupling(pins.coupling, dev_r, v_r, Eigen::Vector3d::Zero(), data.right_total, &pins.state, &dr);
     step_virtual_coupling(holes.coupling, device_left, Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(),
@@ -181,11 +183,13 @@ void thin_wall_holds(const mesh::TriangleMesh& wall, const char* name) {
   st.position = Eigen::Vector3d(0.001, 0.0007, 0.03);
   const double speed = 0.1;
   double min_bottom = 1;
+  PairState pair;
+  init_pair_state(ps, &pair);
   for (int tick = 0; tick < 1200; ++tick) {
     const double z = std::max(-0.03, 0.03 - speed * tick * 1e-3);  // ends 30 mm past the wall
     const Eigen::Vector3d v(0, 0, z > -0.03 ? -speed : 0.0);
     PairResult r;
-    evaluate_pair(vm, Eigen::Isometry3d::Identity(), Eigen::Vector3d::Zero(), ps, st.pose(), cp, &r);
+    evaluate_pair(vm, Eigen::Isometry3d::Identity(), Eigen::Vector3d::Zero(), ps, st.pose(), cp, &pair, &r);
     step_virtual_coupling(cpl, at({0.001, 0.0007, z}), v, Eigen::Vector3d::Zero(), r.on_shell, &st, nullptr);
     min_bottom = std::min(min_bottom, st.position.z() - 0.01);
   }
