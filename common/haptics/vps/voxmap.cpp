@@ -40,6 +40,13 @@ struct BuildBlock {
 
 inline Eigen::Vector3i local_coords(int i) { return {i & 7, (i >> 3) & 7, i >> 6}; }
 
+// The d-th of the six face neighbours of v (d / 2 the axis, d % 2 the side).
+inline Eigen::Vector3i face_neighbour(const Eigen::Vector3i& v, int d) {
+  Eigen::Vector3i v2 = v;
+  v2[d / 2] += (d % 2) ? 1 : -1;
+  return v2;
+}
+
 // Angle-weighted pseudo-normals (face, edge, vertex) give a robust inside/outside
 // sign for a point from its closest feature on a watertight mesh.
 struct PseudoNormals {
@@ -124,6 +131,9 @@ class Builder {
     const auto yz = bl / static_cast<std::size_t>(bd_.x());
     return {x, static_cast<int>(yz % static_cast<std::size_t>(bd_.y())),
             static_cast<int>(yz / static_cast<std::size_t>(bd_.y()))};
+  }
+  static Eigen::Vector3i block_of_voxel(const Eigen::Vector3i& v) {
+    return {v.x() >> kBlockShift, v.y() >> kBlockShift, v.z() >> kBlockShift};
   }
   bool in_dims(const Eigen::Vector3i& v) const {
     return v.x() >= 0 && v.y() >= 0 && v.z() >= 0 && v.x() < dims_.x() && v.y() < dims_.y() && v.z() < dims_.z();
@@ -611,11 +621,9 @@ void Builder::finish(int layers_out, int layers_in, Voxmap* vm, VoxmapBuildInfo*
       if (!q.allFinite()) continue;
       const Eigen::Vector3i v = B * kBlockDim + local_coords(i);
       for (int d = 0; d < 6; ++d) {
-        Eigen::Vector3i v2 = v;
-        v2[d / 2] += (d % 2) ? 1 : -1;
+        const Eigen::Vector3i v2 = face_neighbour(v, d);
         if (!in_dims(v2)) continue;
-        const Eigen::Vector3i B2(v2.x() >> kBlockShift, v2.y() >> kBlockShift, v2.z() >> kBlockShift);
-        const std::int32_t bi = top_[block_linear_of(B2)];
+        const std::int32_t bi = top_[block_linear_of(block_of_voxel(v2))];
         if (bi < 0) continue;
         const Eigen::Vector3f& q2 = closest[static_cast<std::size_t>(bi)][static_cast<std::size_t>(voxel_in_block(v2))];
         if (q2.allFinite() && (q - q2).norm() > 2.0 * s_) {
