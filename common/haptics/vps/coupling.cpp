@@ -72,6 +72,12 @@ double max_contact_stiffness(const CouplingParams& p, double omega_dt) {
   return std::max(0.0, p.mass * w * w - p.k_lin);
 }
 
+double max_expected_penetration(const CouplingParams& p, double max_lead, double peak_force,
+                                double contact_stiffness) {
+  if (!(contact_stiffness > 0)) return 0.0;
+  return std::min(p.k_lin * max_lead, peak_force) / contact_stiffness;
+}
+
 void step_virtual_coupling(const CouplingParams& p, const Eigen::Isometry3d& T_W_D, const Eigen::Vector3d& v_D,
                            const Eigen::Vector3d& w_D, const Wrench& contact, RigidBodyState* s,
                            Wrench* device_wrench, Wrench* coupling_wrench) {

@@ -99,6 +99,15 @@ CouplingDesign design_coupling(double mass, const Eigen::Matrix3d& inertia_body,
 // Largest effective contact stiffness (N/m) the tool integration tolerates.
 double max_contact_stiffness(const CouplingParams& p, double omega_dt = 0.5);
 
+// The deepest penetration the coupling is expected to produce, to size the
+// voxmaps' distance layers (layers_for_depth): the coupling's force when the
+// hand leads the tool by `max_lead` (capped by the device's peak force:
+// beyond it the hand no longer feels more) over the stiffness of the
+// smallest contact patch that must hold it (pressure stiffness times its
+// area, or the per-point stiffness times its points).
+double max_expected_penetration(const CouplingParams& p, double max_lead, double peak_force,
+                                double contact_stiffness);
+
 // One step: the coupling spring-damper pulls the tool towards the device pose
 // T_W_D (velocities v_D, w_D); `contact` acts on the tool (torque about its
 // centre of mass). `device_wrench` (may be null) gets the wrench to display on
