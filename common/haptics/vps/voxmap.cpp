@@ -501,7 +501,9 @@ void Builder::layer_pass(int layers_out, int layers_in) {
     frontier.swap(next);
   }
   // Two refinement sweeps: a voxel reached diagonally only saw the triangles of
-  // its parents; offer it every triangle its 26 neighbours found (unique ones).
+  // its parents, a surface voxel only those crossing it (the nearest one may
+  // cross only a neighbour); offer each every triangle its 26 neighbours
+  // found (unique ones).
   std::int32_t cand[26];
   for (int sweep = 0; sweep < 2; ++sweep)
   for (std::size_t k = 0; k < blocks_.size(); ++k) {
@@ -509,7 +511,7 @@ void Builder::layer_pass(int layers_out, int layers_in) {
     const Eigen::Vector3i B = block_coords(block_of_index_[k]);
     for (int i = 0; i < kBlockVoxels; ++i) {
       const std::int8_t L = blk.layer[i];
-      if (L == kUnset || L == 0) continue;
+      if (L == kUnset) continue;  // surface voxels too: the SAT pass saw only the triangles crossing them
       const Eigen::Vector3i v = B * kBlockDim + local_coords(i);
       int nc = 0;
       for (int d = 0; d < 27; ++d) {
