@@ -233,5 +233,108 @@ TEST(VpsThinWall, PlatesThinnerThanAVoxelAreNotTunnelledAndMatchTheExactPlateFor
   }
 }
 
+
+// ---- time-critical mode -------------------------------------------------------
+
+TEST(VpsTimeCritical, BudgetBoundsTheWorkAndTheForceDegradesGracefully) {
+  // Both tools are spheres (R 30 mm and 25 mm, 1.5 mm pointshells, four
+  // levels) pressed into a slab (top z = 0) 2.5 and 1.5 mm deep, and into
+  // each other 1 mm: exact references for the two scene pairs.
+  const double K = 1e8;
+  mesh::TriangleMesh slab;
+  mesh::append_mesh(&slab, mesh::make_box({0.15, 0.15, 0.02}, 4), at({0, 0, -0.02}));
+  VoxmapParams vp;
+  vp.voxel_size = 0.003;
+  Voxmap scene;
+  ASSERT_FALSE(build_voxmap(slab, vp, &scene, nullptr));
+  const double Rr = 0.03, Rl = 0.025;
+  PointShellParams pp;
+  pp.voxel_size = 0.0015;
+  PointShell ps_r, ps_l;
+  ASSERT_FALSE(build_pointshell(mesh::make_icosphere(Rr, 5), pp, Eigen::Vector3d::Zero(), &ps_r));
+  ASSERT_FALSE(build_pointshell(mesh::make_icosphere(Rl, 5), pp, Eigen::Vector3d::Zero(), &ps_l));
+  EXPECT_EQ(ps_r.levels, 4);
+  Voxmap vm_l;
+  VoxmapParams lp;
+  lp.voxel_size = 0.0015;
+  ASSERT_FALSE(build_voxmap(mesh::make_icosphere(Rl, 5), lp, &vm_l, nullptr));
+  BimanualModel model;
+  model.scene = &scene;
+  model.right = {nullptr, &ps_r};
+  model.left = {&vm_l, &ps_l};
+  model.params.stiffness = K;
+  const double dr = 0.0025, dl = 0.0015;
+  const Eigen::Isometry3d T_W_R = at({0.0013, -0.0004, Rr - dr});
+  const Eigen::Isometry3d T_W_L = at({Rr + Rl - 0.001 + 0.0013, -0.0004, Rl - dl});
+  const double ref_r = sphere_halfspace_force(K, Rr, dr), ref_l = sphere_halfspace_force(K, Rl, dl);
+  BimanualState state;
+  init_bimanual_state(model, &state);
+  BimanualData full, tc;
+  evaluate_bimanual(model, Eigen::Isometry3d::Identity(), T_W_R, T_W_L, &state, &full);
+  // Unlimited budget: the full cycle's wrench (float sums in another order).
+  evaluate_bimanual_budgeted(model, Eigen::Isometry3d::Identity(), T_W_R, T_W_L, kUnlimitedWork, &state, &tc);
+  EXPECT_EQ(tc.levels_completed, 4);
+  for (const auto* w : {&full.right_total, &full.left_total}) {
+    const Wrench& t = w == &full.right_total ? tc.right_total : tc.left_total;
+    EXPECT_NEAR((t.force - w->force).norm(), 0.0, 1e-6 * w->force.norm());
+    EXPECT_NEAR((t.torque - w->torque).norm(), 0.0, 1e-6 * (w->torque.norm() + w->force.norm() * 0.03));
+  }
+  const double err_full = std::max(std::abs(full.right_scene.on_shell.force.z() - ref_r) / ref_r,
+                                   std::abs(full.left_scene.on_shell.force.z() - ref_l) / ref_l);
+  const std::int64_t all = tc.work;  // the unlimited time-critical cycle's work (its own level trees)
+  std::printf("\n  budget            | work  | levels | scene pairs' |F| error (worse) | right-left |F|\n");
+  std::printf("  full cycle        | %5lld |      4 | %31.2f%% | %.3f N\n", static_cast<long long>(full.work),
+              100 * err_full, full.right_left.on_shell.force.norm());
+  int prev_levels = 0;
+  for (const double frac : {0.01, 0.03, 0.06, 0.12, 0.25, 0.5, 0.75, 1.0}) {
+    const auto budget = static_cast<std::int64_t>(frac * static_cast<double>(all));
+    evaluate_bimanual_budgeted(model, Eigen::Isometry3d::Identity(), T_W_R, T_W_L, budget, &state, &tc);
+    const double err = std::max(std::abs(tc.right_scene.on_shell.force.z() - ref_r) / ref_r,
+                                std::abs(tc.left_scene.on_shell.force.z() - ref_l) / ref_l);
+    std::printf("  %5.0f%% (%5lld) | %5lld | %6d | %31.2f%% | %.3f N\n", 100 * frac, static_cast<long long>(budget),
+                static_cast<long long>(tc.work), tc.levels_completed, 100 * err, tc.right_left.on_shell.force.norm());
+    // Never more work than the budget; more budget, never fewer levels.
+    EXPECT_LE(tc.work, budget);
+    EXPECT_GE(tc.levels_completed, prev_levels);
+    prev_levels = tc.levels_completed;
+    // Graceful: once a level is complete the force is a coarser quadrature
+    // of the same integral (contact caps of 8.7 and 12 mm radius here, level
+    // spacings 12, 6, 3, 1.5 mm), not nothing and not garbage.
+    if (tc.levels_completed >= 2) {
+      EXPECT_LT(err, 0.5) << budget;
+    }
+  }
+  EXPECT_EQ(prev_levels, 4);
+  EXPECT_LT(err_full, 0.02);
+}
+
+TEST(VpsTimeCritical, LevelsAreNestedAndEachCarriesTheWholeArea) {
+  const auto tool = mesh::make_box({0.04, 0.025, 0.015}, 6);
+  PointShellParams pp;
+  pp.voxel_size = 0.002;
+  PointShell ps;
+  ASSERT_FALSE(build_pointshell(tool, pp, Eigen::Vector3d::Zero(), &ps));
+  ASSERT_GE(ps.levels, 3);
+  const double area = mesh::mesh_area(tool);
+  std::size_t members = 0;
+  for (int l = 0; l < ps.levels; ++l) {
+    double sum = 0;
+    std::size_t count = 0;
+    for (std::size_t i = 0; i < ps.size(); ++i) {
+      const float w = ps.level_weight[i * kMaxShellLevels + static_cast<std::size_t>(l)];
+      // A point has a weight from its own level on (nested levels), none before.
+      EXPECT_EQ(w > 0, ps.point_level[i] <= l) << i << " level " << l;
+      sum += w;
+      count += ps.point_level[i] <= l ? 1 : 0;
+    }
+    EXPECT_NEAR(sum, area, 1e-5 * area) << "level " << l;
+    EXPECT_GT(count, members);  // each level adds points
+    members = count;
+    // Level l's spacing is twice level l+1's.
+    EXPECT_NEAR(ps.level[static_cast<std::size_t>(l)].spacing, pp.voxel_size * std::ldexp(1.0, ps.levels - 1 - l), 1e-12);
+  }
+  EXPECT_EQ(members, ps.size());
+}
+
 }  // namespace
 }  // namespace hemm::vps
