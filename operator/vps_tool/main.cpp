@@ -2,9 +2,11 @@
 //   hemm-vps build --mesh FILE --voxel SIZE [--roi ...] -o FILE.vps
 //   hemm-vps eval --scene A.vps --tool B.vps --poses poses.csv -o forces.csv
 //   hemm-vps report
+//   hemm-vps scene --name peg-in-hole|assembly --out DIR
 #include <CLI/CLI.hpp>
 
 #include <charconv>
+#include <filesystem>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -15,6 +17,7 @@
 
 #include "common/haptics/vps/cache.h"
 #include "common/haptics/vps/contact.h"
+#include "common/haptics/vps/scenes.h"
 #include "common/mesh/mesh_io.h"
 #ifdef HEMM_VPS_HAVE_PCL
 #include "common/mesh/point_cloud.h"
@@ -187,17 +190,91 @@ int main(int argc, char** argv) {
   eval->add_option("--model", model_name, "continuous or layered")->check(CLI::IsMember({"continuous", "layered"}));
 
   // ---- report
-  auto* report = app.add_subcommand("report", "Large-scene speed-against-error report with FCL comparison");
+  auto* report = app.add_subcommand(
+      "report", "Engine report: assembly scene (>1 M triangles), exact-reference errors, time-critical budgets, FCL, "
+                "paper-scale run");
   hemm::vps_tool::ReportOptions ro;
-  report->add_option("--voxel", ro.scene_voxel, "Scene voxel size (m)");
-  report->add_option("--shell-voxel", ro.shell_voxel, "Tool pointshell voxel size (m)");
-  report->add_option("--ticks", ro.ticks, "Trajectory length (ticks)");
-  report->add_option("--repeats", ro.repeats, "Timing passes");
-  report->add_option("--fcl-every", ro.fcl_every, "Run FCL on every n-th pose (0 = skip)");
-  report->add_option("--spheres", ro.spheres_per_side, "Generated scene: n x n icospheres (20480 triangles each)");
-  report->add_option("--scene-mesh", ro.scene_file, "Use this mesh file as the scene (no closed-form error)");
+  report->add_option("--voxel", ro.scene_voxel, "Scene voxel size (m)")->check(CLI::PositiveNumber);
+  report->add_option("--shell-voxel", ro.shell_voxel, "Tool pointshell voxel size (m)")->check(CLI::PositiveNumber);
+  report->add_option("--ticks", ro.ticks, "Trajectory length (1 kHz ticks)")->check(CLI::Range(10, 1000000));
+  report->add_option("--repeats", ro.repeats, "Timing passes over the trajectory")->check(CLI::Range(1, 100));
+  report->add_option("--fcl-every", ro.fcl_every, "Run FCL on every n-th pose (0 = skip)")->check(CLI::Range(0, 1000000));
+  report->add_option("--bosses", ro.bosses, "Assembly scene: bosses of 81,920 triangles (13: 1.07 M)")
+      ->check(CLI::Range(1, 100));
+  report->add_option("--paper-bosses", ro.paper_bosses, "Paper-scale run: bosses (41: 3.36 M; 0 skips it)")
+      ->check(CLI::Range(0, 100));
+  report->add_option("--budgets", ro.budgets, "Time-critical work budgets (nodes + points per cycle)")
+      ->check(CLI::Range(std::int64_t{1}, std::int64_t{100000000}));
 
-  CLI11_PARSE(app, argc, argv);
+  // ---- scene
+  auto* scene = app.add_subcommand(
+      "scene", "Write one of the paper's two scenes (static part and both tools as STL) and its scripted hands (CSV)");
+  std::string scene_name, scene_dir;
+  int scene_bosses = 13;
+  double scene_rate = 1000.0;
+  scene->add_option("--name", scene_name, "peg-in-hole or assembly")
+      ->required()
+      ->check(CLI::IsMember({"peg-in-hole", "assembly"}));
+  scene->add_option("--out", scene_dir, "Output directory (created)")->required();
+  scene->add_option("--bosses", scene_bosses, "Assembly: bosses of 81,920 triangles (13: 1.07 M, 41: 3.36 M)")
+      ->check(CLI::Range(1, 100));
+  scene->add_option("--rate", scene_rate, "Samples per second of the hand paths")->check(CLI::Range(1.0, 10000.0));
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int rc = app.exit(e);
+    return rc == 0 ? 0 : 2;  // bad arguments: 2, with CLI11's message
+  }
+
+  if (*scene) {
+    const bool peg = scene_name == "peg-in-hole";
+    const vps::BimanualScene sc = peg ? vps::make_peg_in_hole_scene() : vps::make_assembly_scene(scene_bosses);
+    std::error_code ec;
+    std::filesystem::create_directories(scene_dir, ec);
+    if (ec) {
+      std::fprintf(stderr, "error: %s: %s\n", scene_dir.c_str(), ec.message().c_str());
+      return 1;
+    }
+    const std::string base = scene_dir + "/" + sc.name;
+    for (const auto& [suffix, m] : {std::pair<const char*, const mesh::TriangleMesh*>{"-scene.stl", &sc.scene},
+                                    {"-right.stl", &sc.right},
+                                    {"-left.stl", &sc.left}}) {
+      if (auto e = mesh::save_mesh(base + suffix, *m)) {
+        std::fprintf(stderr, "error: %s\n", e->message.c_str());
+        return 1;
+      }
+      std::printf("%s%s: %zu triangles\n", base.c_str(), suffix, m->triangles.size());
+    }
+    // The scripted hands: mesh-frame poses of both objects in the scene
+    // frame, as `hemm-vps eval --poses` reads them per object.
+    const double duration = peg ? vps::kPegInHoleDuration : vps::kAssemblyDuration;
+    const std::string csv = base + "-hands.csv";
+    std::FILE* f = std::fopen(csv.c_str(), "w");
+    if (f == nullptr) {
+      std::fprintf(stderr, "error: %s: cannot write\n", csv.c_str());
+      return 1;
+    }
+    std::fprintf(f, "t,rx,ry,rz,rqw,rqx,rqy,rqz,lx,ly,lz,lqw,lqx,lqy,lqz\n");
+    const int n = static_cast<int>(std::floor(duration * scene_rate)) + 1;
+    for (int i = 0; i < n; ++i) {
+      const double t = i / scene_rate;
+      const vps::BimanualPoses h = peg ? vps::peg_in_hole_hands(t) : vps::assembly_hands(t);
+      std::fprintf(f, "%.6f", t);
+      for (const Eigen::Isometry3d* T : {&h.right, &h.left}) {
+        const Eigen::Quaterniond q(T->linear());
+        std::fprintf(f, ",%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g", T->translation().x(), T->translation().y(),
+                     T->translation().z(), q.w(), q.x(), q.y(), q.z());
+      }
+      std::fprintf(f, "\n");
+    }
+    if (std::fclose(f) != 0) {
+      std::fprintf(stderr, "error: %s: write failed\n", csv.c_str());
+      return 1;
+    }
+    std::printf("%s: %d hand poses over %.1f s\n", csv.c_str(), n, duration);
+    return 0;
+  }
 
   if (*build && !points_path.empty()) {
 #ifdef HEMM_VPS_HAVE_PCL

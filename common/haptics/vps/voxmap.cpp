@@ -664,15 +664,29 @@ void Builder::finish(int layers_out, int layers_in, Voxmap* vm, VoxmapBuildInfo*
       ++out.sheet_voxels;
     }
   }
-  // Coarse Chebyshev block distance to the nearest block holding surface voxels.
-  out.coarse.assign(nblocks_, 255);
+  // Coarse clearance per block, in voxels: a lower bound on the Chebyshev
+  // voxel distance from any voxel of the block to the nearest surface voxel.
+  // Exact-ish near the surface (the gap to each nearby surface block's box of
+  // surface voxels, within kNear blocks), a block-level chamfer beyond.
+  constexpr int kNear = 4;
+  std::vector<std::uint8_t> block_dist(nblocks_, 255);
+  std::vector<std::size_t> surface_blocks;
+  std::vector<std::array<int, 6>> boxes;  // surface voxels' box per surface block (lo xyz, hi xyz)
   for (std::size_t k = 0; k < blocks_.size(); ++k) {
+    std::array<int, 6> box = {1 << 30, 1 << 30, 1 << 30, -(1 << 30), -(1 << 30), -(1 << 30)};
+    const Eigen::Vector3i B = block_coords(block_of_index_[k]);
     for (int i = 0; i < kBlockVoxels; ++i) {
-      if (blocks_[k].layer[i] == 0) {
-        out.coarse[block_of_index_[k]] = 0;
-        break;
+      if (blocks_[k].layer[i] != 0) continue;
+      const Eigen::Vector3i v = B * kBlockDim + local_coords(i);
+      for (int a = 0; a < 3; ++a) {
+        box[static_cast<std::size_t>(a)] = std::min(box[static_cast<std::size_t>(a)], v[a]);
+        box[static_cast<std::size_t>(a + 3)] = std::max(box[static_cast<std::size_t>(a + 3)], v[a]);
       }
     }
+    if (box[0] > box[3]) continue;
+    block_dist[block_of_index_[k]] = 0;
+    surface_blocks.push_back(block_of_index_[k]);
+    boxes.push_back(box);
   }
   for (int pass = 0; pass < 2; ++pass) {
     const int step = pass == 0 ? 1 : -1;
@@ -683,16 +697,43 @@ void Builder::finish(int layers_out, int layers_in, Voxmap* vm, VoxmapBuildInfo*
       for (int y = y0; y != y1; y += step) {
         for (int x = x0; x != x1; x += step) {
           const std::size_t bl = block_linear_of({x, y, z});
-          int best = out.coarse[bl];
+          int best = block_dist[bl];
           // The 13 neighbours already visited in this sweep direction.
           for (int d = 0; d < 13; ++d) {
             const int dx = d % 3 - 1, dy = (d / 3) % 3 - 1, dz = d / 9 - 1;  // lexicographically before (0,0,0)
             const Eigen::Vector3i n(x + step * dx, y + step * dy, z + step * dz);
             if (n.x() < 0 || n.y() < 0 || n.z() < 0 || n.x() >= bd_.x() || n.y() >= bd_.y() || n.z() >= bd_.z())
               continue;
-            best = std::min(best, out.coarse[block_linear_of(n)] + 1);
+            best = std::min(best, block_dist[block_linear_of(n)] + 1);
           }
-          out.coarse[bl] = static_cast<std::uint8_t>(std::min(best, 255));
+          block_dist[bl] = static_cast<std::uint8_t>(std::min(best, 255));
+        }
+      }
+    }
+  }
+  out.coarse.assign(nblocks_, 255);
+  for (std::size_t bl = 0; bl < nblocks_; ++bl) {
+    // Block distance c >= 1: at least (c - 1) whole blocks between, plus one voxel.
+    const int c = block_dist[bl];
+    out.coarse[bl] = static_cast<std::uint8_t>(c == 0 ? 0 : std::min(255, (c - 1) * kBlockDim + 1));
+  }
+  for (std::size_t j = 0; j < surface_blocks.size(); ++j) {
+    const Eigen::Vector3i S = block_coords(surface_blocks[j]);
+    const std::array<int, 6>& box = boxes[j];
+    for (int dz = -kNear; dz <= kNear; ++dz) {
+      for (int dy = -kNear; dy <= kNear; ++dy) {
+        for (int dx = -kNear; dx <= kNear; ++dx) {
+          const Eigen::Vector3i B = S + Eigen::Vector3i(dx, dy, dz);
+          if (B.x() < 0 || B.y() < 0 || B.z() < 0 || B.x() >= bd_.x() || B.y() >= bd_.y() || B.z() >= bd_.z())
+            continue;
+          const std::size_t bl = block_linear_of(B);
+          if (out.coarse[bl] == 0) continue;
+          int gap = 0;
+          for (int a = 0; a < 3; ++a) {
+            const int lo = B[a] * kBlockDim, hi = lo + kBlockDim - 1;
+            gap = std::max({gap, box[static_cast<std::size_t>(a)] - hi, lo - box[static_cast<std::size_t>(a + 3)]});
+          }
+          out.coarse[bl] = static_cast<std::uint8_t>(std::min<int>(out.coarse[bl], std::max(gap, 1)));
         }
       }
     }

@@ -103,7 +103,7 @@ struct Voxmap {
   int layers_out = 0;
   int layers_in = 0;
   std::vector<std::int32_t> top;     // per block: block index, kBlockEmpty or kBlockUniformInside
-  std::vector<std::uint8_t> coarse;  // per block: Chebyshev block distance to a block with surface voxels (<=255)
+  std::vector<std::uint8_t> coarse;  // per block: lower bound on the Chebyshev voxel distance of its voxels to a surface voxel (<=255)
   std::vector<VoxelBlock> blocks;
   std::vector<std::int32_t> sheet_of_block;  // per allocated block: index into sheets, or -1
   std::vector<SheetBlock> sheets;
@@ -223,8 +223,7 @@ inline bool sheet_at(const Voxmap& vm, const Eigen::Vector3i& v, float* phi, flo
 // and its index in the block.
 inline int clearance_in_grid(const Voxmap& vm, std::size_t bl, std::int32_t bi, int local) {
   if (bi == kBlockUniformInside) return 0;
-  const int coarse = vm.coarse[bl];
-  const int from_coarse = coarse >= 1 ? (coarse - 1) * kBlockDim + 1 : 0;
+  const int from_coarse = vm.coarse[bl];
   if (bi == kBlockEmpty) return std::max(vm.layers_out + 1, from_coarse);
   const int layer = vm.blocks[static_cast<std::size_t>(bi)].v[static_cast<std::size_t>(local)].layer;
   if (layer <= 0) return 0;
