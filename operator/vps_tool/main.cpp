@@ -201,6 +201,8 @@ int main(int argc, char** argv) {
   report->add_option("--fcl-every", ro.fcl_every, "Run FCL on every n-th pose (0 = skip)")->check(CLI::Range(0, 1000000));
   report->add_option("--bosses", ro.bosses, "Assembly scene: bosses of 81,920 triangles (13: 1.07 M)")
       ->check(CLI::Range(1, 100));
+  report->add_option("--layers", ro.layers, "Scene distance layers (0: from the coupling's maximum expected penetration)")
+      ->check(CLI::Range(0, 100));
   report->add_option("--paper-bosses", ro.paper_bosses, "Paper-scale run: bosses (41: 3.36 M; 0 skips it)")
       ->check(CLI::Range(0, 100));
   report->add_option("--budgets", ro.budgets, "Time-critical work budgets (nodes + points per cycle)")

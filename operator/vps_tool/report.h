@@ -21,6 +21,7 @@ struct ReportOptions {
   int repeats = 3;              // timing passes over the trajectory
   int fcl_every = 10;           // FCL on every n-th pose (0: skip FCL)
   int bosses = 13;              // assembly scene: 13 bosses of 81,920 triangles (1.07 M)
+  int layers = 0;               // scene distance layers; 0: from the coupling's maximum expected penetration
   int paper_bosses = 41;        // paper-scale run: 41 bosses (3.36 M); 0 skips it
   std::vector<std::int64_t> budgets = {500, 1000, 2000, 4000, 8000};  // time-critical work budgets
 };

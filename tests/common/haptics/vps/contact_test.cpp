@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <numbers>
 
+#include "common/haptics/vps/closed_forms.h"
 #include "common/haptics/vps/contact.h"
 #include "common/mesh/primitives.h"
 #include "tests/operator/servo/alloc_counter.h"
@@ -111,18 +112,11 @@ TEST(VpsContact, ToolToolPairIsFrameInvariantAndBimanualSumsPairs) {
 
 
 // ---- thin walls -----------------------------------------------------------
-// Reference (pressure model, the side the tool came from): a sphere of radius
-// R whose lowest point is delta past the face it came through feels
-// K * integral(p n dA) with p the depth below that face, i.e. the sphere
-// against the half-space behind that face, whatever the wall's thickness:
-//   F = 2 pi R^2 K (R (1 - u^3) / 3 + (delta - R)(1 - u^2) / 2), u = 1 - delta/R,
-// along the face's outward normal. Zero before contact, no sideways force.
-double sphere_halfspace_force(double K, double R, double delta) {
-  if (delta <= 0) return 0.0;
-  delta = std::min(delta, 2 * R);
-  const double u0 = 1.0 - delta / R;
-  return 2 * std::numbers::pi * R * R * K * (R * (1 - u0 * u0 * u0) / 3.0 + (delta - R) * (1 - u0 * u0) / 2.0);
-}
+// Reference (pressure model, the side the tool came from): a sphere whose
+// lowest point is delta past the face it came through feels the force of the
+// sphere against the half-space behind that face (sphere_halfspace_force),
+// whatever the wall's thickness, along the face's outward normal. Zero
+// before contact, no sideways force.
 
 Eigen::Isometry3d at(const Eigen::Vector3d& p) {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
