@@ -38,8 +38,11 @@ struct OperatorStationOptions {
   std::shared_ptr<const device::HandScript> hand;
   // With `hand`: the view a closed-loop hand reads (the task writes it), or null.
   std::shared_ptr<OperatorView> view;
-  // script == "nav-to-goal": the route in W (empty: default_nav_goal_route()).
+  // script == "nav-to-goal": the route in W (empty: default_nav_goal_route());
+  // "nav-to-wall": the point behind the wall (empty: nav_to_wall_target()).
   std::vector<Eigen::Vector2d> goal_route;
+  // script == "probe-cylinder": the probe's line in W (empty: default_probe_line()).
+  std::vector<Eigen::Vector2d> probe_line;
   std::string log_path;             // empty: no logs
   double command_rate_hz = 200.0;
   double stats_period_s = 0.1;      // link statistics -> servo log / model
