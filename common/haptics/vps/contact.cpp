@@ -89,7 +89,9 @@ class PairEval {
     layered_ = params.model == PenetrationModel::kLayered;
     max_layer_ = layered_ ? 0 : 1;
     early_out_ = static_cast<float>(params.early_out_voxels * s_);
-    valid_ = !ps.nodes.empty() && !vm.top.empty() && state_ok();
+    // A state sized for another pointshell is not used (stateless sheets).
+    if (!state_ok()) state_ = nullptr;
+    valid_ = !ps.nodes.empty() && !vm.top.empty();
     if (state_ != nullptr && valid_) {
       ++state_->tick;
       if (state_->tick == kNever) state_->tick = 1;

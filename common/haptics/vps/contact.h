@@ -4,7 +4,7 @@
 // w_k its area weight), summed into a force and a torque about the moving
 // object's reference point. Allocation-free and bounded per call: the work
 // (sphere nodes visited + points tested) of a call is at most the
-// pointshell's size, and a budgeted call stops at its budget.
+// pointshell's nodes plus points, and a budgeted call stops at its budget.
 #pragma once
 
 #include <Eigen/Core>
@@ -95,8 +95,8 @@ void reset_pair_state(PairState* state);
 // One pair: pointshell object P (pose T_W_P) against voxmap object V (pose
 // T_W_V, reference point ref_V in V's frame, for the reaction torque). With
 // a null state every sheet point is judged from its nearer face (stateless:
-// thin walls can then be pushed through beyond their middle). A state must
-// have been initialised for this pointshell.
+// thin walls can then be pushed through beyond their middle); so is a state
+// initialised for another pointshell.
 void evaluate_pair(const Voxmap& vm, const Eigen::Isometry3d& T_W_V, const Eigen::Vector3d& ref_V,
                    const PointShell& ps, const Eigen::Isometry3d& T_W_P, const ContactParams& params,
                    PairState* state, PairResult* out);

@@ -52,6 +52,43 @@ TEST(VpsContact, CullingDoesNotChangeTheResult) {
   }
 }
 
+TEST(VpsContact, AStateOfAnotherPointShellIsIgnoredNotZeroed) {
+  // A state sized for another pointshell (e.g. a model swapped under a task)
+  // must neither index out of its arrays nor silence the contact: the call
+  // is the stateless one, and the foreign state is left as it was.
+  const auto scene = mesh::make_icosphere(0.1, 4);
+  VoxmapParams vp;
+  vp.voxel_size = 0.004;
+  Voxmap vm;
+  ASSERT_FALSE(build_voxmap(scene, vp, &vm, nullptr));
+  PointShellParams pp;
+  pp.voxel_size = 0.004;
+  PointShell box, ball;
+  ASSERT_FALSE(build_pointshell(mesh::make_box({0.03, 0.02, 0.01}, 4), pp, Eigen::Vector3d::Zero(), &box));
+  ASSERT_FALSE(build_pointshell(mesh::make_icosphere(0.02, 3), pp, Eigen::Vector3d::Zero(), &ball));
+  ASSERT_NE(box.size(), ball.size());
+  PairState foreign;
+  init_pair_state(ball, &foreign);
+  const PairState before = foreign;
+  ContactParams cp;
+  int touching = 0;
+  for (int i = 0; i < 10; ++i) {
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.translation() = Eigen::Vector3d(0.003 * i, -0.002 * i, 0.104 - 0.0005 * i);
+    PairResult with_foreign, stateless;
+    evaluate_pair(vm, Eigen::Isometry3d::Identity(), Eigen::Vector3d::Zero(), box, T, cp, &foreign, &with_foreign);
+    evaluate_pair(vm, Eigen::Isometry3d::Identity(), Eigen::Vector3d::Zero(), box, T, cp, nullptr, &stateless);
+    EXPECT_EQ(with_foreign.contacts, stateless.contacts);
+    EXPECT_EQ(with_foreign.on_shell.force, stateless.on_shell.force);
+    EXPECT_EQ(with_foreign.on_shell.torque, stateless.on_shell.torque);
+    touching += stateless.contacts > 0 ? 1 : 0;
+  }
+  EXPECT_GT(touching, 5);  // the poses do touch the sphere
+  EXPECT_EQ(foreign.tick, before.tick);
+  EXPECT_EQ(foreign.seen, before.seen);
+  EXPECT_EQ(foreign.has_prev, before.has_prev);
+}
+
 TEST(VpsContact, ToolToolPairIsFrameInvariantAndBimanualSumsPairs) {
   const auto box = mesh::make_box({0.04, 0.04, 0.04}, 4);
   VoxmapParams vp;
