@@ -19,46 +19,21 @@
 #include "common/haptics/vps/contact.h"
 #include "common/haptics/vps/scenes.h"
 #include "common/mesh/mesh_io.h"
+#include "common/mesh/primitives.h"
 #ifdef HEMM_VPS_HAVE_PCL
 #include "common/mesh/point_cloud.h"
 #endif
+#include "operator/vps/vps_model.h"
 #include "operator/vps_tool/report.h"
 
 namespace {
 
 using namespace hemm;
 
-constexpr std::size_t kMaxFileBytes = std::size_t{4} << 30;
-
-bool read_file(const std::string& path, std::vector<std::uint8_t>* out, std::string* err) {
-  std::ifstream f(path, std::ios::binary | std::ios::ate);
-  if (!f) {
-    *err = path + ": cannot open";
-    return false;
-  }
-  const std::streamoff size = f.tellg();
-  if (size < 0 || static_cast<std::size_t>(size) > kMaxFileBytes) {
-    *err = path + ": cannot read or too large";
-    return false;
-  }
-  out->resize(static_cast<std::size_t>(size));
-  f.seekg(0);
-  if (size > 0 && !f.read(reinterpret_cast<char*>(out->data()), size)) {
-    *err = path + ": read error";
-    return false;
-  }
-  return true;
-}
-
 bool load_vps(const std::string& path, vps::Voxmap* vm, vps::PointShell* ps) {
-  std::vector<std::uint8_t> bytes;
   std::string err;
-  if (!read_file(path, &bytes, &err)) {
+  if (!op::load_vps_file(path, vm, ps, &err)) {
     std::fprintf(stderr, "error: %s\n", err.c_str());
-    return false;
-  }
-  if (auto e = vps::deserialize_vps(bytes.data(), bytes.size(), vm, ps)) {
-    std::fprintf(stderr, "error: %s: %s\n", path.c_str(), e->message.c_str());
     return false;
   }
   return true;
@@ -248,6 +223,14 @@ int main(int argc, char** argv) {
       }
       std::printf("%s%s: %zu triangles\n", base.c_str(), suffix, m->triangles.size());
     }
+    if (peg) {  // the Omni's small tool for exploring the scene (deploy/configs/operator_vps_omni.pbtxt)
+      const std::string probe = base + "-probe.stl";
+      if (auto e = mesh::save_mesh(probe, mesh::make_icosphere(0.008, 4))) {
+        std::fprintf(stderr, "error: %s\n", e->message.c_str());
+        return 1;
+      }
+      std::printf("%s: an 8 mm ball (the Omni's tool)\n", probe.c_str());
+    }
     // The scripted hands: mesh-frame poses of both objects in the scene
     // frame, as `hemm-vps eval --poses` reads them per object.
     const double duration = peg ? vps::kPegInHoleDuration : vps::kAssemblyDuration;
@@ -311,10 +294,9 @@ int main(int argc, char** argv) {
     }
     vps::PointShell none;  // a point cloud is a scene only
     none.voxel_size = voxel;
-    const auto bytes = vps::serialize_vps(vm, none);
-    std::ofstream f(out_path, std::ios::binary);
-    if (!f || !f.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()))) {
-      std::fprintf(stderr, "error: %s: cannot write\n", out_path.c_str());
+    std::string err;
+    if (!op::save_vps_file(out_path, vm, none, &err)) {
+      std::fprintf(stderr, "error: %s\n", err.c_str());
       return 1;
     }
     std::printf("%s: %zu points (%zu NaN dropped): %zu surface voxels, %.2f MB; wrote %s\n", points_path.c_str(),
@@ -376,15 +358,13 @@ int main(int argc, char** argv) {
       return 1;
     }
     const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    const auto bytes = vps::serialize_vps(vm, ps);
-    std::ofstream f(out_path, std::ios::binary);
-    if (!f || !f.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()))) {
-      std::fprintf(stderr, "error: %s: cannot write\n", out_path.c_str());
+    std::string err;
+    if (!op::save_vps_file(out_path, vm, ps, &err)) {
+      std::fprintf(stderr, "error: %s\n", err.c_str());
       return 1;
     }
-    std::printf("voxmap: %zu surface voxels, %zu blocks, %.2f MB; pointshell: %zu points; %.2f s; wrote %s (%zu bytes)\n",
-                info.surface_voxels, vm.blocks.size(), vm.memory_bytes() / 1e6, ps.size(), secs,
-                out_path.c_str(), bytes.size());
+    std::printf("voxmap: %zu surface voxels, %zu blocks, %.2f MB; pointshell: %zu points; %.2f s; wrote %s\n",
+                info.surface_voxels, vm.blocks.size(), vm.memory_bytes() / 1e6, ps.size(), secs, out_path.c_str());
     return 0;
   }
   if (*eval) {
