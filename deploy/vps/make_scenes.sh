@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Writes the bimanual paper's two VR scenes (section 4.2) and their scripted
 # hands, and builds a .vps cache (voxmap + pointshell) for every object, for
-# the device-in-the-loop runs and for `hemm-vps eval`.
+# `hemm-vps eval` (hemm-operator writes its own caches, named after mesh and
+# resolution, beside the meshes on its first run).
 # Usage: deploy/vps/make_scenes.sh BUILD_DIR [OUT_DIR] [BOSSES]
 #   OUT_DIR defaults to out/vps; BOSSES (assembly scene) to 13 (1.07 M
 #   triangles); 41 gives the paper's scale (3.36 M).
