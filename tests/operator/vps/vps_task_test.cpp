@@ -176,6 +176,38 @@ TEST(VpsServoTask, OmniExploresASceneWithASmallTool) {
   EXPECT_LT(st.max_energy_J[0], 1e-3);
 }
 
+TEST(VpsServoTask, RefusesAMismatchedDeviceAndIgnoresNonFiniteSamples) {
+  mesh::TriangleMesh table = mesh::make_box({0.05, 0.05, 0.01}, 1);
+  VpsMeshSpec s;
+  s.voxel_size = 0.004;
+  const auto one = make_vps_model(table, s, {{mesh::make_icosphere(0.01, 2), s}}, {});
+  const auto two =
+      make_vps_model(table, s, {{mesh::make_icosphere(0.01, 2), s}, {mesh::make_icosphere(0.01, 2), s}}, {});
+  // Two objects need two end-effectors.
+  EXPECT_THROW(VpsServoTask(two, device::phantom_omni_limits(), {}), std::invalid_argument);
+  VpsTaskParams bad;
+  bad.budget = 0;
+  EXPECT_THROW(VpsServoTask(one, device::phantom_omni_limits(), bad), std::invalid_argument);
+  // A reading with a NaN: no wrench on that tick, the object stays put.
+  VpsServoTask task(one, scripted_hands_limits(1), {});
+  device::DeviceSample in;
+  in.end_effectors = 1;
+  in.ee[0].position_H = Eigen::Vector3d(0, 0, 0.05);
+  servo::TickOutput out;
+  servo::ModelSnapshot none;
+  task.tick(in, none, out);
+  in.ee[0].position_H.x() = 0.01;  // the hand moves: the coupling pulls
+  task.tick(in, none, out);
+  EXPECT_GT(out.command.ee[0].force_H.norm(), 0.0);
+  const Eigen::Vector3d before = task.object_pose(0).translation();
+  in.ee[0].position_H.y() = std::nan("");
+  out = servo::TickOutput{};
+  task.tick(in, none, out);
+  EXPECT_EQ(out.command.ee[0].force_H, Eigen::Vector3d::Zero());
+  EXPECT_EQ(task.object_pose(0).translation(), before);
+  EXPECT_TRUE(task.object_pose(0).matrix().allFinite());
+}
+
 TEST(VpsModel, LoadsMeshFilesThroughTheCache) {
   namespace fs = std::filesystem;
   const fs::path dir = fs::path(::testing::TempDir()) / "vps_model_cache";
