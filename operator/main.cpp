@@ -116,7 +116,8 @@ int run_vps(const config::OperatorConfig& cfg, const std::string& config_path, c
 
 int run(int argc, char** argv) {
   CLI::App app{"hemm-operator: the operator station of hemm (authenticated session, 1 kHz haptic servo loop with "
-               "the virtual proxy on the local model, commands to the robot, link statistics)."};
+               "the virtual proxy on the local model, commands to the robot, link statistics). A config with a vps block "
+               "renders that VPS scene with the device instead, without a robot (deploy/configs/operator_vps_*.pbtxt)."};
   app.footer(net::kExitCodeHelp);
   std::string config_path, key_path, robot, log_level = "info", stats_json;
   int session_port = -1, stream_port = -1;
