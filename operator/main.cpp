@@ -6,12 +6,15 @@
 // exit. The e-stop: both device buttons together, a key on the terminal
 // (space or e engages, R releases) when stdin is one, or
 // `hemm-operator estop --control-socket PATH` against a running station
-// started with --control-socket PATH.
+// started with --control-socket PATH. With a `vps` block in its config it renders that VPS scene (meshes,
+// held objects, 6-DoF couplings) with the device instead, without a robot.
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
 
 #include <asio.hpp>
+#include <atomic>
 #include <cctype>
+#include <csignal>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -29,6 +32,10 @@
 #include "operator/client/operator_client.h"
 #include "operator/station/demo_scripts.h"
 #include "operator/station/operator_station.h"
+#ifdef HEMM_OPERATOR_HAVE_VPS
+#include "operator/vps/vps_config.h"
+#include "operator/vps/vps_session.h"
+#endif
 #ifdef HEMM_WITH_VIEW
 #include "common/view/view_options.h"
 #include "operator/view/live_view.h"
@@ -54,9 +61,67 @@ std::optional<Eigen::Vector2d> parse_goal(const std::string& s) {
   return Eigen::Vector2d(x, y);
 }
 
+#ifdef HEMM_OPERATOR_HAVE_VPS
+std::atomic<bool> g_vps_stop{false};
+extern "C" void on_vps_signal(int) { g_vps_stop.store(true); }
+
+// The VPS scene of the config's `vps` block with the device in the servo
+// loop: no robot, no link.
+int run_vps(const config::OperatorConfig& cfg, const std::string& config_path, const std::string& replay_file,
+            double duration_s, const std::string& servo_log, const std::string& station_json) {
+  op::VpsSessionOptions o;
+  std::unique_ptr<device::HapticDevice> dev;
+  std::shared_ptr<op::VpsLocalModel> model;
+  try {
+    const op::VpsSetup setup = op::vps_setup(cfg, config_path);
+    dev = op::make_vps_device(cfg, replay_file);
+    o.task = setup.task;
+    op::VpsLoadReport report;
+    model = op::load_vps_model(setup.model, &report);
+    for (const auto& l : report.lines) spdlog::info("event=vps_model {}", l);
+    for (const auto& w : report.warnings) spdlog::warn("event=vps_model warning=\"{}\"", w);
+  } catch (const std::invalid_argument& e) {
+    std::cerr << "hemm-operator: bad config: " << e.what() << "\n";
+    return net::kExitUsage;
+  } catch (const std::exception& e) {
+    std::cerr << "hemm-operator: " << e.what() << "\n";
+    return net::kExitUsage;
+  }
+  o.servo.period_ns = 1'000'000'000LL / cfg.servo().rate_hz();
+  o.servo.realtime = cfg.servo().realtime_priority();
+  o.servo.lock_memory = cfg.servo().realtime_priority();
+  o.log_path = servo_log;
+  o.duration_s = duration_s;
+  // Scripted hands end: by default the run covers their path and half a second of holding.
+  if (o.duration_s <= 0 && !cfg.vps().hands().empty())
+    o.duration_s = (cfg.vps().hands() == "peg-in-hole" ? vps::kPegInHoleDuration : vps::kAssemblyDuration) + 0.5;
+  std::signal(SIGINT, on_vps_signal);
+  std::signal(SIGTERM, on_vps_signal);
+  op::VpsSessionSummary s;
+  try {
+    s = op::run_vps_session(*dev, model, o, &g_vps_stop, [&](const servo::RealtimeStatus& rt) {
+      for (const auto& w : rt.warnings) spdlog::warn("event=servo_realtime warning=\"{}\"", w);
+      spdlog::info("event=station_started device={} vps_objects={} fifo={}", dev->name(), model->object_count,
+                   rt.fifo);
+    });
+  } catch (const std::exception& e) {
+    std::cerr << "hemm-operator: " << e.what() << "\n";
+    return net::kExitUsage;
+  }
+  std::cout << op::to_string(s) << std::flush;
+  std::string error;
+  if (!station_json.empty() && !net::write_text_file(station_json, op::to_json(s), &error)) {
+    std::cerr << "hemm-operator: --station-json: " << error << "\n";
+    return net::kExitInternal;
+  }
+  return net::kExitOk;
+}
+#endif
+
 int run(int argc, char** argv) {
   CLI::App app{"hemm-operator: the operator station of hemm (authenticated session, 1 kHz haptic servo loop with "
-               "the virtual proxy on the local model, commands to the robot, link statistics)."};
+               "the virtual proxy on the local model, commands to the robot, link statistics). A config with a vps block "
+               "renders that VPS scene with the device instead, without a robot (deploy/configs/operator_vps_*.pbtxt)."};
   app.footer(net::kExitCodeHelp);
   std::string config_path, key_path, robot, log_level = "info", stats_json;
   int session_port = -1, stream_port = -1;
@@ -174,6 +239,14 @@ int run(int argc, char** argv) {
       spdlog::error("event=bad_config error=\"{}\"", err->to_string());
       return net::kExitUsage;
     }
+  }
+  if (cfg.has_vps()) {
+#ifdef HEMM_OPERATOR_HAVE_VPS
+    return run_vps(cfg, config_path, replay_file, duration_s, servo_log, station_json);
+#else
+    std::cerr << "hemm-operator: bad config: vps: this build has no VPS component\n";
+    return net::kExitUsage;
+#endif
   }
   const std::string robot_address = robot.empty() ? cfg.net().robot_address() : robot;
   const auto key =

@@ -1,11 +1,13 @@
 #include "common/mesh/mesh_io.h"
 
+#include <assimp/Exporter.hpp>
 #include <assimp/Importer.hpp>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 
 #include <cmath>
 #include <filesystem>
+#include <memory>
 
 namespace hemm::mesh {
 
@@ -53,6 +55,45 @@ std::optional<MeshError> load_mesh(const std::string& path, const LoadOptions& o
   if (auto err = validate_mesh(m, options.limits, &valid, &r)) return MeshError{path + ": " + err->message};
   *out = std::move(valid);
   *report = r;
+  return std::nullopt;
+}
+
+std::optional<MeshError> save_mesh(const std::string& path, const TriangleMesh& mesh) {
+  const std::string ext = std::filesystem::path(path).extension().string();
+  const char* format = ext == ".stl" ? "stlb" : ext == ".obj" ? "obj" : ext == ".ply" ? "plyb" : nullptr;
+  if (format == nullptr) return MeshError{path + ": unknown mesh format (use .stl, .obj or .ply)"};
+  if (mesh.triangles.empty() || mesh.vertices.empty()) return MeshError{path + ": empty mesh"};
+  for (const auto& t : mesh.triangles)
+    for (const std::uint32_t i : t)
+      if (i >= mesh.vertices.size()) return MeshError{path + ": triangle index out of range"};
+  // One mesh, one material (the exporters need one), one root node; the
+  // scene owns and frees the arrays.
+  auto scene = std::make_unique<aiScene>();
+  scene->mRootNode = new aiNode();
+  scene->mRootNode->mNumMeshes = 1;
+  scene->mRootNode->mMeshes = new unsigned[1]{0};
+  scene->mNumMaterials = 1;
+  scene->mMaterials = new aiMaterial*[1]{new aiMaterial()};
+  scene->mNumMeshes = 1;
+  scene->mMeshes = new aiMesh*[1]{new aiMesh()};
+  aiMesh* am = scene->mMeshes[0];
+  am->mMaterialIndex = 0;
+  am->mPrimitiveTypes = aiPrimitiveType_TRIANGLE;
+  am->mNumVertices = static_cast<unsigned>(mesh.vertices.size());
+  am->mVertices = new aiVector3D[am->mNumVertices];
+  for (unsigned i = 0; i < am->mNumVertices; ++i) {
+    const Eigen::Vector3d& v = mesh.vertices[i];
+    am->mVertices[i] = aiVector3D(static_cast<ai_real>(v.x()), static_cast<ai_real>(v.y()), static_cast<ai_real>(v.z()));
+  }
+  am->mNumFaces = static_cast<unsigned>(mesh.triangles.size());
+  am->mFaces = new aiFace[am->mNumFaces];
+  for (unsigned f = 0; f < am->mNumFaces; ++f) {
+    am->mFaces[f].mNumIndices = 3;
+    am->mFaces[f].mIndices = new unsigned[3]{mesh.triangles[f][0], mesh.triangles[f][1], mesh.triangles[f][2]};
+  }
+  Assimp::Exporter exporter;
+  if (exporter.Export(scene.get(), format, path) != aiReturn_SUCCESS)
+    return MeshError{path + ": cannot write mesh: " + exporter.GetErrorString()};
   return std::nullopt;
 }
 

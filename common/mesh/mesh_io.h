@@ -20,4 +20,8 @@ struct LoadOptions {
 std::optional<MeshError> load_mesh(const std::string& path, const LoadOptions& options, TriangleMesh* out,
                                    MeshReport* report);
 
+// Writes `mesh` through assimp's exporters, the format from the extension
+// (.stl binary STL, .obj, .ply binary PLY). Coordinates in metres.
+std::optional<MeshError> save_mesh(const std::string& path, const TriangleMesh& mesh);
+
 }  // namespace hemm::mesh

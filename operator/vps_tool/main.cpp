@@ -2,9 +2,11 @@
 //   hemm-vps build --mesh FILE --voxel SIZE [--roi ...] -o FILE.vps
 //   hemm-vps eval --scene A.vps --tool B.vps --poses poses.csv -o forces.csv
 //   hemm-vps report
+//   hemm-vps scene --name peg-in-hole|assembly --out DIR
 #include <CLI/CLI.hpp>
 
 #include <charconv>
+#include <filesystem>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -15,47 +17,23 @@
 
 #include "common/haptics/vps/cache.h"
 #include "common/haptics/vps/contact.h"
+#include "common/haptics/vps/scenes.h"
 #include "common/mesh/mesh_io.h"
+#include "common/mesh/primitives.h"
 #ifdef HEMM_VPS_HAVE_PCL
 #include "common/mesh/point_cloud.h"
 #endif
+#include "operator/vps/vps_model.h"
 #include "operator/vps_tool/report.h"
 
 namespace {
 
 using namespace hemm;
 
-constexpr std::size_t kMaxFileBytes = std::size_t{4} << 30;
-
-bool read_file(const std::string& path, std::vector<std::uint8_t>* out, std::string* err) {
-  std::ifstream f(path, std::ios::binary | std::ios::ate);
-  if (!f) {
-    *err = path + ": cannot open";
-    return false;
-  }
-  const std::streamoff size = f.tellg();
-  if (size < 0 || static_cast<std::size_t>(size) > kMaxFileBytes) {
-    *err = path + ": cannot read or too large";
-    return false;
-  }
-  out->resize(static_cast<std::size_t>(size));
-  f.seekg(0);
-  if (size > 0 && !f.read(reinterpret_cast<char*>(out->data()), size)) {
-    *err = path + ": read error";
-    return false;
-  }
-  return true;
-}
-
 bool load_vps(const std::string& path, vps::Voxmap* vm, vps::PointShell* ps) {
-  std::vector<std::uint8_t> bytes;
   std::string err;
-  if (!read_file(path, &bytes, &err)) {
+  if (!op::load_vps_file(path, vm, ps, &err)) {
     std::fprintf(stderr, "error: %s\n", err.c_str());
-    return false;
-  }
-  if (auto e = vps::deserialize_vps(bytes.data(), bytes.size(), vm, ps)) {
-    std::fprintf(stderr, "error: %s: %s\n", path.c_str(), e->message.c_str());
     return false;
   }
   return true;
@@ -187,17 +165,101 @@ int main(int argc, char** argv) {
   eval->add_option("--model", model_name, "continuous or layered")->check(CLI::IsMember({"continuous", "layered"}));
 
   // ---- report
-  auto* report = app.add_subcommand("report", "Large-scene speed-against-error report with FCL comparison");
+  auto* report = app.add_subcommand(
+      "report", "Engine report: assembly scene (>1 M triangles), exact-reference errors, time-critical budgets, FCL, "
+                "paper-scale run");
   hemm::vps_tool::ReportOptions ro;
-  report->add_option("--voxel", ro.scene_voxel, "Scene voxel size (m)");
-  report->add_option("--shell-voxel", ro.shell_voxel, "Tool pointshell voxel size (m)");
-  report->add_option("--ticks", ro.ticks, "Trajectory length (ticks)");
-  report->add_option("--repeats", ro.repeats, "Timing passes");
-  report->add_option("--fcl-every", ro.fcl_every, "Run FCL on every n-th pose (0 = skip)");
-  report->add_option("--spheres", ro.spheres_per_side, "Generated scene: n x n icospheres (20480 triangles each)");
-  report->add_option("--scene-mesh", ro.scene_file, "Use this mesh file as the scene (no closed-form error)");
+  report->add_option("--voxel", ro.scene_voxel, "Scene voxel size (m)")->check(CLI::PositiveNumber);
+  report->add_option("--shell-voxel", ro.shell_voxel, "Tool pointshell voxel size (m)")->check(CLI::PositiveNumber);
+  report->add_option("--ticks", ro.ticks, "Trajectory length (1 kHz ticks)")->check(CLI::Range(10, 1000000));
+  report->add_option("--repeats", ro.repeats, "Timing passes over the trajectory")->check(CLI::Range(1, 100));
+  report->add_option("--fcl-every", ro.fcl_every, "Run FCL on every n-th pose (0 = skip)")->check(CLI::Range(0, 1000000));
+  report->add_option("--bosses", ro.bosses, "Assembly scene: bosses of 81,920 triangles (13: 1.07 M)")
+      ->check(CLI::Range(1, 100));
+  report->add_option("--layers", ro.layers, "Scene distance layers (0: from the coupling's maximum expected penetration)")
+      ->check(CLI::Range(0, 100));
+  report->add_option("--paper-bosses", ro.paper_bosses, "Paper-scale run: bosses (41: 3.36 M; 0 skips it)")
+      ->check(CLI::Range(0, 100));
+  report->add_option("--budgets", ro.budgets, "Time-critical work budgets (nodes + points per cycle)")
+      ->check(CLI::Range(std::int64_t{1}, std::int64_t{100000000}));
 
-  CLI11_PARSE(app, argc, argv);
+  // ---- scene
+  auto* scene = app.add_subcommand(
+      "scene", "Write one of the paper's two scenes (static part and both tools as STL) and its scripted hands (CSV)");
+  std::string scene_name, scene_dir;
+  int scene_bosses = 13;
+  double scene_rate = 1000.0;
+  scene->add_option("--name", scene_name, "peg-in-hole or assembly")
+      ->required()
+      ->check(CLI::IsMember({"peg-in-hole", "assembly"}));
+  scene->add_option("--out", scene_dir, "Output directory (created)")->required();
+  scene->add_option("--bosses", scene_bosses, "Assembly: bosses of 81,920 triangles (13: 1.07 M, 41: 3.36 M)")
+      ->check(CLI::Range(1, 100));
+  scene->add_option("--rate", scene_rate, "Samples per second of the hand paths")->check(CLI::Range(1.0, 10000.0));
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int rc = app.exit(e);
+    return rc == 0 ? 0 : 2;  // bad arguments: 2, with CLI11's message
+  }
+
+  if (*scene) {
+    const bool peg = scene_name == "peg-in-hole";
+    const vps::BimanualScene sc = peg ? vps::make_peg_in_hole_scene() : vps::make_assembly_scene(scene_bosses);
+    std::error_code ec;
+    std::filesystem::create_directories(scene_dir, ec);
+    if (ec) {
+      std::fprintf(stderr, "error: %s: %s\n", scene_dir.c_str(), ec.message().c_str());
+      return 1;
+    }
+    const std::string base = scene_dir + "/" + sc.name;
+    for (const auto& [suffix, m] : {std::pair<const char*, const mesh::TriangleMesh*>{"-scene.stl", &sc.scene},
+                                    {"-right.stl", &sc.right},
+                                    {"-left.stl", &sc.left}}) {
+      if (auto e = mesh::save_mesh(base + suffix, *m)) {
+        std::fprintf(stderr, "error: %s\n", e->message.c_str());
+        return 1;
+      }
+      std::printf("%s%s: %zu triangles\n", base.c_str(), suffix, m->triangles.size());
+    }
+    if (peg) {  // the Omni's small tool for exploring the scene (deploy/configs/operator_vps_omni.pbtxt)
+      const std::string probe = base + "-probe.stl";
+      if (auto e = mesh::save_mesh(probe, mesh::make_icosphere(0.008, 4))) {
+        std::fprintf(stderr, "error: %s\n", e->message.c_str());
+        return 1;
+      }
+      std::printf("%s: an 8 mm ball (the Omni's tool)\n", probe.c_str());
+    }
+    // The scripted hands: mesh-frame poses of both objects in the scene
+    // frame, as `hemm-vps eval --poses` reads them per object.
+    const double duration = peg ? vps::kPegInHoleDuration : vps::kAssemblyDuration;
+    const std::string csv = base + "-hands.csv";
+    std::FILE* f = std::fopen(csv.c_str(), "w");
+    if (f == nullptr) {
+      std::fprintf(stderr, "error: %s: cannot write\n", csv.c_str());
+      return 1;
+    }
+    std::fprintf(f, "t,rx,ry,rz,rqw,rqx,rqy,rqz,lx,ly,lz,lqw,lqx,lqy,lqz\n");
+    const int n = static_cast<int>(std::floor(duration * scene_rate)) + 1;
+    for (int i = 0; i < n; ++i) {
+      const double t = i / scene_rate;
+      const vps::BimanualPoses h = peg ? vps::peg_in_hole_hands(t) : vps::assembly_hands(t);
+      std::fprintf(f, "%.6f", t);
+      for (const Eigen::Isometry3d* T : {&h.right, &h.left}) {
+        const Eigen::Quaterniond q(T->linear());
+        std::fprintf(f, ",%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g", T->translation().x(), T->translation().y(),
+                     T->translation().z(), q.w(), q.x(), q.y(), q.z());
+      }
+      std::fprintf(f, "\n");
+    }
+    if (std::fclose(f) != 0) {
+      std::fprintf(stderr, "error: %s: write failed\n", csv.c_str());
+      return 1;
+    }
+    std::printf("%s: %d hand poses over %.1f s\n", csv.c_str(), n, duration);
+    return 0;
+  }
 
   if (*build && !points_path.empty()) {
 #ifdef HEMM_VPS_HAVE_PCL
@@ -232,10 +294,9 @@ int main(int argc, char** argv) {
     }
     vps::PointShell none;  // a point cloud is a scene only
     none.voxel_size = voxel;
-    const auto bytes = vps::serialize_vps(vm, none);
-    std::ofstream f(out_path, std::ios::binary);
-    if (!f || !f.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()))) {
-      std::fprintf(stderr, "error: %s: cannot write\n", out_path.c_str());
+    std::string err;
+    if (!op::save_vps_file(out_path, vm, none, &err)) {
+      std::fprintf(stderr, "error: %s\n", err.c_str());
       return 1;
     }
     std::printf("%s: %zu points (%zu NaN dropped): %zu surface voxels, %.2f MB; wrote %s\n", points_path.c_str(),
@@ -297,15 +358,13 @@ int main(int argc, char** argv) {
       return 1;
     }
     const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    const auto bytes = vps::serialize_vps(vm, ps);
-    std::ofstream f(out_path, std::ios::binary);
-    if (!f || !f.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()))) {
-      std::fprintf(stderr, "error: %s: cannot write\n", out_path.c_str());
+    std::string err;
+    if (!op::save_vps_file(out_path, vm, ps, &err)) {
+      std::fprintf(stderr, "error: %s\n", err.c_str());
       return 1;
     }
-    std::printf("voxmap: %zu surface voxels, %zu blocks, %.2f MB; pointshell: %zu points; %.2f s; wrote %s (%zu bytes)\n",
-                info.surface_voxels, vm.blocks.size(), vm.memory_bytes() / 1e6, ps.points.size(), secs,
-                out_path.c_str(), bytes.size());
+    std::printf("voxmap: %zu surface voxels, %zu blocks, %.2f MB; pointshell: %zu points; %.2f s; wrote %s\n",
+                info.surface_voxels, vm.blocks.size(), vm.memory_bytes() / 1e6, ps.size(), secs, out_path.c_str());
     return 0;
   }
   if (*eval) {
@@ -327,9 +386,14 @@ int main(int argc, char** argv) {
       return 1;
     }
     std::fprintf(out, "t,fx,fy,fz,tx,ty,tz,contacts,max_penetration\n");
+    // The rows are a trajectory: one pair state carries which side of a thin
+    // wall each point came from from row to row.
+    vps::PairState state;
+    vps::init_pair_state(tool_ps, &state);
     for (const PoseRow& r : rows) {
       vps::PairResult res;
-      vps::evaluate_pair(scene_vm, Eigen::Isometry3d::Identity(), scene_ps.reference_point, tool_ps, r.T_S_T, cp, &res);
+      vps::evaluate_pair(scene_vm, Eigen::Isometry3d::Identity(), scene_ps.reference_point, tool_ps, r.T_S_T, cp,
+                         &state, &res);
       const auto& w = res.on_shell;
       std::fprintf(out, "%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%d,%.9g\n", r.t, w.force.x(), w.force.y(), w.force.z(),
                    w.torque.x(), w.torque.y(), w.torque.z(), res.contacts, res.max_penetration);

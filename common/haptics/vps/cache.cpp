@@ -54,6 +54,33 @@ class Reader {
   std::size_t pos_ = 0;
 };
 
+// A sphere tree in nodes [root, end): finite spheres; the root covers the
+// range [first, first + count); children come after their parent (no cycles)
+// within the table and split its range (a traversal visits each point once).
+std::optional<VpsError> check_tree(const std::vector<SphereNode>& nodes, const std::vector<std::int32_t>& parent,
+                                   std::int64_t root, std::int64_t end, std::int64_t first, std::int64_t count) {
+  if (root < 0 || end > static_cast<std::int64_t>(nodes.size()) || root >= end)
+    return VpsError{"invalid sphere tree"};
+  for (std::int64_t i = root; i < end; ++i) {
+    const SphereNode& nd = nodes[static_cast<std::size_t>(i)];
+    bool ok = std::isfinite(nd.cx) && std::isfinite(nd.cy) && std::isfinite(nd.cz) && std::isfinite(nd.radius) &&
+              nd.radius >= 0 && nd.count > 0 && nd.first >= first &&
+              nd.first + static_cast<std::int64_t>(nd.count) <= first + count;
+    if (i == root) ok = ok && nd.first == first && nd.count == count && parent[static_cast<std::size_t>(i)] == -1;
+    if (ok && (nd.left != -1 || nd.right != -1)) {
+      ok = nd.left > i && nd.right > i && nd.left < end && nd.right < end;
+      if (ok) {
+        const SphereNode& a = nodes[static_cast<std::size_t>(nd.left)];
+        const SphereNode& b = nodes[static_cast<std::size_t>(nd.right)];
+        ok = a.first == nd.first && b.first == a.first + a.count && a.count + b.count == nd.count &&
+             parent[static_cast<std::size_t>(nd.left)] == i && parent[static_cast<std::size_t>(nd.right)] == i;
+      }
+    }
+    if (!ok) return VpsError{"invalid sphere node " + std::to_string(i)};
+  }
+  return std::nullopt;
+}
+
 }  // namespace
 
 std::uint64_t fnv1a64(const std::uint8_t* data, std::size_t size) {
@@ -65,6 +92,11 @@ std::uint64_t fnv1a64(const std::uint8_t* data, std::size_t size) {
   return h;
 }
 
+template <typename T>
+void put_vector(Writer* w, const std::vector<T>& v) {
+  w->bytes(v.data(), v.size() * sizeof(T));
+}
+
 std::vector<std::uint8_t> serialize_vps(const Voxmap& vm, const PointShell& ps) {
   Writer w;
   w.put(vm.voxel_size);
@@ -74,34 +106,38 @@ std::vector<std::uint8_t> serialize_vps(const Voxmap& vm, const PointShell& ps) 
   w.put(static_cast<std::int32_t>(vm.layers_out));
   w.put(static_cast<std::int32_t>(vm.layers_in));
   w.put(static_cast<std::uint64_t>(vm.surface_voxels));
+  w.put(static_cast<std::uint64_t>(vm.sheet_voxels));
   w.put(static_cast<std::uint64_t>(vm.top.size()));
-  w.bytes(vm.top.data(), vm.top.size() * sizeof(std::int32_t));
-  w.bytes(vm.coarse.data(), vm.coarse.size());
+  put_vector(&w, vm.top);
+  put_vector(&w, vm.coarse);
   w.put(static_cast<std::uint64_t>(vm.blocks.size()));
-  for (const VoxelBlock& b : vm.blocks) {
-    w.bytes(b.sdf.data(), sizeof(b.sdf));
-    w.bytes(b.layer.data(), sizeof(b.layer));
-    w.bytes(b.flags.data(), sizeof(b.flags));
-  }
+  put_vector(&w, vm.blocks);
+  put_vector(&w, vm.sheet_of_block);
+  w.put(static_cast<std::uint64_t>(vm.sheets.size()));
+  put_vector(&w, vm.sheets);
   w.put(ps.voxel_size);
   w.vec3(ps.reference_point);
   w.put(ps.total_weight);
-  w.put(static_cast<std::int32_t>(ps.depth));
-  w.put(static_cast<std::uint64_t>(ps.points.size()));
-  for (std::size_t i = 0; i < ps.points.size(); ++i) {
-    w.vec3(ps.points[i]);
-    w.vec3(ps.normals[i]);
-    w.put(ps.weights[i]);
+  w.put(static_cast<std::int32_t>(ps.levels));
+  for (const ShellLevel& l : ps.level) {
+    w.put(l.first);
+    w.put(l.count);
+    w.put(l.root);
+    w.put(l.node_count);
+    w.put(l.spacing);
+    w.put(l.total_weight);
   }
+  w.put(static_cast<std::uint64_t>(ps.size()));
+  for (const auto* v : {&ps.px, &ps.py, &ps.pz, &ps.nx, &ps.ny, &ps.nz, &ps.weight}) put_vector(&w, *v);
+  put_vector(&w, ps.level_weight);
+  put_vector(&w, ps.point_level);
   w.put(static_cast<std::uint64_t>(ps.nodes.size()));
-  for (const SphereNode& n : ps.nodes) {
-    w.vec3(n.centre);
-    w.put(n.radius);
-    w.put(n.first);
-    w.put(n.count);
-    w.put(n.left);
-    w.put(n.right);
-  }
+  put_vector(&w, ps.nodes);
+  put_vector(&w, ps.parent);
+  put_vector(&w, ps.level_index);
+  w.put(static_cast<std::uint64_t>(ps.level_nodes.size()));
+  put_vector(&w, ps.level_nodes);
+  put_vector(&w, ps.level_parent);
   std::uint8_t header[kHeader];
   std::memcpy(header, kMagic, 8);
   const std::uint32_t version = kCacheVersion, reserved = 0;
@@ -134,12 +170,18 @@ std::optional<VpsError> deserialize_vps(const std::uint8_t* data, std::size_t si
   if (fnv1a64(data + kHeader, psize) != sum) return VpsError{"checksum mismatch (corrupt file)"};
   Reader r(data + kHeader, psize);
   const VpsError trunc{"truncated payload"};
+  auto get_vector = [&r](auto* v, std::uint64_t n) {
+    using T = typename std::remove_reference_t<decltype(*v)>::value_type;
+    if (n > r.remaining() / sizeof(T)) return false;
+    v->resize(n);
+    return r.bytes(v->data(), n * sizeof(T));
+  };
   Voxmap vm;
   std::int32_t bd[3], lo, li;
   std::uint8_t sg;
-  std::uint64_t surf, ntop, nblocks;
+  std::uint64_t surf, sheet_vox, ntop, nblocks, nsheets;
   if (!r.get(&vm.voxel_size) || !r.vec3(&vm.origin) || !r.get(&bd[0]) || !r.get(&bd[1]) || !r.get(&bd[2]) ||
-      !r.get(&sg) || !r.get(&lo) || !r.get(&li) || !r.get(&surf) || !r.get(&ntop))
+      !r.get(&sg) || !r.get(&lo) || !r.get(&li) || !r.get(&surf) || !r.get(&sheet_vox) || !r.get(&ntop))
     return trunc;
   if (!(vm.voxel_size > 0) || !std::isfinite(vm.voxel_size) || !vm.origin.allFinite())
     return VpsError{"invalid voxel size or origin"};
@@ -154,70 +196,101 @@ std::optional<VpsError> deserialize_vps(const std::uint8_t* data, std::size_t si
   vm.layers_out = lo;
   vm.layers_in = li;
   vm.surface_voxels = surf;
-  if (r.remaining() < ntop * 5) return trunc;
-  vm.top.resize(ntop);
-  vm.coarse.resize(ntop);
-  r.bytes(vm.top.data(), ntop * 4);
-  r.bytes(vm.coarse.data(), ntop);
-  if (!r.get(&nblocks)) return trunc;
-  constexpr std::size_t kBlockBytes = kBlockVoxels * (4 + 1 + 1);
-  if (nblocks > ntop || r.remaining() / kBlockBytes < nblocks) return trunc;
+  vm.sheet_voxels = sheet_vox;
+  if (!get_vector(&vm.top, ntop) || !get_vector(&vm.coarse, ntop) || !r.get(&nblocks)) return trunc;
+  if (nblocks > ntop) return VpsError{"more voxel blocks than grid blocks"};
+  if (!get_vector(&vm.blocks, nblocks) || !get_vector(&vm.sheet_of_block, nblocks) || !r.get(&nsheets)) return trunc;
+  if (nsheets > nblocks) return VpsError{"more sheet blocks than voxel blocks"};
+  if (!get_vector(&vm.sheets, nsheets)) return trunc;
   for (std::int32_t t : vm.top) {
     if (t < kBlockUniformInside || t >= static_cast<std::int64_t>(nblocks)) return VpsError{"invalid block index"};
   }
-  vm.blocks.resize(nblocks);
-  for (VoxelBlock& b : vm.blocks) {
-    r.bytes(b.sdf.data(), sizeof(b.sdf));
-    r.bytes(b.layer.data(), sizeof(b.layer));
-    r.bytes(b.flags.data(), sizeof(b.flags));
-    for (int i = 0; i < kBlockVoxels; ++i) {
-      if (!std::isfinite(b.sdf[i]) || b.layer[i] == -128) return VpsError{"invalid voxel value"};
+  for (std::size_t b = 0; b < vm.blocks.size(); ++b) {
+    const std::int32_t si = vm.sheet_of_block[b];
+    if (si < -1 || si >= static_cast<std::int64_t>(nsheets)) return VpsError{"invalid sheet block index"};
+    for (const Voxel& v : vm.blocks[b].v) {
+      if (!std::isfinite(v.sdf) || v.layer == -128 || v.flags > (kFlagThin | kFlagSheet | kFlagNoGradient) ||
+          ((v.flags & kFlagSheet) != 0 && si < 0))
+        return VpsError{"invalid voxel value"};
     }
   }
+  for (const SheetBlock& sb : vm.sheets)
+    for (int i = 0; i < kBlockVoxels; ++i)
+      if (!std::isfinite(sb.phi[i]) || !std::isfinite(sb.thickness[i]) || sb.thickness[i] < 0)
+        return VpsError{"invalid sheet value"};
   PointShell ps;
-  std::int32_t depth;
-  std::uint64_t npts, nnodes;
-  if (!r.get(&ps.voxel_size) || !r.vec3(&ps.reference_point) || !r.get(&ps.total_weight) || !r.get(&depth) ||
-      !r.get(&npts))
+  std::int32_t levels;
+  std::uint64_t npts, nnodes, nlevel_nodes;
+  if (!r.get(&ps.voxel_size) || !r.vec3(&ps.reference_point) || !r.get(&ps.total_weight) || !r.get(&levels))
     return trunc;
+  for (ShellLevel& l : ps.level) {
+    if (!r.get(&l.first) || !r.get(&l.count) || !r.get(&l.root) || !r.get(&l.node_count) || !r.get(&l.spacing) ||
+        !r.get(&l.total_weight))
+      return trunc;
+  }
+  if (!r.get(&npts)) return trunc;
   if (!(ps.voxel_size > 0) || !std::isfinite(ps.voxel_size) || !ps.reference_point.allFinite() ||
-      !std::isfinite(ps.total_weight) || depth < 0 || depth > 200)
+      !std::isfinite(ps.total_weight) || levels < 0 || levels > kMaxShellLevels || npts > (1ull << 30) ||
+      (npts > 0) != (levels > 0))
     return VpsError{"invalid pointshell header"};
-  ps.depth = depth;
-  if (npts > (1ull << 31) || r.remaining() / 56 < npts) return trunc;
-  ps.points.resize(npts);
-  ps.normals.resize(npts);
-  ps.weights.resize(npts);
-  for (std::size_t i = 0; i < npts; ++i) {
-    r.vec3(&ps.points[i]);
-    r.vec3(&ps.normals[i]);
-    r.get(&ps.weights[i]);
-    if (!ps.points[i].allFinite() || !ps.normals[i].allFinite() || std::abs(ps.normals[i].norm() - 1.0) > 1e-6 ||
-        !std::isfinite(ps.weights[i]) || ps.weights[i] < 0)
-      return VpsError{"invalid point " + std::to_string(i)};
-  }
-  if (!r.get(&nnodes)) return trunc;
-  if (nnodes > 2 * npts + 1 || r.remaining() / 48 < nnodes) return trunc;
-  ps.nodes.resize(nnodes);
-  for (std::size_t i = 0; i < nnodes; ++i) {
-    SphereNode& n = ps.nodes[i];
-    r.vec3(&n.centre);
-    r.get(&n.radius);
-    r.get(&n.first);
-    r.get(&n.count);
-    r.get(&n.left);
-    r.get(&n.right);
-    const auto nn = static_cast<std::int64_t>(nnodes);
-    // Children come after their parent: no cycles, bounded traversal.
-    const bool leaf = n.left == -1 && n.right == -1;
-    const bool inner = n.left > static_cast<std::int64_t>(i) && n.right > static_cast<std::int64_t>(i) &&
-                       n.left < nn && n.right < nn;
-    if (!n.centre.allFinite() || !std::isfinite(n.radius) || n.radius < 0 || n.first < 0 || n.count < 0 ||
-        static_cast<std::uint64_t>(n.first) + static_cast<std::uint64_t>(n.count) > npts || !(leaf || inner))
-      return VpsError{"invalid sphere node " + std::to_string(i)};
-  }
+  ps.levels = levels;
+  for (auto* v : {&ps.px, &ps.py, &ps.pz, &ps.nx, &ps.ny, &ps.nz, &ps.weight})
+    if (!get_vector(v, npts)) return trunc;
+  if (npts > r.remaining() / (kMaxShellLevels * sizeof(float)) ||
+      !get_vector(&ps.level_weight, npts * kMaxShellLevels) || !get_vector(&ps.point_level, npts) || !r.get(&nnodes))
+    return trunc;
+  if (nnodes > 2 * npts + 1) return VpsError{"too many sphere nodes"};
+  if (!get_vector(&ps.nodes, nnodes) || !get_vector(&ps.parent, nnodes) || !get_vector(&ps.level_index, npts) ||
+      !r.get(&nlevel_nodes))
+    return trunc;
+  if (nlevel_nodes > 2 * npts + kMaxShellLevels) return VpsError{"too many sphere nodes"};
+  if (!get_vector(&ps.level_nodes, nlevel_nodes) || !get_vector(&ps.level_parent, nlevel_nodes)) return trunc;
   if (r.remaining() != 0) return VpsError{"trailing bytes after the pointshell"};
-  if (npts > 0 && nnodes == 0) return VpsError{"pointshell without a sphere tree"};
+  for (std::size_t i = 0; i < npts; ++i) {
+    const Eigen::Vector3d p(ps.px[i], ps.py[i], ps.pz[i]), n(ps.nx[i], ps.ny[i], ps.nz[i]);
+    bool ok = p.allFinite() && n.allFinite() && std::abs(n.norm() - 1.0) < 1e-5 && std::isfinite(ps.weight[i]) &&
+              ps.weight[i] >= 0 && ps.point_level[i] >= 0 && ps.point_level[i] < levels;
+    for (int l = 0; l < kMaxShellLevels && ok; ++l) {
+      const float w = ps.level_weight[i * kMaxShellLevels + static_cast<std::size_t>(l)];
+      ok = std::isfinite(w) && w >= 0;
+    }
+    if (!ok) return VpsError{"invalid point " + std::to_string(i)};
+  }
+  if (npts > 0) {
+    if (auto e = check_tree(ps.nodes, ps.parent, 0, static_cast<std::int64_t>(nnodes), 0,
+                            static_cast<std::int64_t>(npts)))
+      return e;
+  }
+  // The levels' new points partition the points in level order, each level's
+  // tree covers its own range, and the trees tile the level node table.
+  std::int64_t next_first = 0, next_node = 0;
+  std::vector<char> listed(npts, 0);
+  for (int l = 0; l < levels; ++l) {
+    const ShellLevel& lev = ps.level[static_cast<std::size_t>(l)];
+    const VpsError bad{"invalid pointshell level " + std::to_string(l)};
+    if (lev.first != next_first || lev.count < 0 || lev.first + static_cast<std::int64_t>(lev.count) > static_cast<std::int64_t>(npts) ||
+        !std::isfinite(lev.spacing) || !std::isfinite(lev.total_weight))
+      return bad;
+    for (std::int64_t j = lev.first; j < lev.first + lev.count; ++j) {
+      const std::int32_t pi = ps.level_index[static_cast<std::size_t>(j)];
+      if (pi < 0 || static_cast<std::uint64_t>(pi) >= npts || listed[static_cast<std::size_t>(pi)] ||
+          ps.point_level[static_cast<std::size_t>(pi)] != l)
+        return bad;
+      listed[static_cast<std::size_t>(pi)] = 1;
+    }
+    next_first += lev.count;
+    if (lev.count == 0) {
+      if (lev.root != -1 || lev.node_count != 0) return bad;
+      continue;
+    }
+    if (lev.root != next_node || lev.node_count < 1) return bad;
+    if (auto e = check_tree(ps.level_nodes, ps.level_parent, lev.root, lev.root + static_cast<std::int64_t>(lev.node_count),
+                            lev.first, lev.count))
+      return e;
+    next_node = lev.root + static_cast<std::int64_t>(lev.node_count);
+  }
+  if (next_first != static_cast<std::int64_t>(npts) || next_node != static_cast<std::int64_t>(nlevel_nodes))
+    return VpsError{"pointshell levels do not cover the points and nodes"};
   *vm_out = std::move(vm);
   *ps_out = std::move(ps);
   return std::nullopt;

@@ -17,7 +17,7 @@
 
 namespace hemm::vps {
 
-inline constexpr std::uint32_t kCacheVersion = 1;
+inline constexpr std::uint32_t kCacheVersion = 2;  // 2: voxel gradients and sheets, multi-level float pointshell
 
 std::vector<std::uint8_t> serialize_vps(const Voxmap& vm, const PointShell& ps);
 

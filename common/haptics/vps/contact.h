@@ -1,12 +1,17 @@
 // Collision detection and force computation of the Voxmap-PointShell
-// algorithm: every pointshell point that lands in a surface or interior voxel
+// algorithm: every pointshell point that lands in contact with the voxmap
 // gives F_k = K w_k p_k n_k (p_k penetration, n_k the point's inward normal,
 // w_k its area weight), summed into a force and a torque about the moving
-// object's reference point. Pure and allocation-free per call.
+// object's reference point. Allocation-free and bounded per call: the work
+// (sphere nodes visited + points tested) of a call is at most the
+// pointshell's nodes plus points, and a budgeted call stops at its budget.
 #pragma once
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <cstdint>
+#include <limits>
+#include <vector>
 
 #include "common/haptics/vps/pointshell.h"
 #include "common/haptics/vps/voxmap.h"
@@ -20,10 +25,12 @@ enum class PenetrationModel {
   // half a voxel, so contact starts as the point enters a surface voxel.
   // Discontinuous across voxel boundaries; errors of order one voxel.
   kLayered,
-  // Trilinear interpolation of the signed distance at voxel centres: p = -sdf(x).
-  // Continuous across voxel boundaries. For surface voxels flagged thin (walls
-  // thinner than ~2 voxels, open meshes) the layered value is used when larger,
-  // so thin walls keep pushing back instead of being tunnelled.
+  // p = -sdf_hermite(x): the Hermite-like interpolant of the stored distances
+  // and gradients (voxmap.h), continuous and second-order accurate. Points in
+  // sheet voxels (thin walls, open surfaces) take their depth from the sheet's
+  // face on the side they came from (PairState), so a wall thinner than a
+  // voxel is neither tunnelled nor pushes the wrong way. Point-cloud surface
+  // voxels (no normals) use the layered value when larger.
   kContinuous,
 };
 
@@ -33,6 +40,17 @@ struct ContactParams {
   // the per-point stiffness (N/m) of the paper's F_k = p n.
   double stiffness = 1e7;
   PenetrationModel model = PenetrationModel::kContinuous;
+  // A point is skipped without interpolating when the first-order estimate
+  // of the field from its own voxel (value + gradient) exceeds this many
+  // voxels. Outside convex geometry the distance is convex, so the estimate
+  // is below it and the skip is exact; elsewhere the two differ by at most
+  // 3/8 kappa s^2 (kappa the surface curvature), under a quarter voxel for
+  // curvature radii above 1.5 voxels; kinks (medial axes, sharp concave
+  // edges) are flagged and never skipped.
+  double early_out_voxels = 0.25;
+  // Sphere nodes no larger than this (voxmap voxels) are not descended: all
+  // their points are tested, since their children would hardly be culled.
+  double leaf_radius_voxels = 1.0;
 };
 
 struct Wrench {
@@ -47,13 +65,41 @@ struct PairResult {
   double max_penetration = 0.0;
   int points_tested = 0;
   int nodes_visited = 0;
+  int sheet_points = 0;       // points judged by a sheet plane
+  int levels_completed = 0;   // pointshell levels whose force is complete; the wrench is the deepest
 };
 
+// What one pair remembers from tick to tick: for each pointshell point the
+// position (voxmap frame) where it was last outside a sheet, so its depth is
+// measured from the face it came through; which sphere nodes held a sheet
+// contact (they are not culled on the next tick, so a point pushed through a
+// thin wall keeps being seen while it is within the sheet's layers); the
+// previous relative pose (a point not seen on the previous tick takes its
+// position there as where it came from). Sized by init_pair_state
+// (allocates: do it when the model is loaded, not on the servo thread).
+struct PairState {
+  std::vector<float> entry;             // 3 per point
+  std::vector<std::uint32_t> seen;      // tick of the point's last sheet visit
+  std::vector<std::uint32_t> node_mark; // tick of the node's last sheet contact (full tree)
+  std::vector<std::uint32_t> level_node_mark;  // the same for the levels' trees
+  std::uint32_t tick = 0;
+  Eigen::Isometry3d T_V_P_prev = Eigen::Isometry3d::Identity();
+  bool has_prev = false;
+};
+
+void init_pair_state(const PointShell& ps, PairState* state);
+// Forgets the history (e.g. after the object was placed somewhere else);
+// allocation-free.
+void reset_pair_state(PairState* state);
+
 // One pair: pointshell object P (pose T_W_P) against voxmap object V (pose
-// T_W_V, reference point ref_V in V's frame, for the reaction torque).
+// T_W_V, reference point ref_V in V's frame, for the reaction torque). With
+// a null state every sheet point is judged from its nearer face (stateless:
+// thin walls can then be pushed through beyond their middle); so is a state
+// initialised for another pointshell.
 void evaluate_pair(const Voxmap& vm, const Eigen::Isometry3d& T_W_V, const Eigen::Vector3d& ref_V,
                    const PointShell& ps, const Eigen::Isometry3d& T_W_P, const ContactParams& params,
-                   PairResult* out);
+                   PairState* state, PairResult* out);
 
 // A moving object with both structures: its pointshell collides with the
 // scene; its voxmap is hit by the other tool's pointshell.
@@ -71,15 +117,36 @@ struct BimanualModel {
   ContactParams params;
 };
 
+struct BimanualState {
+  PairState right_scene, left_scene, right_left;
+};
+void init_bimanual_state(const BimanualModel& model, BimanualState* state);
+
 struct BimanualData {
   PairResult right_scene, left_scene, right_left;
   Wrench right_total;  // on the right object, about its reference point
   Wrench left_total;
+  std::int64_t work = 0;      // sphere nodes visited + points tested
+  int levels_completed = 0;   // time-critical: rounds (levels) completed by all three pairs
 };
 
+inline constexpr std::int64_t kUnlimitedWork = std::numeric_limits<std::int64_t>::max();
+
 // The three pairs of each haptic cycle: (i) right-scene, (ii) left-scene,
-// (iii) right against left (right's pointshell in left's voxmap).
+// (iii) right against left (right's pointshell in left's voxmap). Full
+// resolution. `state` may be null (stateless sheets).
 void evaluate_bimanual(const BimanualModel& model, const Eigen::Isometry3d& T_W_S, const Eigen::Isometry3d& T_W_R,
-                       const Eigen::Isometry3d& T_W_L, BimanualData* data);
+                       const Eigen::Isometry3d& T_W_L, BimanualState* state, BimanualData* data);
+
+// Time-critical cycle (Barbic & James): the pointshells' levels coarse to
+// fine, each level for all three pairs in turn, until `budget` work units
+// (sphere nodes visited + points tested) are spent; each pair's wrench is that
+// of its deepest complete level, so the cycle never exceeds its budget and
+// the force degrades gracefully as the budget shrinks. With an unlimited
+// budget it equals the full cycle. If even level 0 cannot complete, the
+// partial level-0 sums are returned (levels_completed = 0).
+void evaluate_bimanual_budgeted(const BimanualModel& model, const Eigen::Isometry3d& T_W_S,
+                                const Eigen::Isometry3d& T_W_R, const Eigen::Isometry3d& T_W_L, std::int64_t budget,
+                                BimanualState* state, BimanualData* data);
 
 }  // namespace hemm::vps

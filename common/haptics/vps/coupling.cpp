@@ -19,24 +19,63 @@ Eigen::Vector3d rotation_error(const Eigen::Quaterniond& q_target, const Eigen::
 }
 }  // namespace
 
-CouplingParams design_coupling(double mass, const Eigen::Matrix3d& inertia_body, double dt,
-                               double device_max_stiffness, double device_max_rot_stiffness, double omega_dt) {
-  CouplingParams p;
-  p.dt = dt;
+CouplingDesign design_coupling(double mass, const Eigen::Matrix3d& inertia_body, const CouplingDeviceLimits& d,
+                               const CouplingDesignOptions& o) {
+  CouplingDesign out;
+  CouplingParams& p = out.params;
+  p.dt = d.dt;
   p.mass = mass;
   p.inertia_body = inertia_body;
-  const double w = omega_dt / dt;
-  p.k_lin = std::min(device_max_stiffness, mass * w * w);
-  p.b_lin = 2.0 * std::sqrt(p.k_lin * mass);
+  const double w = o.omega_dt / d.dt;
+  // One axis of the rule: returns {K, B, c} for inertia m, device damping b.
+  struct Axis {
+    double k, b, c;
+  };
+  auto design_axis = [&](double m, double b_dev, double k_max, double f_peak, double v_max) {
+    const double budget = o.passivity_margin * b_dev;
+    const double B = std::min(o.damping_share * budget, o.damping_force_share * f_peak / v_max);
+    const double K = std::min({k_max, 2.0 * (budget - B) / d.dt, m * w * w});
+    const double c_want = std::max(0.0, 2.0 * o.zeta * std::sqrt(K * m) - B);
+    const double c = std::min(c_want, std::max(0.0, o.drag_force_share * f_peak / v_max - B));
+    return Axis{K, B, c};
+  };
+  out.device_damping = d.physical_damping > 0 ? d.physical_damping : d.max_stiffness * d.dt / 2;
+  const Axis lin = design_axis(mass, out.device_damping, d.max_stiffness, d.peak_force, d.max_speed);
+  p.k_lin = lin.k;
+  p.b_lin = lin.b;
+  p.linear_damping = lin.c;
+  out.passivity_lhs = lin.k * d.dt / 2 + lin.b;
+  out.passivity_bound = o.passivity_margin * out.device_damping;
+  out.damping_force_at_max_speed = lin.b * d.max_speed;
+  out.drag_at_max_speed = (lin.b + lin.c) * d.max_speed;
   const double Imin = min_principal_inertia(inertia_body);
-  p.k_rot = std::min(device_max_rot_stiffness, Imin * w * w);
-  p.b_rot = 2.0 * std::sqrt(p.k_rot * Imin);
-  return p;
+  if (d.renders_torque) {
+    out.rot_device_damping = d.physical_rot_damping > 0 ? d.physical_rot_damping : d.max_rot_stiffness * d.dt / 2;
+    const Axis rot =
+        design_axis(Imin, out.rot_device_damping, d.max_rot_stiffness, d.peak_torque, d.max_angular_speed);
+    p.k_rot = rot.k;
+    p.b_rot = rot.b;
+    p.angular_damping = rot.c;
+    out.rot_passivity_lhs = rot.k * d.dt / 2 + rot.b;
+    out.rot_passivity_bound = o.passivity_margin * out.rot_device_damping;
+  } else {
+    // Not displayed: only the tool's own stability matters.
+    p.k_rot = 0.25 * Imin * w * w;
+    p.b_rot = 2.0 * o.zeta * std::sqrt(p.k_rot * Imin);
+    p.angular_damping = 0.0;
+  }
+  return out;
 }
 
 double max_contact_stiffness(const CouplingParams& p, double omega_dt) {
   const double w = omega_dt / p.dt;
   return std::max(0.0, p.mass * w * w - p.k_lin);
+}
+
+double max_expected_penetration(const CouplingParams& p, double max_lead, double peak_force,
+                                double contact_stiffness) {
+  if (!(contact_stiffness > 0)) return 0.0;
+  return std::min(p.k_lin * max_lead, peak_force) / contact_stiffness;
 }
 
 void step_virtual_coupling(const CouplingParams& p, const Eigen::Isometry3d& T_W_D, const Eigen::Vector3d& v_D,

@@ -12,21 +12,40 @@ namespace hemm::vps {
 namespace {
 
 constexpr std::int8_t kUnset = -128;
+constexpr std::int32_t kNoSheet = -1;
+constexpr std::int32_t kThinNoSheet = -2;  // thin surface voxel of a point cloud (no normal)
+
+// The sheet through a thin surface voxel: + face plane (unit normal n through
+// the point q) and the wall thickness behind it.
+struct SheetSource {
+  Eigen::Vector3d n;
+  Eigen::Vector3d q;
+  double thickness;
+};
 
 struct BuildBlock {
   std::array<float, kBlockVoxels> dist;
   std::array<std::int32_t, kBlockVoxels> tri;
   std::array<std::int32_t, kBlockVoxels> comp;
+  std::array<std::int32_t, kBlockVoxels> src;  // sheet index (>= 0), kNoSheet, or kThinNoSheet
   std::array<std::int8_t, kBlockVoxels> layer;
   explicit BuildBlock(std::int32_t c) {
     dist.fill(std::numeric_limits<float>::infinity());
     tri.fill(-1);
     comp.fill(c);
+    src.fill(-1);
     layer.fill(kUnset);
   }
 };
 
 inline Eigen::Vector3i local_coords(int i) { return {i & 7, (i >> 3) & 7, i >> 6}; }
+
+// The d-th of the six face neighbours of v (d / 2 the axis, d % 2 the side).
+inline Eigen::Vector3i face_neighbour(const Eigen::Vector3i& v, int d) {
+  Eigen::Vector3i v2 = v;
+  v2[d / 2] += (d % 2) ? 1 : -1;
+  return v2;
+}
 
 // Angle-weighted pseudo-normals (face, edge, vertex) give a robust inside/outside
 // sign for a point from its closest feature on a watertight mesh.
@@ -84,8 +103,8 @@ struct PseudoNormals {
 class Builder {
  public:
   Builder(const mesh::TriangleMesh& m, double s, const Eigen::Vector3d& origin, const Eigen::Vector3i& bd,
-          bool is_signed)
-      : m_(m), s_(s), origin_(origin), bd_(bd), dims_(bd * kBlockDim), signed_(is_signed) {
+          bool is_signed, bool points)
+      : m_(m), s_(s), origin_(origin), bd_(bd), dims_(bd * kBlockDim), signed_(is_signed), points_(points) {
     nblocks_ = static_cast<std::size_t>(bd.x()) * bd.y() * bd.z();
     top_.assign(nblocks_, -1);
     if (signed_) pn_.build(m);
@@ -97,6 +116,7 @@ class Builder {
       label_components();
       vote_components();
     }
+    sheet_pass();
     layer_pass(layers_out, layers_in);
   }
 
@@ -111,6 +131,9 @@ class Builder {
     const auto yz = bl / static_cast<std::size_t>(bd_.x());
     return {x, static_cast<int>(yz % static_cast<std::size_t>(bd_.y())),
             static_cast<int>(yz / static_cast<std::size_t>(bd_.y()))};
+  }
+  static Eigen::Vector3i block_of_voxel(const Eigen::Vector3i& v) {
+    return {v.x() >> kBlockShift, v.y() >> kBlockShift, v.z() >> kBlockShift};
   }
   bool in_dims(const Eigen::Vector3i& v) const {
     return v.x() >= 0 && v.y() >= 0 && v.z() >= 0 && v.x() < dims_.x() && v.y() < dims_.y() && v.z() < dims_.z();
@@ -138,7 +161,10 @@ class Builder {
     return d > 0 ? 1 : (d < 0 ? -1 : 0);
   }
 
+  bool free_component(const Eigen::Vector3i& v, std::int32_t* comp) const;
+  bool inside_at(const Eigen::Vector3i& v) const;
   void surface_pass();
+  void sheet_pass();
   void label_components();
   void vote_components();
   void layer_pass(int layers_out, int layers_in);
@@ -148,6 +174,7 @@ class Builder {
   Eigen::Vector3d origin_;
   Eigen::Vector3i bd_, dims_;
   bool signed_;
+  bool points_;
   std::size_t nblocks_ = 0;
   std::vector<std::int32_t> top_;
   std::deque<BuildBlock> blocks_;  // deque: references stay valid while growing
@@ -155,8 +182,109 @@ class Builder {
   std::vector<std::int32_t> block_comp_;
   std::vector<char> comp_inside_;
   PseudoNormals pn_;
+  std::vector<SheetSource> sheet_src_;
   std::size_t surface_count_ = 0;
 };
+
+// The free-space component of voxel v (in the grid); false for a surface voxel.
+bool Builder::free_component(const Eigen::Vector3i& v, std::int32_t* comp) const {
+  const Eigen::Vector3i B(v.x() >> kBlockShift, v.y() >> kBlockShift, v.z() >> kBlockShift);
+  const std::size_t bl = block_linear_of(B);
+  if (top_[bl] < 0) {
+    *comp = block_comp_[bl];
+    return true;
+  }
+  const BuildBlock& b = blocks_[static_cast<std::size_t>(top_[bl])];
+  const int j = voxel_in_block(v);
+  if (b.layer[j] == 0) return false;
+  *comp = b.comp[j];
+  return true;
+}
+
+// A non-surface voxel of a free region voted inside (signed fields only).
+bool Builder::inside_at(const Eigen::Vector3i& v) const {
+  std::int32_t c = -1;
+  if (!signed_ || !in_dims(v) || !free_component(v, &c)) return false;
+  return c >= 0 && comp_inside_[static_cast<std::size_t>(c)] != 0;
+}
+
+// Thin surface voxels (no inside voxel within two voxels: a face lying on a
+// voxel boundary makes a surface band two voxels thick, which is not a thin
+// wall; every surface voxel of an unsigned field) get a sheet: the nearest
+// pair of opposed faces among the triangles the surrounding surface voxels
+// found (their planes bound the wall: + face, thickness), or, with no such
+// pair (open sheet, open edge), the nearest face alone with thickness 0.
+void Builder::sheet_pass() {
+  std::vector<std::int32_t> cand;
+  std::vector<Eigen::Vector3d> cn, cq;
+  for (std::size_t k = 0; k < blocks_.size(); ++k) {
+    const Eigen::Vector3i B = block_coords(block_of_index_[k]);
+    for (int i = 0; i < kBlockVoxels; ++i) {
+      if (blocks_[k].layer[i] != 0) continue;
+      const Eigen::Vector3i v = B * kBlockDim + local_coords(i);
+      bool thin = true;
+      for (int d = 0; d < 125 && thin && signed_; ++d)
+        thin = !inside_at(v + Eigen::Vector3i(d % 5 - 2, (d / 5) % 5 - 2, d / 25 - 2));
+      if (!thin) continue;
+      if (points_) {
+        blocks_[k].src[i] = kThinNoSheet;
+        continue;
+      }
+      cand.clear();
+      for (int d = 0; d < 125; ++d) {
+        const Eigen::Vector3i v2 = v + Eigen::Vector3i(d % 5 - 2, (d / 5) % 5 - 2, d / 25 - 2);
+        if (!in_dims(v2)) continue;
+        const Eigen::Vector3i B2(v2.x() >> kBlockShift, v2.y() >> kBlockShift, v2.z() >> kBlockShift);
+        const std::int32_t bi = top_[block_linear_of(B2)];
+        if (bi < 0) continue;
+        const BuildBlock& nb = blocks_[static_cast<std::size_t>(bi)];
+        const int j = voxel_in_block(v2);
+        if (nb.layer[j] != 0 || nb.tri[j] < 0) continue;
+        if (std::find(cand.begin(), cand.end(), nb.tri[j]) == cand.end()) cand.push_back(nb.tri[j]);
+      }
+      const Eigen::Vector3d c = centre(v);
+      cn.clear();
+      cq.clear();
+      for (const std::int32_t t : cand) {
+        const auto& tr = m_.triangles[static_cast<std::size_t>(t)];
+        const Eigen::Vector3d& a = m_.vertices[tr[0]];
+        const Eigen::Vector3d& b = m_.vertices[tr[1]];
+        const Eigen::Vector3d& cc = m_.vertices[tr[2]];
+        cn.push_back((b - a).cross(cc - a).normalized());
+        cq.push_back(closest_point_on_triangle(c, a, b, cc).point);
+      }
+      // Nearest face, and the nearest opposed pair bounding a wall <= 2.5 voxels thick.
+      std::size_t best1 = 0;
+      for (std::size_t a = 1; a < cand.size(); ++a)
+        if ((cq[a] - c).squaredNorm() < (cq[best1] - c).squaredNorm()) best1 = a;
+      double best_score = std::numeric_limits<double>::infinity();
+      std::size_t pa = 0, pb = 0;
+      for (std::size_t a = 0; a < cand.size(); ++a) {
+        for (std::size_t b = 0; b < cand.size(); ++b) {
+          if (cn[a].dot(cn[b]) > -0.7) continue;
+          const double th = cn[a].dot(cq[a] - cq[b]);
+          if (th < -0.05 * s_ || th > 2.5 * s_) continue;
+          const double score = (cq[a] - c).norm() + (cq[b] - c).norm();
+          if (score < best_score) {
+            best_score = score;
+            pa = a;
+            pb = b;
+          }
+        }
+      }
+      SheetSource src;
+      if (std::isfinite(best_score)) {
+        src = {cn[pa], cq[pa], std::max(0.0, cn[pa].dot(cq[pa] - cq[pb]))};
+      } else if (!cand.empty()) {
+        src = {cn[best1], cq[best1], 0.0};
+      } else {
+        continue;
+      }
+      blocks_[k].src[i] = static_cast<std::int32_t>(sheet_src_.size());
+      sheet_src_.push_back(src);
+    }
+  }
+}
 
 void Builder::surface_pass() {
   const double h = 0.5 * s_ * (1.0 + 1e-9);
@@ -307,19 +435,8 @@ void Builder::vote_components() {
       for (int d = 0; d < 6; ++d) {
         Eigen::Vector3i v2 = v;
         v2[d / 2] += (d % 2) ? 1 : -1;
-        if (!in_dims(v2)) continue;
-        const Eigen::Vector3i B2(v2.x() >> kBlockShift, v2.y() >> kBlockShift, v2.z() >> kBlockShift);
-        const std::size_t bl2 = block_linear_of(B2);
-        std::int32_t c;
-        if (top_[bl2] < 0) {
-          c = block_comp_[bl2];
-        } else {
-          const BuildBlock& nb = blocks_[static_cast<std::size_t>(top_[bl2])];
-          const int j = voxel_in_block(v2);
-          if (nb.layer[j] == 0) continue;
-          c = nb.comp[j];
-        }
-        if (c < 0) continue;
+        std::int32_t c = -1;
+        if (!in_dims(v2) || !free_component(v2, &c) || c < 0) continue;
         votes[static_cast<std::size_t>(c)] += side_of(centre(v2), blk.tri[i]);
       }
     }
@@ -341,6 +458,7 @@ void Builder::layer_pass(int layers_out, int layers_in) {
       const std::size_t bl = node >> 9;
       const int i = static_cast<int>(node & 511);
       const std::int32_t t = blocks_[static_cast<std::size_t>(top_[bl])].tri[i];
+      const std::int32_t src = std::max(kNoSheet, blocks_[static_cast<std::size_t>(top_[bl])].src[i]);
       const Eigen::Vector3i v = block_coords(bl) * kBlockDim + local_coords(i);
       for (int dz = -1; dz <= 1; ++dz) {
         for (int dy = -1; dy <= 1; ++dy) {
@@ -365,6 +483,7 @@ void Builder::layer_pass(int layers_out, int layers_in) {
               if (layer > (inside ? layers_in : layers_out)) continue;
               nb.layer[j] = static_cast<std::int8_t>(inside ? -layer : layer);
               nb.tri[j] = t;
+              nb.src[j] = inside ? kNoSheet : src;  // the sheet of the surface voxel it was reached from
               nb.dist[j] = static_cast<float>(tri_dist(centre(v2), t));
               next.push_back((static_cast<std::uint64_t>(bl2) << 9) | static_cast<std::uint64_t>(j));
             } else if ((cur == layer || cur == -layer) && nb.tri[j] != t) {
@@ -382,7 +501,9 @@ void Builder::layer_pass(int layers_out, int layers_in) {
     frontier.swap(next);
   }
   // Two refinement sweeps: a voxel reached diagonally only saw the triangles of
-  // its parents; offer it every triangle its 26 neighbours found (unique ones).
+  // its parents, a surface voxel only those crossing it (the nearest one may
+  // cross only a neighbour); offer each every triangle its 26 neighbours
+  // found (unique ones).
   std::int32_t cand[26];
   for (int sweep = 0; sweep < 2; ++sweep)
   for (std::size_t k = 0; k < blocks_.size(); ++k) {
@@ -390,7 +511,7 @@ void Builder::layer_pass(int layers_out, int layers_in) {
     const Eigen::Vector3i B = block_coords(block_of_index_[k]);
     for (int i = 0; i < kBlockVoxels; ++i) {
       const std::int8_t L = blk.layer[i];
-      if (L == kUnset || L == 0) continue;
+      if (L == kUnset) continue;  // surface voxels too: the SAT pass saw only the triangles crossing them
       const Eigen::Vector3i v = B * kBlockDim + local_coords(i);
       int nc = 0;
       for (int d = 0; d < 27; ++d) {
@@ -428,9 +549,14 @@ void Builder::finish(int layers_out, int layers_in, Voxmap* vm, VoxmapBuildInfo*
   out.layers_in = signed_ ? layers_in : 0;
   out.top.assign(nblocks_, kBlockEmpty);
   out.blocks.resize(blocks_.size());
+  out.sheet_of_block.assign(blocks_.size(), -1);
   const float far_out = out.far_outside_sdf(), far_in = out.far_inside_sdf();
   auto is_inside_comp = [&](std::int32_t c) {
     return signed_ && c >= 0 && comp_inside_[static_cast<std::size_t>(c)] != 0;
+  };
+  auto encode = [](const Eigen::Vector3d& g, Voxel* v) {
+    for (int k = 0; k < 3; ++k)
+      v->grad[k] = static_cast<std::int16_t>(std::lround(std::clamp(g[k], -1.0, 1.0) * kGradScale));
   };
   std::size_t uniform_inside = 0;
   for (std::size_t bl = 0; bl < nblocks_; ++bl) {
@@ -441,55 +567,126 @@ void Builder::finish(int layers_out, int layers_in, Voxmap* vm, VoxmapBuildInfo*
       ++uniform_inside;
     }
   }
+  // Closest points (for the kink test below), per stored voxel.
+  std::vector<std::array<Eigen::Vector3f, kBlockVoxels>> closest(blocks_.size());
   for (std::size_t k = 0; k < blocks_.size(); ++k) {
     const BuildBlock& b = blocks_[k];
     VoxelBlock& o = out.blocks[k];
     const Eigen::Vector3i B = block_coords(block_of_index_[k]);
     for (int i = 0; i < kBlockVoxels; ++i) {
+      Voxel& vx = o.v[static_cast<std::size_t>(i)];
       const std::int8_t L = b.layer[i];
-      o.flags[i] = 0;
-      if (L == kUnset) {
+      vx.flags = 0;
+      vx.grad[0] = vx.grad[1] = vx.grad[2] = 0;
+      closest[k][static_cast<std::size_t>(i)].setConstant(std::numeric_limits<float>::quiet_NaN());
+      if (L == kUnset || b.tri[i] < 0) {
         const bool inside = is_inside_comp(b.comp[i]);
-        o.layer[i] = inside ? kLayerFarInside : kLayerFarOutside;
-        o.sdf[i] = inside ? far_in : far_out;
-      } else if (L == 0) {
-        o.layer[i] = 0;
-        const Eigen::Vector3i v = B * kBlockDim + local_coords(i);
-        const int side = signed_ ? side_of(centre(v), b.tri[i]) : 1;
-        o.sdf[i] = static_cast<float>(side) * b.dist[i];
-      } else {
-        o.layer[i] = L;
-        o.sdf[i] = L < 0 ? -b.dist[i] : b.dist[i];
+        vx.layer = inside ? kLayerFarInside : kLayerFarOutside;
+        vx.sdf = inside ? far_in : far_out;
+        vx.flags = kFlagNoGradient;
+        continue;
       }
+      const Eigen::Vector3i v = B * kBlockDim + local_coords(i);
+      const Eigen::Vector3d c = centre(v);
+      const auto& tr = m_.triangles[static_cast<std::size_t>(b.tri[i])];
+      const ClosestPoint cp =
+          closest_point_on_triangle(c, m_.vertices[tr[0]], m_.vertices[tr[1]], m_.vertices[tr[2]]);
+      closest[k][static_cast<std::size_t>(i)] = cp.point.cast<float>();
+      // Sign: surface voxels by the pseudo-normal, layers by their region.
+      int sign = 1;
+      if (L == 0) {
+        sign = signed_ ? side_of(c, b.tri[i]) : 1;
+      } else if (L < 0) {
+        sign = -1;
+      }
+      vx.layer = L;
+      vx.sdf = static_cast<float>(sign) * b.dist[i];
+      const Eigen::Vector3d diff = c - cp.point;
+      const double r = diff.norm();
+      if (r > 1e-6 * s_ && sign != 0) {
+        encode(static_cast<double>(sign) * diff / r, &vx);
+      } else if (signed_) {
+        encode(pn_.of(m_, b.tri[i], cp.feature).normalized(), &vx);  // on the surface: the outward normal
+      } else {
+        vx.flags |= kFlagNoGradient;  // on an unsigned surface: no direction
+      }
+      if (points_) vx.flags |= kFlagNoGradient;  // a point's distance field is a cone: no useful gradient
     }
   }
-  // Thin flags: surface voxels with no inside voxel nearby (walls without interior voxels).
+  // Kinks: where neighbouring centres have far-apart closest points (the
+  // medial axis between two faces, inside sharp edges) the gradient jumps
+  // and its Taylor prediction is wrong: interpolate trilinearly there.
   for (std::size_t k = 0; k < blocks_.size(); ++k) {
     const Eigen::Vector3i B = block_coords(block_of_index_[k]);
     for (int i = 0; i < kBlockVoxels; ++i) {
-      if (out.blocks[k].layer[i] != 0) continue;
-      bool has_inside = false;
-      if (signed_) {
-        const Eigen::Vector3i v = B * kBlockDim + local_coords(i);
-        // Within two voxels: a face lying on a voxel boundary makes a surface
-        // band two voxels thick, which is not a thin wall.
-        for (int d = 0; d < 125 && !has_inside; ++d) {
-          const Eigen::Vector3i v2 = v + Eigen::Vector3i(d % 5 - 2, (d / 5) % 5 - 2, d / 25 - 2);
-          has_inside = sample_voxel(out, v2).layer < 0;
+      const Eigen::Vector3f& q = closest[k][static_cast<std::size_t>(i)];
+      if (!q.allFinite()) continue;
+      const Eigen::Vector3i v = B * kBlockDim + local_coords(i);
+      for (int d = 0; d < 6; ++d) {
+        const Eigen::Vector3i v2 = face_neighbour(v, d);
+        if (!in_dims(v2)) continue;
+        const std::int32_t bi = top_[block_linear_of(block_of_voxel(v2))];
+        if (bi < 0) continue;
+        const Eigen::Vector3f& q2 = closest[static_cast<std::size_t>(bi)][static_cast<std::size_t>(voxel_in_block(v2))];
+        if (q2.allFinite() && (q - q2).norm() > 2.0 * s_) {
+          out.blocks[k].v[static_cast<std::size_t>(i)].flags |= kFlagNoGradient;
+          break;
         }
       }
-      if (!has_inside) out.blocks[k].flags[i] |= kFlagThin;
     }
   }
-  // Coarse Chebyshev block distance to the nearest block holding surface voxels.
-  out.coarse.assign(nblocks_, 255);
+  closest.clear();
+  closest.shrink_to_fit();
+  // Thin surface voxels and sheets (surface voxels and the outward layers
+  // reached from them).
   for (std::size_t k = 0; k < blocks_.size(); ++k) {
+    const BuildBlock& b = blocks_[k];
+    const Eigen::Vector3i B = block_coords(block_of_index_[k]);
     for (int i = 0; i < kBlockVoxels; ++i) {
-      if (blocks_[k].layer[i] == 0) {
-        out.coarse[block_of_index_[k]] = 0;
-        break;
+      Voxel& vx = out.blocks[k].v[static_cast<std::size_t>(i)];
+      if (b.layer[i] == 0 && b.src[i] != kNoSheet) vx.flags |= kFlagThin;
+      if (b.src[i] < 0 || b.layer[i] == kUnset || b.layer[i] < 0) continue;
+      const SheetSource& sh = sheet_src_[static_cast<std::size_t>(b.src[i])];
+      std::int32_t& si = out.sheet_of_block[k];
+      if (si < 0) {
+        si = static_cast<std::int32_t>(out.sheets.size());
+        out.sheets.emplace_back();
+        out.sheets.back().phi.fill(0.0f);
+        out.sheets.back().thickness.fill(0.0f);
+      }
+      const Eigen::Vector3d c = centre(B * kBlockDim + local_coords(i));
+      out.sheets[static_cast<std::size_t>(si)].phi[static_cast<std::size_t>(i)] =
+          static_cast<float>(sh.n.dot(c - sh.q));
+      out.sheets[static_cast<std::size_t>(si)].thickness[static_cast<std::size_t>(i)] =
+          static_cast<float>(sh.thickness);
+      encode(sh.n, &vx);
+      vx.flags |= kFlagSheet | kFlagNoGradient;  // the slot holds the sheet normal, not the field's gradient
+      ++out.sheet_voxels;
+    }
+  }
+  // Coarse clearance per block, in voxels: a lower bound on the Chebyshev
+  // voxel distance from any voxel of the block to the nearest surface voxel.
+  // Exact-ish near the surface (the gap to each nearby surface block's box of
+  // surface voxels, within kNear blocks), a block-level chamfer beyond.
+  constexpr int kNear = 4;
+  std::vector<std::uint8_t> block_dist(nblocks_, 255);
+  std::vector<std::size_t> surface_blocks;
+  std::vector<std::array<int, 6>> boxes;  // surface voxels' box per surface block (lo xyz, hi xyz)
+  for (std::size_t k = 0; k < blocks_.size(); ++k) {
+    std::array<int, 6> box = {1 << 30, 1 << 30, 1 << 30, -(1 << 30), -(1 << 30), -(1 << 30)};
+    const Eigen::Vector3i B = block_coords(block_of_index_[k]);
+    for (int i = 0; i < kBlockVoxels; ++i) {
+      if (blocks_[k].layer[i] != 0) continue;
+      const Eigen::Vector3i v = B * kBlockDim + local_coords(i);
+      for (int a = 0; a < 3; ++a) {
+        box[static_cast<std::size_t>(a)] = std::min(box[static_cast<std::size_t>(a)], v[a]);
+        box[static_cast<std::size_t>(a + 3)] = std::max(box[static_cast<std::size_t>(a + 3)], v[a]);
       }
     }
+    if (box[0] > box[3]) continue;
+    block_dist[block_of_index_[k]] = 0;
+    surface_blocks.push_back(block_of_index_[k]);
+    boxes.push_back(box);
   }
   for (int pass = 0; pass < 2; ++pass) {
     const int step = pass == 0 ? 1 : -1;
@@ -500,16 +697,43 @@ void Builder::finish(int layers_out, int layers_in, Voxmap* vm, VoxmapBuildInfo*
       for (int y = y0; y != y1; y += step) {
         for (int x = x0; x != x1; x += step) {
           const std::size_t bl = block_linear_of({x, y, z});
-          int best = out.coarse[bl];
+          int best = block_dist[bl];
           // The 13 neighbours already visited in this sweep direction.
           for (int d = 0; d < 13; ++d) {
             const int dx = d % 3 - 1, dy = (d / 3) % 3 - 1, dz = d / 9 - 1;  // lexicographically before (0,0,0)
             const Eigen::Vector3i n(x + step * dx, y + step * dy, z + step * dz);
             if (n.x() < 0 || n.y() < 0 || n.z() < 0 || n.x() >= bd_.x() || n.y() >= bd_.y() || n.z() >= bd_.z())
               continue;
-            best = std::min(best, out.coarse[block_linear_of(n)] + 1);
+            best = std::min(best, block_dist[block_linear_of(n)] + 1);
           }
-          out.coarse[bl] = static_cast<std::uint8_t>(std::min(best, 255));
+          block_dist[bl] = static_cast<std::uint8_t>(std::min(best, 255));
+        }
+      }
+    }
+  }
+  out.coarse.assign(nblocks_, 255);
+  for (std::size_t bl = 0; bl < nblocks_; ++bl) {
+    // Block distance c >= 1: at least (c - 1) whole blocks between, plus one voxel.
+    const int c = block_dist[bl];
+    out.coarse[bl] = static_cast<std::uint8_t>(c == 0 ? 0 : std::min(255, (c - 1) * kBlockDim + 1));
+  }
+  for (std::size_t j = 0; j < surface_blocks.size(); ++j) {
+    const Eigen::Vector3i S = block_coords(surface_blocks[j]);
+    const std::array<int, 6>& box = boxes[j];
+    for (int dz = -kNear; dz <= kNear; ++dz) {
+      for (int dy = -kNear; dy <= kNear; ++dy) {
+        for (int dx = -kNear; dx <= kNear; ++dx) {
+          const Eigen::Vector3i B = S + Eigen::Vector3i(dx, dy, dz);
+          if (B.x() < 0 || B.y() < 0 || B.z() < 0 || B.x() >= bd_.x() || B.y() >= bd_.y() || B.z() >= bd_.z())
+            continue;
+          const std::size_t bl = block_linear_of(B);
+          if (out.coarse[bl] == 0) continue;
+          int gap = 0;
+          for (int a = 0; a < 3; ++a) {
+            const int lo = B[a] * kBlockDim, hi = lo + kBlockDim - 1;
+            gap = std::max({gap, box[static_cast<std::size_t>(a)] - hi, lo - box[static_cast<std::size_t>(a + 3)]});
+          }
+          out.coarse[bl] = static_cast<std::uint8_t>(std::min<int>(out.coarse[bl], std::max(gap, 1)));
         }
       }
     }
@@ -543,7 +767,7 @@ std::optional<VpsError> check_params(const VoxmapParams& p) {
   return std::nullopt;
 }
 
-std::optional<VpsError> build_core(const mesh::TriangleMesh& m, const Eigen::AlignedBox3d& bounds, bool is_signed,
+std::optional<VpsError> build_core(const mesh::TriangleMesh& m, const Eigen::AlignedBox3d& bounds, bool is_signed, bool points,
                                    const VoxmapParams& p, Voxmap* out, VoxmapBuildInfo* info) {
   Eigen::AlignedBox3d region = bounds;
   if (p.roi) region = region.intersection(*p.roi);
@@ -580,7 +804,7 @@ std::optional<VpsError> build_core(const mesh::TriangleMesh& m, const Eigen::Ali
   if (work > kMaxVoxelizationWork)
     return VpsError{"voxelization would test " + std::to_string(static_cast<long long>(work)) +
                     " triangle-voxel pairs, more than the limit; use a larger voxel or a region of interest"};
-  Builder b(m, s, origin, bd, is_signed);
+  Builder b(m, s, origin, bd, is_signed, points);
   b.run(p.layers_out, p.layers_in);
   b.finish(p.layers_out, p.layers_in, out, info);
   return std::nullopt;
@@ -597,7 +821,7 @@ std::optional<VpsError> build_voxmap(const mesh::TriangleMesh& mesh, const Voxma
   const bool is_signed = report.watertight() && !params.force_unsigned;
   Voxmap vm;
   VoxmapBuildInfo local;
-  if (auto e = build_core(valid, report.bounds, is_signed, params, &vm, info != nullptr ? &local : nullptr)) return e;
+  if (auto e = build_core(valid, report.bounds, is_signed, false, params, &vm, info != nullptr ? &local : nullptr)) return e;
   *out = std::move(vm);
   if (info != nullptr) {
     local.mesh_report = report;
@@ -628,7 +852,7 @@ std::optional<VpsError> build_voxmap_from_points(const std::vector<Eigen::Vector
   if (!(bounds.sizes().maxCoeff() <= params.limits.max_extent))
     return VpsError{"point cloud extent exceeds the limit (wrong units?)"};
   Voxmap vm;
-  if (auto e = build_core(m, bounds, false, params, &vm, nullptr)) return e;
+  if (auto e = build_core(m, bounds, false, true, params, &vm, nullptr)) return e;
   *out = std::move(vm);
   return std::nullopt;
 }

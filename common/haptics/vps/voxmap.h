@@ -3,16 +3,34 @@
 //
 // Layout: a two-level grid. The top level is a dense array over 8^3-voxel
 // blocks (5 bytes per block: block index + coarse distance); only blocks near
-// the surface (within the distance layers) hold voxel data (sdf, layer, flags:
-// 3 KB). Blocks deep inside a closed object are marked "uniform inside"
-// without voxel data; everything else is "far outside".
+// the surface (within the distance layers) hold voxel data (12 bytes a voxel,
+// 6 KB a block). Blocks deep inside a closed object are marked "uniform
+// inside" without voxel data; everything else is "far outside".
 //
-// Per voxel: the layer (0 surface, +k outside, -k inside, k = Chebyshev voxel
-// distance to the nearest surface voxel, +-127 beyond the stored layers) and
-// the signed distance from the voxel centre to the mesh (exact for surface
-// voxels, closest-triangle propagation for the layers; positive outside).
-// Open or non-manifold meshes and point clouds get an unsigned field
-// (documented fallback: no inside, every surface voxel is a thin shell).
+// Per voxel (Voxel): the layer (0 surface, +k outside, -k inside, k =
+// Chebyshev voxel distance to the nearest surface voxel, +-127 beyond the
+// stored layers), the signed distance from the voxel centre to the mesh and
+// its gradient there (exact for every stored voxel: distance to the nearest
+// triangle, found for the surface by the SAT pass and for the layers by
+// closest-triangle propagation; positive outside), and flags.
+//
+// The field between centres (sdf_hermite) is the mean of the trilinear
+// interpolation of the values and the trilinear blend of the corners'
+// first-order Taylor predictions: the two have opposite second-order errors,
+// so the mean is exact for quadratics (a cubic-Hermite-like interpolant) and
+// does not carry the trilinear interpolation's bias on curved surfaces. Where
+// the gradient jumps (medial axis, sharp concave edges: kFlagNoGradient) it
+// falls back to trilinear.
+//
+// Thin walls (walls thinner than about two voxels, and every surface of an
+// open or non-manifold mesh) cannot be sampled at voxel centres: they carry a
+// sheet: the plane of the wall's + face through the voxel (normal and signed
+// distance of the centre) and the wall's thickness (0 for an open sheet),
+// propagated into the outward layers around it (kFlagSheet). A contact query
+// measures a point's depth from the face on the side the point came from
+// (temporal coherence, see contact.h), so thin walls are neither tunnelled
+// nor felt from the wrong side. Point clouds have no normals: their surface
+// voxels are thin without a sheet (the layered fallback, kFlagThin only).
 #pragma once
 
 #include <Eigen/Core>
@@ -36,7 +54,10 @@ inline constexpr std::int8_t kLayerFarOutside = 127;
 inline constexpr std::int8_t kLayerFarInside = -127;
 inline constexpr std::int32_t kBlockEmpty = -1;          // far outside
 inline constexpr std::int32_t kBlockUniformInside = -2;  // deep inside a closed object
-inline constexpr std::uint8_t kFlagThin = 1;  // surface voxel with no inside voxel within 2 voxels (thin wall / open mesh)
+inline constexpr std::uint8_t kFlagThin = 1;        // surface voxel of a thin wall or an open surface
+inline constexpr std::uint8_t kFlagSheet = 2;       // carries a sheet plane (see SheetBlock)
+inline constexpr std::uint8_t kFlagNoGradient = 4;  // gradient unreliable here: interpolate trilinearly
+inline constexpr float kGradScale = 32767.0f;        // unit gradient components stored as int16
 inline constexpr std::int64_t kMaxBlocks = 64ll * 1024 * 1024;
 inline constexpr double kMaxVoxelizationWork = 2e9;  // triangle-voxel pairs tested by the SAT pass
 
@@ -44,10 +65,25 @@ struct VpsError {
   std::string message;
 };
 
+struct Voxel {
+  float sdf;                // metres at the voxel centre, positive outside
+  std::int16_t grad[3];     // unit gradient of the distance at the centre, times kGradScale
+  std::int8_t layer;
+  std::uint8_t flags;
+};
+static_assert(sizeof(Voxel) == 12);
+
 struct VoxelBlock {
-  std::array<float, kBlockVoxels> sdf;         // metres, positive outside
-  std::array<std::int8_t, kBlockVoxels> layer;
-  std::array<std::uint8_t, kBlockVoxels> flags;
+  std::array<Voxel, kBlockVoxels> v;
+};
+
+// Sheet planes of the kFlagSheet voxels of one block: the sheet's + face is
+// the plane through the voxel with normal n (the voxel's grad) at signed
+// distance phi from the centre (phi > 0: the centre is outside the + face);
+// the - face lies `thickness` behind it.
+struct SheetBlock {
+  std::array<float, kBlockVoxels> phi;
+  std::array<float, kBlockVoxels> thickness;
 };
 
 struct VoxmapParams {
@@ -67,13 +103,17 @@ struct Voxmap {
   int layers_out = 0;
   int layers_in = 0;
   std::vector<std::int32_t> top;     // per block: block index, kBlockEmpty or kBlockUniformInside
-  std::vector<std::uint8_t> coarse;  // per block: Chebyshev block distance to a block with surface voxels (<=255)
+  std::vector<std::uint8_t> coarse;  // per block: lower bound on the Chebyshev voxel distance of its voxels to a surface voxel (<=255)
   std::vector<VoxelBlock> blocks;
+  std::vector<std::int32_t> sheet_of_block;  // per allocated block: index into sheets, or -1
+  std::vector<SheetBlock> sheets;
   std::size_t surface_voxels = 0;
+  std::size_t sheet_voxels = 0;
 
   Eigen::Vector3i dims() const { return block_dims * kBlockDim; }
   std::size_t memory_bytes() const {
-    return top.size() * sizeof(std::int32_t) + coarse.size() + blocks.size() * sizeof(VoxelBlock);
+    return top.size() * sizeof(std::int32_t) + coarse.size() + blocks.size() * sizeof(VoxelBlock) +
+           sheet_of_block.size() * sizeof(std::int32_t) + sheets.size() * sizeof(SheetBlock);
   }
   float far_outside_sdf() const { return static_cast<float>((layers_out + 1) * voxel_size); }
   float far_inside_sdf() const { return static_cast<float>(-(layers_in + 1) * voxel_size); }
@@ -106,16 +146,23 @@ std::optional<VpsError> build_voxmap_from_points(const std::vector<Eigen::Vector
 
 // ---- queries (inline: they run per point per tick) ---------------------------
 
-struct VoxelSample {
-  float sdf;
-  std::int8_t layer;
-  std::uint8_t flags;
-};
+// Every query below is total: a non-finite or huge coordinate is never cast
+// to int (undefined behaviour); it lands at +-kGridFar voxels, outside every
+// grid (grids have at most 2^23 voxels per axis), so it samples as far outside,
+// has a large clearance and never makes contact.
+inline constexpr int kGridFar = 1 << 28;
+
+// floor(g) as an int, with NaN mapped to -kGridFar and the result clamped to
+// [-kGridFar, kGridFar].
+inline int grid_floor(double g) {
+  if (!(g > -static_cast<double>(kGridFar))) return -kGridFar;  // also NaN
+  if (g >= static_cast<double>(kGridFar)) return kGridFar;
+  return static_cast<int>(std::floor(g));
+}
 
 inline Eigen::Vector3i voxel_of(const Voxmap& vm, const Eigen::Vector3d& x_V) {
   const Eigen::Vector3d g = (x_V - vm.origin) / vm.voxel_size;
-  return Eigen::Vector3i(static_cast<int>(std::floor(g.x())), static_cast<int>(std::floor(g.y())),
-                         static_cast<int>(std::floor(g.z())));
+  return Eigen::Vector3i(grid_floor(g.x()), grid_floor(g.y()), grid_floor(g.z()));
 }
 
 inline Eigen::Vector3d voxel_centre(const Voxmap& vm, const Eigen::Vector3i& v) {
@@ -136,15 +183,52 @@ inline int voxel_in_block(const Eigen::Vector3i& v) {
          (v.x() & (kBlockDim - 1));
 }
 
-inline VoxelSample sample_voxel(const Voxmap& vm, const Eigen::Vector3i& v) {
-  if (!in_grid(vm, v)) return {vm.far_outside_sdf(), kLayerFarOutside, 0};
+// The voxels outside every stored block.
+inline Voxel far_outside_voxel(const Voxmap& vm) {
+  return {vm.far_outside_sdf(), {0, 0, 0}, kLayerFarOutside, kFlagNoGradient};
+}
+inline Voxel far_inside_voxel(const Voxmap& vm) {
+  return {vm.far_inside_sdf(), {0, 0, 0}, kLayerFarInside, kFlagNoGradient};
+}
+
+inline Voxel sample_voxel(const Voxmap& vm, const Eigen::Vector3i& v) {
+  if (!in_grid(vm, v)) return far_outside_voxel(vm);
   const Eigen::Vector3i b(v.x() >> kBlockShift, v.y() >> kBlockShift, v.z() >> kBlockShift);
   const std::int32_t bi = vm.top[block_linear(vm, b)];
-  if (bi == kBlockEmpty) return {vm.far_outside_sdf(), kLayerFarOutside, 0};
-  if (bi == kBlockUniformInside) return {vm.far_inside_sdf(), kLayerFarInside, 0};
-  const VoxelBlock& blk = vm.blocks[static_cast<std::size_t>(bi)];
-  const int i = voxel_in_block(v);
-  return {blk.sdf[i], blk.layer[i], blk.flags[i]};
+  if (bi == kBlockEmpty) return far_outside_voxel(vm);
+  if (bi == kBlockUniformInside) return far_inside_voxel(vm);
+  return vm.blocks[static_cast<std::size_t>(bi)].v[static_cast<std::size_t>(voxel_in_block(v))];
+}
+
+inline Eigen::Vector3d voxel_gradient(const Voxel& vx) {
+  return Eigen::Vector3d(vx.grad[0], vx.grad[1], vx.grad[2]) / static_cast<double>(kGradScale);
+}
+
+// Sheet plane of voxel v (kFlagSheet voxels only; false otherwise).
+inline bool sheet_at(const Voxmap& vm, const Eigen::Vector3i& v, float* phi, float* thickness) {
+  if (!in_grid(vm, v)) return false;
+  const Eigen::Vector3i b(v.x() >> kBlockShift, v.y() >> kBlockShift, v.z() >> kBlockShift);
+  const std::int32_t bi = vm.top[block_linear(vm, b)];
+  if (bi < 0) return false;
+  const std::int32_t si = vm.sheet_of_block[static_cast<std::size_t>(bi)];
+  const auto i = static_cast<std::size_t>(voxel_in_block(v));
+  if (si < 0 || (vm.blocks[static_cast<std::size_t>(bi)].v[i].flags & kFlagSheet) == 0) return false;
+  *phi = vm.sheets[static_cast<std::size_t>(si)].phi[i];
+  *thickness = vm.sheets[static_cast<std::size_t>(si)].thickness[i];
+  return true;
+}
+
+// Lower bound on the Chebyshev voxel distance from a voxel in the grid to
+// the nearest surface voxel, from its block (linear index bl, top entry bi)
+// and its index in the block.
+inline int clearance_in_grid(const Voxmap& vm, std::size_t bl, std::int32_t bi, int local) {
+  if (bi == kBlockUniformInside) return 0;
+  const int from_coarse = vm.coarse[bl];
+  if (bi == kBlockEmpty) return std::max(vm.layers_out + 1, from_coarse);
+  const int layer = vm.blocks[static_cast<std::size_t>(bi)].v[static_cast<std::size_t>(local)].layer;
+  if (layer <= 0) return 0;
+  if (layer == kLayerFarOutside) return std::max(vm.layers_out + 1, from_coarse);
+  return layer;
 }
 
 // Lower bound on the Chebyshev voxel distance from voxel v to the nearest
@@ -159,32 +243,73 @@ inline int clearance_voxels(const Voxmap& vm, const Eigen::Vector3i& v) {
   }
   const Eigen::Vector3i b(v.x() >> kBlockShift, v.y() >> kBlockShift, v.z() >> kBlockShift);
   const std::size_t bl = block_linear(vm, b);
-  const std::int32_t bi = vm.top[bl];
-  if (bi == kBlockUniformInside) return 0;
-  const int coarse = vm.coarse[bl];
-  const int from_coarse = coarse >= 1 ? (coarse - 1) * kBlockDim + 1 : 0;
-  if (bi == kBlockEmpty) return std::max(vm.layers_out + 1, from_coarse);
-  const int layer = vm.blocks[static_cast<std::size_t>(bi)].layer[voxel_in_block(v)];
-  if (layer <= 0) return 0;
-  if (layer == kLayerFarOutside) return std::max(vm.layers_out + 1, from_coarse);
-  return layer;
+  return clearance_in_grid(vm, bl, vm.top[bl], voxel_in_block(v));
 }
 
-// Signed distance at x by trilinear interpolation of the voxel-centre values
-// (continuous across voxel boundaries).
-inline double sdf_trilinear(const Voxmap& vm, const Eigen::Vector3d& x_V) {
+// The field between the eight voxel centres around a point: corner c (bit 0
+// x, bit 1 y, bit 2 z) at offset o_c, t in [0,1]^3 the point's position in
+// the cell (voxel units), s the voxel size. Trilinear: sum w_c d_c. Hermite
+// (see above): sum w_c (d_c + s/2 g_c . (t - o_c)).
+inline double cell_trilinear(const Voxel* const corner[8], const double t[3]) {
+  const double x00 = corner[0]->sdf + t[0] * (corner[1]->sdf - corner[0]->sdf);
+  const double x10 = corner[2]->sdf + t[0] * (corner[3]->sdf - corner[2]->sdf);
+  const double x01 = corner[4]->sdf + t[0] * (corner[5]->sdf - corner[4]->sdf);
+  const double x11 = corner[6]->sdf + t[0] * (corner[7]->sdf - corner[6]->sdf);
+  const double y0 = x00 + t[1] * (x10 - x00), y1 = x01 + t[1] * (x11 - x01);
+  return y0 + t[2] * (y1 - y0);
+}
+
+inline double cell_hermite(const Voxel* const corner[8], const double t[3], double s) {
+  std::uint8_t any = 0;
+  for (int c = 0; c < 8; ++c) any |= corner[c]->flags;
+  if (any & kFlagNoGradient) return cell_trilinear(corner, t);
+  // In float (values of a few voxels, relative precision 1e-7): the corners'
+  // weights w_c and offsets t - o_c are t or -(1 - t) per axis.
+  const float tx = static_cast<float>(t[0]), ty = static_cast<float>(t[1]), tz = static_cast<float>(t[2]);
+  const float ux = 1.0f - tx, uy = 1.0f - ty, uz = 1.0f - tz;
+  const float h = static_cast<float>(0.5 * s) / kGradScale;
+  auto term = [&](const Voxel& v, float dx, float dy, float dz) {
+    return v.sdf + h * (static_cast<float>(v.grad[0]) * dx + static_cast<float>(v.grad[1]) * dy +
+                        static_cast<float>(v.grad[2]) * dz);
+  };
+  const float x00 = ux * term(*corner[0], tx, ty, tz) + tx * term(*corner[1], -ux, ty, tz);
+  const float x10 = ux * term(*corner[2], tx, -uy, tz) + tx * term(*corner[3], -ux, -uy, tz);
+  const float x01 = ux * term(*corner[4], tx, ty, -uz) + tx * term(*corner[5], -ux, ty, -uz);
+  const float x11 = ux * term(*corner[6], tx, -uy, -uz) + tx * term(*corner[7], -ux, -uy, -uz);
+  return static_cast<double>(uz * (uy * x00 + ty * x10) + tz * (uy * x01 + ty * x11));
+}
+
+// Gathers the eight corners around x (kept in `store`) and the cell position t.
+// False when x is outside the grid or not finite: the field is far outside.
+inline bool gather_cell(const Voxmap& vm, const Eigen::Vector3d& x_V, Voxel store[8], const Voxel* corner[8],
+                        double t[3]) {
   const Eigen::Vector3d g = (x_V - vm.origin) / vm.voxel_size - Eigen::Vector3d::Constant(0.5);
-  const Eigen::Vector3d f0(std::floor(g.x()), std::floor(g.y()), std::floor(g.z()));
-  const Eigen::Vector3d t = g - f0;
-  const Eigen::Vector3i i0 = f0.cast<int>();
-  double s[8];
+  if (!(g.array() > -1.0).all() || !(g.array() < vm.dims().cast<double>().array()).all()) return false;
+  const Eigen::Vector3i i0(grid_floor(g.x()), grid_floor(g.y()), grid_floor(g.z()));
+  for (int k = 0; k < 3; ++k) t[k] = g[k] - i0[k];
   for (int c = 0; c < 8; ++c) {
-    s[c] = sample_voxel(vm, i0 + Eigen::Vector3i(c & 1, (c >> 1) & 1, (c >> 2) & 1)).sdf;
+    store[c] = sample_voxel(vm, i0 + Eigen::Vector3i(c & 1, (c >> 1) & 1, (c >> 2) & 1));
+    corner[c] = &store[c];
   }
-  const double x00 = s[0] + t.x() * (s[1] - s[0]), x10 = s[2] + t.x() * (s[3] - s[2]);
-  const double x01 = s[4] + t.x() * (s[5] - s[4]), x11 = s[6] + t.x() * (s[7] - s[6]);
-  const double y0 = x00 + t.y() * (x10 - x00), y1 = x01 + t.y() * (x11 - x01);
-  return y0 + t.z() * (y1 - y0);
+  return true;
+}
+
+// Signed distance at x by trilinear interpolation of the voxel-centre values.
+inline double sdf_trilinear(const Voxmap& vm, const Eigen::Vector3d& x_V) {
+  Voxel store[8];
+  const Voxel* corner[8];
+  double t[3];
+  if (!gather_cell(vm, x_V, store, corner, t)) return vm.far_outside_sdf();
+  return cell_trilinear(corner, t);
+}
+
+// Signed distance at x by the Hermite-like interpolant (the contact field).
+inline double sdf_hermite(const Voxmap& vm, const Eigen::Vector3d& x_V) {
+  Voxel store[8];
+  const Voxel* corner[8];
+  double t[3];
+  if (!gather_cell(vm, x_V, store, corner, t)) return vm.far_outside_sdf();
+  return cell_hermite(corner, t, vm.voxel_size);
 }
 
 // Gradient of the trilinear field by central differences (half a voxel).
@@ -197,6 +322,14 @@ inline Eigen::Vector3d sdf_gradient(const Voxmap& vm, const Eigen::Vector3d& x_V
     g[k] = (sdf_trilinear(vm, x_V + e) - sdf_trilinear(vm, x_V - e)) / (2 * h);
   }
   return g;
+}
+
+// Distance layers needed so the stored field reaches a penetration depth:
+// a point `depth` inside interpolates between centres down to layer
+// ceil(depth / s) + 1 (the far value beyond the layers would cap it).
+inline int layers_for_depth(double depth, double voxel_size) {
+  if (!(depth > 0) || !(voxel_size > 0)) return 1;
+  return static_cast<int>(std::min(100.0, std::ceil(depth / voxel_size) + 1.0));
 }
 
 }  // namespace hemm::vps

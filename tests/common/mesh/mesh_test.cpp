@@ -204,6 +204,31 @@ TEST_F(MeshFiles, LoadsObjStlPlyOffAndValidates) {
   EXPECT_NEAR(r.bounds.sizes().x(), 0.2, 1e-9);
 }
 
+TEST_F(MeshFiles, SavedMeshesLoadBackTheSame) {
+  // Written through assimp's exporters, read back through its importers:
+  // same triangles, same volume (float STL: 1e-7 relative), still watertight.
+  const TriangleMesh sphere = make_icosphere(0.05, 3);
+  mesh::MeshReport ref;
+  TriangleMesh valid;
+  ASSERT_FALSE(validate_mesh(sphere, {}, &valid, &ref));
+  for (const char* name : {"s.stl", "s.obj", "s.ply"}) {
+    const std::string path = (dir_ / name).string();
+    ASSERT_FALSE(save_mesh(path, sphere)) << name;
+    TriangleMesh m;
+    MeshReport r;
+    const auto e = load_mesh(path, {}, &m, &r);
+    ASSERT_FALSE(e) << name << ": " << e->message;
+    EXPECT_EQ(m.triangles.size(), sphere.triangles.size()) << name;
+    EXPECT_TRUE(r.watertight()) << name;
+    EXPECT_NEAR(r.signed_volume, ref.signed_volume, 1e-6 * ref.signed_volume) << name;
+  }
+  EXPECT_TRUE(save_mesh((dir_ / "s.xyz").string(), sphere));
+  EXPECT_TRUE(save_mesh((dir_ / "e.stl").string(), TriangleMesh{}));
+  TriangleMesh bad = sphere;
+  bad.triangles[3][1] = 1000000;
+  EXPECT_TRUE(save_mesh((dir_ / "b.stl").string(), bad));
+}
+
 TEST_F(MeshFiles, BadFilesGiveClearErrors) {
   TriangleMesh m;
   m.vertices = {{1, 2, 3}};

@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <numbers>
 
+#include "common/haptics/vps/closed_forms.h"
 #include "common/haptics/vps/contact.h"
 #include "common/mesh/primitives.h"
 
@@ -27,25 +28,6 @@ Eigen::Isometry3d at(const Eigen::Vector3d& p, const Eigen::Matrix3d& R = Eigen:
 
 double angle_deg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
   return std::acos(std::clamp(a.normalized().dot(b.normalized()), -1.0, 1.0)) * 180.0 / kPi;
-}
-
-// Sphere of radius R whose lowest point is delta below the plane z = 0.
-double sphere_plane_force(double R, double delta) {
-  const double u0 = 1.0 - delta / R;
-  return 2 * kPi * R * R * kK * (R * (1 - u0 * u0 * u0) / 3.0 + (delta - R) * (1 - u0 * u0) / 2.0);
-}
-
-// Tool sphere R1 against scene sphere R2 with centre distance D: magnitude of
-// K * integral (R2 - |x - c2|) u dA over the tool cap inside the scene sphere
-// (u = cos of the angle from the centre line). 1-D Simpson quadrature.
-double sphere_sphere_force(double R1, double R2, double D) {
-  const double u0 = (R1 * R1 + D * D - R2 * R2) / (2 * R1 * D);
-  const int n = 20000;
-  const double h = (1.0 - u0) / n;
-  auto f = [&](double u) { return (R2 - std::sqrt(R1 * R1 + D * D - 2 * R1 * D * u)) * u; };
-  double acc = f(u0) + f(1.0);
-  for (int i = 1; i < n; ++i) acc += f(u0 + i * h) * (i % 2 ? 4 : 2);
-  return 2 * kPi * R1 * R1 * kK * acc * h / 3.0;
 }
 
 struct Row {
@@ -75,7 +57,7 @@ PairResult eval(const Voxmap& vm, const PointShell& ps, const Eigen::Isometry3d&
   cp.stiffness = kK;
   cp.model = model;
   PairResult r;
-  evaluate_pair(vm, Eigen::Isometry3d::Identity(), Eigen::Vector3d::Zero(), ps, T_W_P, cp, &r);
+  evaluate_pair(vm, Eigen::Isometry3d::Identity(), Eigen::Vector3d::Zero(), ps, T_W_P, cp, nullptr, &r);
   return r;
 }
 
@@ -87,7 +69,7 @@ TEST(VpsAccuracy, SphereAgainstPlane) {
   const auto slab = mesh::make_box({0.12, 0.12, 0.04}, 1);  // top face at z = 0 after the shift below
   mesh::TriangleMesh scene;
   mesh::append_mesh(&scene, slab, at({0, 0, -0.04}));
-  const double ref = sphere_plane_force(R, delta);
+  const double ref = sphere_halfspace_force(kK, R, delta);  // the slab top is the plane
   std::vector<Row> rows;
   for (double s : kVoxels) {
     VoxmapParams vp;
@@ -123,7 +105,7 @@ TEST(VpsAccuracy, SphereAgainstSphere) {
   const auto scene = mesh::make_icosphere(R2, 5);
   const Eigen::Vector3d axis = Eigen::Vector3d(1, 2, 3).normalized();
   const double D = R1 + R2 - pen;
-  const double ref = sphere_sphere_force(R1, R2, D);
+  const double ref = sphere_sphere_force(kK, R1, R2, D);
   std::vector<Row> rows;
   for (double s : kVoxels) {
     VoxmapParams vp;

@@ -10,6 +10,7 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include "common/mesh/primitives.h"
 
@@ -131,7 +132,55 @@ TEST(HemmVpsTool, BuildEvalAndHostileFiles) {
   }
   r = run("--help");
   EXPECT_NE(r.out.find("report"), std::string::npos);
+  r = run("scene --name nonsense --out " + d);
+  EXPECT_EQ(r.code, 2) << r.out;
   fs::remove_all(dir);
+}
+
+TEST(HemmVpsTool, SceneWritesMeshesAndHandsThatLoadBack) {
+  const fs::path dir = fs::temp_directory_path() / ("hemm_vps_scene_" + std::to_string(::getpid()));
+  const std::string d = dir.string();
+  ToolRun r = run("scene --name peg-in-hole --out " + d);
+  ASSERT_EQ(r.code, 0) << r.out;
+  // The written meshes build into caches; the hand CSV has both objects' poses.
+  r = run("build --mesh " + d + "/peg-in-hole-right.stl --voxel 0.002 -o " + d + "/pins.vps");
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("watertight"), std::string::npos) << r.out;
+  std::ifstream f(d + "/peg-in-hole-hands.csv");
+  std::string header, line;
+  std::getline(f, header);
+  EXPECT_EQ(header, "t,rx,ry,rz,rqw,rqx,rqy,rqz,lx,ly,lz,lqw,lqx,lqy,lqz");
+  int rows = 0;
+  double t = 0, rz = 0;
+  while (std::getline(f, line)) {
+    ++rows;
+    ASSERT_EQ(std::sscanf(line.c_str(), "%lf,%*f,%*f,%lf", &t, &rz), 2) << line;
+  }
+  EXPECT_EQ(rows, 1801);  // 1.8 s at 1 kHz
+  EXPECT_NEAR(rz, 0.013, 1e-9);  // the pins end pressed 2 mm into the block
+  fs::remove_all(dir);
+}
+
+TEST(HemmVpsTool, ReportRunsAndMeetsTheAccuracyTarget) {
+  // A small run of the engine report (one boss, no paper-scale run): it
+  // completes, and the full cycle's force errors against the exact
+  // references are within the 2 % target.
+  const ToolRun r = run("report --bosses 1 --paper-bosses 0 --ticks 60 --repeats 1 --fcl-every 30 --budgets 500");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto row = r.out.find("| VPS full cycle");
+  ASSERT_NE(row, std::string::npos) << r.out;
+  const std::string line = r.out.substr(row, r.out.find('\n', row) - row);
+  // Columns: run, tris, voxel, memory, build, 4 times, F err R, F err L, ...
+  std::vector<std::string> cols;
+  std::stringstream ss(line);
+  std::string c;
+  while (std::getline(ss, c, '|')) cols.push_back(c);
+  ASSERT_GE(cols.size(), 12u) << line;
+  const double f_err_r = std::stod(cols[10]), f_err_l = std::stod(cols[11]);
+  EXPECT_LT(f_err_r, 2.0) << line;
+  EXPECT_LT(f_err_l, 2.0) << line;
+  EXPECT_NE(r.out.find("FCL"), std::string::npos);
+  EXPECT_NE(r.out.find("time-critical 500"), std::string::npos);
 }
 
 }  // namespace

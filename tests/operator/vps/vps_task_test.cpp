@@ -1,0 +1,275 @@
+// The VPS local model in the operator's 1 kHz servo loop, through the generic
+// device API: the paper's peg-in-hole with two end-effectors (the scene's
+// scripted hands replayed as a device), the SIMULATED Omni exploring a scene
+// with a small tool (one force-only end-effector), the cache of the model
+// files, and not one allocation on the servo thread.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <thread>
+
+#include "common/haptics/vps/closed_forms.h"
+#include "common/haptics/vps/scenes.h"
+#include "common/mesh/mesh_io.h"
+#include "common/mesh/primitives.h"
+#include "operator/device/hand_script.h"
+#include "operator/device/replay_device.h"
+#include "operator/device/simulated_omni.h"
+#include "operator/vps/vps_session.h"
+#include "tests/operator/servo/alloc_counter.h"
+
+namespace hemm::op {
+namespace {
+
+constexpr double mm = 1e-3;
+
+// Counts allocations on the servo thread around the real task.
+class Counted final : public servo::ServoTask {
+ public:
+  explicit Counted(servo::ServoTask& t) : t_(t) {}
+  void on_servo_start() noexcept override { test::count_allocations_on_this_thread(true); }
+  void on_servo_stop() noexcept override { test::count_allocations_on_this_thread(false); }
+  void tick(const device::DeviceSample& in, const servo::ModelSnapshot& m, servo::TickOutput& out) noexcept override {
+    t_.tick(in, m, out);
+  }
+
+ private:
+  servo::ServoTask& t_;
+};
+
+// Runs `task` on `device` for `ticks` servo ticks in the real loop.
+servo::TimingSummary run_loop(device::HapticDevice& device, servo::ServoTask& task, std::uint64_t ticks) {
+  Counted counted(task);
+  servo::ModelChannel channel;
+  servo::ServoConfig cfg;
+  cfg.realtime = false;
+  cfg.lock_memory = false;
+  servo::ServoLoop loop(device, counted, channel, cfg);
+  loop.start();
+  while (loop.stats().ticks.load() < ticks) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  loop.stop();
+  return loop.summary();
+}
+
+TEST(VpsServoTask, PegInHoleWithScriptedHandsThroughTheDeviceApi) {
+  // The scene's own geometry is the reference: the pins plate rests on the
+  // holes block when the pins frame is 15 mm above the holes frame, and the
+  // holes allow 1 mm of play per side.
+  const vps::BimanualScene sc = vps::make_peg_in_hole_scene();
+  VpsMeshSpec table, pins, holes;
+  table.voxel_size = 2 * mm;
+  pins.voxel_size = holes.voxel_size = 1 * mm;
+  pins.shell_voxel = holes.shell_voxel = 1.5 * mm;
+  pins.density = holes.density = 7800;
+  vps::ContactParams cp;
+  cp.stiffness = 1e7;
+  const auto model = make_vps_model(sc.scene, table, {{sc.right, pins}, {sc.left, holes}}, cp);
+  device::ReplayDevice dev(scene_hands_trajectory("peg-in-hole"), scripted_hands_limits(2));
+  VpsTaskParams tp;
+  VpsServoTask task(model, dev.limits(), tp);
+  // The designed couplings meet the sampled-data passivity condition.
+  for (int k = 0; k < 2; ++k) EXPECT_LE(task.coupling(k).passivity_lhs, task.coupling(k).passivity_bound);
+  const std::uint64_t allocs = test::counted_allocations();
+  const std::uint64_t ticks = static_cast<std::uint64_t>(vps::kPegInHoleDuration * 1000) + 400;
+  const servo::TimingSummary timing = run_loop(dev, task, ticks);
+  EXPECT_EQ(test::counted_allocations() - allocs, 0u) << "allocations on the servo thread";
+  const VpsTaskStats& st = task.stats();
+  const Eigen::Vector3d rel = task.object_pose(1).inverse() * task.object_pose(0).translation();
+  const servo::HistogramSummary vps_us = servo::summarize(task.vps_compute());
+  std::printf("peg-in-hole in the servo loop: %llu ticks, misses %llu, VPS median %.1f us p99 %.1f us; pins in holes "
+              "frame %.3f %.3f %.3f mm; max penetration rs %.3f ls %.3f rl %.3f mm; energy to the hands %.3g / %.3g J "
+              "(max %.3g / %.3g J)\n",
+              static_cast<unsigned long long>(timing.ticks), static_cast<unsigned long long>(timing.misses),
+              vps_us.median_us, vps_us.p99_us, rel.x() / mm, rel.y() / mm, rel.z() / mm,
+              st.max_penetration[0] / mm, st.max_penetration[1] / mm, st.max_penetration[2] / mm, st.energy_J[0],
+              st.energy_J[1], st.max_energy_J[0], st.max_energy_J[1]);
+  // Fully in: the plate on the block, the pins' axis within the play.
+  EXPECT_NEAR(rel.z(), 15 * mm, 0.8 * mm);
+  EXPECT_LT(std::hypot(rel.x(), rel.y()), 1.0 * mm + st.max_penetration[2]);
+  EXPECT_GT(st.max_contacts[2], 0);
+  // No tunnelling.
+  EXPECT_LT(st.max_penetration[2], 0.8 * mm);
+  // Passivity observer: the rigid hands put energy in (they press the plate
+  // down and drag the couplings); the device never gives out more than a
+  // millijoule (the coupling's stored energy returning on the replay's
+  // velocity steps) and ends having absorbed.
+  for (int k = 0; k < 2; ++k) {
+    EXPECT_LT(st.max_energy_J[k], 1e-3) << k;
+    EXPECT_LE(st.energy_J[k], 1e-4) << k;
+  }
+}
+
+TEST(VpsServoTask, OmniExploresASceneWithASmallTool) {
+  // A force-only, one-end-effector device: the SIMULATED Omni holds an 8 mm
+  // ball; its hand lowers the stylus 8 mm below the table top, holds, then
+  // slides along it. The reference is the closed form of a sphere pressed
+  // into a half-space (closed_forms.h) at the ball's measured depth.
+  const double R = 8 * mm, K = 3e8;
+  mesh::TriangleMesh table = mesh::make_box({0.1, 0.1, 0.01}, 2);
+  for (auto& v : table.vertices) v.z() -= 0.01;  // top face at z = 0
+  VpsMeshSpec tspec, ball;
+  tspec.voxel_size = 2 * mm;
+  ball.voxel_size = ball.shell_voxel = 1 * mm;
+  ball.mass = 0.05;
+  vps::ContactParams cp;
+  cp.stiffness = K;
+  const auto model = make_vps_model(table, tspec, {{mesh::make_icosphere(R, 4), ball}}, cp);
+  // H (x right, y up, z to the user) into W (z up): x_W = x_H, y_W = -z_H, z_W = y_H.
+  VpsTaskParams tp;
+  tp.ee[0].T_W_H.linear() << 1, 0, 0, 0, 0, -1, 0, 1, 0;
+  tp.ee[0].T_W_H.translation() = Eigen::Vector3d(0, 0, R);  // stylus at the H origin: ball touching
+  auto script = std::make_shared<device::WaypointScript>(std::vector<device::Waypoint>{
+      {0.0, {0, 0.010, 0}}, {0.3, {0, 0.010, 0}}, {0.6, {0, -0.008, 0}}, {1.2, {0, -0.008, 0}},
+      {1.8, {0.03, -0.008, 0}}});
+  device::SimulatedOmni omni(device::SimulatedOmniModel{}, script);
+  VpsLogger log = make_vps_logger(4096);
+  const std::string log_path = ::testing::TempDir() + "vps_omni_log.csv";
+  ASSERT_FALSE(log.start(log_path));
+  VpsServoTask task(model, omni.limits(), tp, &log);
+  EXPECT_LE(task.coupling(0).params.k_lin, omni.limits().ee[0].max_stiffness);
+  EXPECT_LE(task.coupling(0).passivity_lhs, task.coupling(0).passivity_bound);
+  const std::uint64_t allocs = test::counted_allocations();
+  run_loop(omni, task, 2300);
+  log.stop();
+  EXPECT_EQ(test::counted_allocations() - allocs, 0u) << "allocations on the servo thread";
+  const VpsTaskStats& st = task.stats();
+  EXPECT_LE(st.max_force_N[0], omni.limits().ee[0].peak_force + 1e-9);
+  EXPECT_EQ(st.max_torque_Nm[0], st.max_torque_Nm[0]);  // finite
+  // Read back the log: while held (1.0-1.2 s) and sliding and after (from 1.5 s) the
+  // ball rests on the table and the device force matches the closed form.
+  std::ifstream f(log_path);
+  std::string line;
+  std::getline(f, line);
+  int rows = 0, held = 0;
+  double worst_rel = 0, deepest = 0, max_slide = 0;
+  std::int64_t t_first = -1;
+  while (std::getline(f, line)) {
+    std::vector<double> v;
+    std::stringstream ss(line);
+    for (std::string x; std::getline(ss, x, ',');) v.push_back(std::stod(x));
+    ASSERT_EQ(v.size(), 40u);
+    if (t_first < 0) t_first = static_cast<std::int64_t>(v[0]);
+    const double t = (v[0] - static_cast<double>(t_first)) * 1e-9;
+    ++rows;
+    const double obj_z = v[7], f_up = v[9];  // obj0_z; f0_y (H's y is W's z)
+    const double depth = R - obj_z;
+    deepest = std::max(deepest, depth);
+    if ((t > 1.0 && t < 1.2) || t > 1.5) {
+      ++held;
+      const double ref = vps::sphere_halfspace_force(K, R, depth);
+      ASSERT_GT(ref, 0.3) << "t " << t;  // the ball is pressed in
+      worst_rel = std::max(worst_rel, std::abs(f_up - ref) / ref);
+      max_slide = std::max(max_slide, v[5]);
+    }
+  }
+  std::printf("omni: %d log rows, %d held/sliding; ball at most %.3f mm deep; device force vs closed form within "
+              "%.1f %%; slid to x = %.1f mm; max |F| %.2f N; energy to the hand %.3g J (max %.3g J)\n",
+              rows, held, deepest / mm, 100 * worst_rel, max_slide / mm, st.max_force_N[0], st.energy_J[0],
+              st.max_energy_J[0]);
+  EXPECT_GT(held, 300);
+  EXPECT_LT(deepest, 1.5 * mm);   // the hand is 8 mm below the top: no tunnelling
+  EXPECT_LT(worst_rel, 0.15);     // coupling lag, friction-free slide and voxel error
+  EXPECT_GT(max_slide, 0.02);     // it did explore along the table
+  EXPECT_LT(st.max_energy_J[0], 1e-3);
+}
+
+TEST(VpsServoTask, RefusesAMismatchedDeviceAndIgnoresNonFiniteSamples) {
+  mesh::TriangleMesh table = mesh::make_box({0.05, 0.05, 0.01}, 1);
+  VpsMeshSpec s;
+  s.voxel_size = 0.004;
+  const auto one = make_vps_model(table, s, {{mesh::make_icosphere(0.01, 2), s}}, {});
+  const auto two =
+      make_vps_model(table, s, {{mesh::make_icosphere(0.01, 2), s}, {mesh::make_icosphere(0.01, 2), s}}, {});
+  // Two objects need two end-effectors.
+  EXPECT_THROW(VpsServoTask(two, device::phantom_omni_limits(), {}), std::invalid_argument);
+  VpsTaskParams bad;
+  bad.budget = 0;
+  EXPECT_THROW(VpsServoTask(one, device::phantom_omni_limits(), bad), std::invalid_argument);
+  // A reading with a NaN: no wrench on that tick, the object stays put.
+  VpsServoTask task(one, scripted_hands_limits(1), {});
+  device::DeviceSample in;
+  in.end_effectors = 1;
+  in.ee[0].position_H = Eigen::Vector3d(0, 0, 0.05);
+  servo::TickOutput out;
+  servo::ModelSnapshot none;
+  task.tick(in, none, out);
+  in.ee[0].position_H.x() = 0.01;  // the hand moves: the coupling pulls
+  task.tick(in, none, out);
+  EXPECT_GT(out.command.ee[0].force_H.norm(), 0.0);
+  const Eigen::Vector3d before = task.object_pose(0).translation();
+  in.ee[0].position_H.y() = std::nan("");
+  out = servo::TickOutput{};
+  task.tick(in, none, out);
+  EXPECT_EQ(out.command.ee[0].force_H, Eigen::Vector3d::Zero());
+  EXPECT_EQ(task.object_pose(0).translation(), before);
+  EXPECT_TRUE(task.object_pose(0).matrix().allFinite());
+}
+
+TEST(VpsModel, LoadsMeshFilesThroughTheCache) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::path(::testing::TempDir()) / "vps_model_cache";
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string scene = (dir / "table.stl").string(), tool = (dir / "ball.stl").string();
+  ASSERT_FALSE(mesh::save_mesh(scene, mesh::make_box({0.05, 0.05, 0.01}, 1)));
+  ASSERT_FALSE(mesh::save_mesh(tool, mesh::make_icosphere(0.01, 3)));
+  VpsModelSpec spec;
+  spec.scene.mesh_path = scene;
+  spec.scene.voxel_size = 0.004;
+  VpsMeshSpec t;
+  t.mesh_path = tool;
+  t.voxel_size = 0.002;
+  spec.objects[0] = t;
+  VpsLoadReport built, cached;
+  const auto a = load_vps_model(spec, &built);
+  ASSERT_EQ(a->object_count, 1);
+  EXPECT_EQ(std::distance(fs::directory_iterator(dir), fs::directory_iterator{}), 4);  // two meshes, two caches
+  const auto b = load_vps_model(spec, &cached);
+  ASSERT_EQ(cached.lines.size(), 2u);
+  for (const auto& l : cached.lines) EXPECT_NE(l.find("from cache"), std::string::npos) << l;
+  for (const auto& l : built.lines) EXPECT_EQ(l.find("from cache"), std::string::npos) << l;
+  // Same structures: the same contact.
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.translation() = Eigen::Vector3d(0.003, 0.0, 0.0185);
+  vps::PairResult ra, rb;
+  vps::evaluate_pair(a->scene, Eigen::Isometry3d::Identity(), Eigen::Vector3d::Zero(), a->objects[0].shell, T,
+                     a->bimanual.params, nullptr, &ra);
+  vps::evaluate_pair(b->scene, Eigen::Isometry3d::Identity(), Eigen::Vector3d::Zero(), b->objects[0].shell, T,
+                     b->bimanual.params, nullptr, &rb);
+  EXPECT_GT(ra.contacts, 0);
+  EXPECT_EQ(ra.on_shell.force, rb.on_shell.force);
+  EXPECT_NEAR(a->objects[0].mass.mass, b->objects[0].mass.mass, 1e-12);
+  // Another resolution is not taken from this cache.
+  VpsModelSpec finer = spec;
+  finer.scene.voxel_size = 0.003;
+  VpsLoadReport r3;
+  const auto c = load_vps_model(finer, &r3);
+  EXPECT_NEAR(c->scene.voxel_size, 0.003, 1e-12);
+  // A corrupt cache is rebuilt with a warning.
+  for (const auto& e : fs::directory_iterator(dir)) {
+    if (e.path().extension() != ".vps") continue;
+    std::ofstream(e.path(), std::ios::binary | std::ios::trunc) << "HEMMVPS garbage";
+  }
+  VpsLoadReport r4;
+  const auto d = load_vps_model(spec, &r4);
+  EXPECT_FALSE(r4.warnings.empty());
+  EXPECT_EQ(d->scene.voxel_size, a->scene.voxel_size);
+  // Bad input: a missing mesh names the file; a bad spec is refused.
+  VpsModelSpec missing = spec;
+  missing.scene.mesh_path = (dir / "nope.stl").string();
+  try {
+    load_vps_model(missing);
+    ADD_FAILURE() << "no error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("nope.stl"), std::string::npos) << e.what();
+  }
+  VpsModelSpec bad = spec;
+  bad.objects[0]->voxel_size = -1;
+  EXPECT_THROW(load_vps_model(bad), std::runtime_error);
+}
+
+}  // namespace
+}  // namespace hemm::op
