@@ -29,7 +29,10 @@ std::string arm7_mjcf_chain(const Arm7Model& m, const Arm7MjcfOptions& o) {
          mjcf_numbers({a.x(), a.y(), a.z()}) + "\"";
     if (o.limited) s += " limited=\"true\" range=\"" + mjcf_numbers({m.q_min(i), m.q_max(i)}) + "\"";
     s += " damping=\"" + mjcf_numbers({o.damping(i)}) + "\" frictionloss=\"" + mjcf_numbers({o.frictionloss(i)}) +
-         "\" armature=\"" + mjcf_numbers({o.armature(i)}) + "\"/>\n";
+         "\" armature=\"" + mjcf_numbers({o.armature(i)}) + "\"";
+    if (!o.solreffriction.empty()) s += " solreffriction=\"" + o.solreffriction + "\"";
+    if (!o.solimpfriction.empty()) s += " solimpfriction=\"" + o.solimpfriction + "\"";
+    s += "/>\n";
     if (l.mass > 0.0) {
       s += " <inertial pos=\"" + mjcf_numbers({l.com.x(), l.com.y(), l.com.z()}) + "\" mass=\"" +
            mjcf_numbers({l.mass}) + "\" fullinertia=\"" +
@@ -38,14 +41,15 @@ std::string arm7_mjcf_chain(const Arm7Model& m, const Arm7MjcfOptions& o) {
     const double r = o.link_radius(i);
     if (r > 0.0) {
       const std::string common = "\" contype=\"" + std::to_string(o.contype) + "\" conaffinity=\"" +
-                                 std::to_string(o.conaffinity) + "\" rgba=\"" + o.rgba + "\" mass=\"0\"/>\n";
+                                 std::to_string(o.conaffinity) + "\" margin=\"" + mjcf_numbers({o.margin}) +
+                                 "\" gap=\"" + mjcf_numbers({o.margin}) + "\" rgba=\"" + o.rgba + "\" mass=\"0\"/>\n";
       if (i + 1 < kArm7Dof) {
         const Eigen::Vector3d& e = m.offset[k + 1];
         s += " <geom name=\"" + o.prefix + "geom" + n + "\" type=\"capsule\" size=\"" + mjcf_numbers({r}) +
              "\" fromto=\"" + mjcf_numbers({0.0, 0.0, 0.0, e.x(), e.y(), e.z()}) + common;
       } else {
-        s += " <geom name=\"" + o.prefix + "geom" + n + "\" type=\"cylinder\" size=\"" + mjcf_numbers({r, 0.01}) +
-             "\" pos=\"0 0 -0.01" + common;
+        s += " <geom name=\"" + o.prefix + "geom" + n + "\" type=\"capsule\" size=\"" + mjcf_numbers({r}) +
+             "\" fromto=\"0 0 -0.03 0 0 -0.01" + common;
       }
     }
     if (i + 1 == kArm7Elbow) s += " <site name=\"" + o.prefix + "elbow\" pos=\"0 0 0\" size=\"0.01\"/>\n";

@@ -19,11 +19,16 @@ struct Arm7MjcfOptions {
   Arm7Vector frictionloss = Arm7Vector::Zero();  // Coulomb joint friction [N m]
   Arm7Vector armature = Arm7Vector::Zero();      // reflected rotor inertia [kg m^2]
   bool limited = true;                           // joint ranges from q_min/q_max
+  // MuJoCo's friction loss is a soft constraint; these make it stick (a
+  // brake must hold, not creep). Empty: MuJoCo's defaults.
+  std::string solreffriction;
+  std::string solimpfriction;
   // > 0: a capsule of this radius from each joint origin to the next (link 7:
-  // a disc at the flange). 0: no geom on that link.
+  // a short capsule behind the flange). 0: no geom on that link.
   Arm7Vector link_radius = Arm7Vector::Zero();
   int contype = 0;
   int conaffinity = 0;
+  double margin = 0.0;  // geom margin with an equal gap: pairs closer are reported, not pushed apart
   std::string rgba = "0.85 0.85 0.9 1";
   std::string flange_children;  // extra MJCF placed inside the link-7 body
 };
