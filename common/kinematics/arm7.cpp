@@ -49,6 +49,7 @@ Arm7Model lwr_arm_model() {
     m.q_min(i) = -lim;
     m.q_max(i) = lim;
   }
+  m.armature << 0.10, 0.10, 0.05, 0.05, 0.02, 0.01, 0.01;
   m.qd_max << 110, 110, 128, 128, 204, 184, 184;
   m.qd_max *= kDeg;
   m.tau_max << 176, 176, 100, 100, 100, 38, 38;
@@ -71,6 +72,7 @@ std::optional<std::string> validate(const Arm7Model& m) {
     // Triangle inequality of principal moments (a physical body).
     if (ev(0) + ev(1) < ev(2) - 1e-9) return j + "link inertia violates the triangle inequality";
   }
+  if (!m.armature.allFinite() || (m.armature.array() < 0.0).any()) return "armature must be finite and >= 0";
   if (!m.q_min.allFinite() || !m.q_max.allFinite() || !(m.q_min.array() < m.q_max.array()).all())
     return "joint limits must be finite with q_min < q_max";
   if (!m.qd_max.allFinite() || !(m.qd_max.array() > 0.0).all()) return "speed limits must be finite and > 0";
@@ -143,6 +145,25 @@ Arm7Jacobian flange_jacobian(const Arm7Model& m, const Arm7Frames& f) {
   return partial_jacobian(m, f, kArm7Flange, f.origin(kArm7Flange));
 }
 
+Wrench6 drift_acceleration(const Arm7Model& m, const Arm7Frames& f, const Arm7Vector& qd, int k,
+                           const Eigen::Vector3d& p_A) {
+  Eigen::Vector3d w = Eigen::Vector3d::Zero(), dw = Eigen::Vector3d::Zero(), a = Eigen::Vector3d::Zero();
+  Eigen::Vector3d o_prev = Eigen::Vector3d::Zero();
+  k = std::clamp(k, 1, kArm7Dof);
+  for (int i = 1; i <= k; ++i) {
+    const Eigen::Vector3d o = f.origin(i), r = o - o_prev;
+    a += dw.cross(r) + w.cross(w.cross(r));
+    const Eigen::Vector3d z = f.axis_A(m, i);
+    dw += w.cross(z * qd(i - 1));
+    w += z * qd(i - 1);
+    o_prev = o;
+  }
+  const Eigen::Vector3d r = p_A - o_prev;
+  Wrench6 out;
+  out << a + dw.cross(r) + w.cross(w.cross(r)), dw;
+  return out;
+}
+
 Arm7Vector inverse_dynamics(const Arm7Model& m, const Arm7Frames& f, const Arm7Vector& qd, const Arm7Vector& qdd,
                             const Eigen::Vector3d& g_A) {
   // Forward pass in A: angular velocity/acceleration of each link, linear
@@ -179,7 +200,7 @@ Arm7Vector inverse_dynamics(const Arm7Model& m, const Arm7Frames& f, const Arm7V
     Eigen::Vector3d n = N[k] + c_rel[k].cross(F[k]) + n_next;
     if (i + 1 < kArm7Dof) n += (f.T_A_J[k + 1].translation() - o).cross(f_next);
     const Eigen::Vector3d fi = F[k] + f_next;
-    tau(i) = (f.T_A_J[k].linear() * m.axis[k]).dot(n);
+    tau(i) = (f.T_A_J[k].linear() * m.axis[k]).dot(n) + m.armature(i) * qdd(i);
     f_next = fi;
     n_next = n;
   }
@@ -220,6 +241,7 @@ Arm7Matrix mass_matrix(const Arm7Model& m, const Arm7Frames& f) {
       M(j, i) = M(i, j);
     }
   }
+  M.diagonal() += m.armature;
   return M;
 }
 

@@ -27,7 +27,10 @@
 // about each centre of mass (radius 0.06 m for links 1-4, 0.05 m for 5-6,
 // a 0.04 m disc for link 7). Limits: +-170/+-120 deg alternating; speeds
 // 110, 110, 128, 128, 204, 184, 184 deg/s; torques 176, 176, 100, 100, 100,
-// 38, 38 N m (LBR4+ data sheet).
+// 38, 38 N m (LBR4+ data sheet). Armature (rotor inertia through the gear,
+// as the joints' own torque control leaves it; ASSUMED, no public figure):
+// 0.10, 0.10, 0.05, 0.05, 0.02, 0.01, 0.01 kg m^2 - it dominates the wrist's
+// tiny link inertias, as on the real arm.
 //
 // Dynamics: our own recursive Newton-Euler (RNEA) and composite-rigid-body
 // (CRBA) algorithms, in frame A. Why not MuJoCo or a library: the controller
@@ -71,6 +74,9 @@ struct Arm7Model {
   std::array<Eigen::Vector3d, kArm7Dof> offset;  // o_i: origin of J_i in J_(i-1) (J_0 = A) [m]
   std::array<Eigen::Vector3d, kArm7Dof> axis;    // a_i: unit joint axis in J_i
   std::array<RigidBodyInertia, kArm7Dof> link;   // link i in J_i
+  // Reflected rotor inertia of each drive, added to the mass matrix's
+  // diagonal (MuJoCo's joint armature) [kg m^2].
+  Arm7Vector armature = Arm7Vector::Zero();
   Arm7Vector q_min, q_max;                       // [rad]
   Arm7Vector qd_max;                             // [rad/s]
   Arm7Vector tau_max;                            // [N m]
@@ -123,7 +129,12 @@ Arm7Jacobian elbow_jacobian(const Arm7Model& model, const Arm7Frames& frames);
 // ^0J_7 at the flange (J7's origin).
 Arm7Jacobian flange_jacobian(const Arm7Model& model, const Arm7Frames& frames);
 
-// Rigid-body inverse dynamics (RNEA): tau = M(q) qdd + C(q, qd) qd + g(q) for
+// The velocity-product ("drift") acceleration of a point p_A on link k:
+// d/dt(J) qd = [a; alpha] of the point when qdd = 0 (no gravity).
+Wrench6 drift_acceleration(const Arm7Model& model, const Arm7Frames& frames, const Arm7Vector& qd, int k,
+                           const Eigen::Vector3d& p_A);
+
+// Inverse dynamics (RNEA): tau = M(q) qdd + C(q, qd) qd + g(q) for
 // gravity g_A (e.g. (0, 0, -9.81) expressed in A). `frames` must be
 // forward_kinematics(model, q).
 Arm7Vector inverse_dynamics(const Arm7Model& model, const Arm7Frames& frames, const Arm7Vector& qd,
@@ -133,7 +144,7 @@ Arm7Vector gravity_torque(const Arm7Model& model, const Arm7Frames& frames, cons
 // C(q, qd) qd + g(q) (MuJoCo's qfrc_bias).
 Arm7Vector bias_torque(const Arm7Model& model, const Arm7Frames& frames, const Arm7Vector& qd,
                        const Eigen::Vector3d& g_A);
-// M(q) by the composite-rigid-body algorithm.
+// M(q) by the composite-rigid-body algorithm (plus the armature).
 Arm7Matrix mass_matrix(const Arm7Model& model, const Arm7Frames& frames);
 
 }  // namespace hemm::kinematics

@@ -29,7 +29,7 @@ std::string arm7_mjcf_chain(const Arm7Model& m, const Arm7MjcfOptions& o) {
          mjcf_numbers({a.x(), a.y(), a.z()}) + "\"";
     if (o.limited) s += " limited=\"true\" range=\"" + mjcf_numbers({m.q_min(i), m.q_max(i)}) + "\"";
     s += " damping=\"" + mjcf_numbers({o.damping(i)}) + "\" frictionloss=\"" + mjcf_numbers({o.frictionloss(i)}) +
-         "\" armature=\"" + mjcf_numbers({o.armature(i)}) + "\"";
+         "\" armature=\"" + mjcf_numbers({m.armature(i)}) + "\"";
     if (!o.solreffriction.empty()) s += " solreffriction=\"" + o.solreffriction + "\"";
     if (!o.solimpfriction.empty()) s += " solimpfriction=\"" + o.solimpfriction + "\"";
     s += "/>\n";

@@ -17,7 +17,6 @@ struct Arm7MjcfOptions {
   std::string prefix;  // bodies <prefix>link1..7, joints <prefix>j1..7, sites <prefix>elbow, <prefix>flange
   Arm7Vector damping = Arm7Vector::Zero();       // viscous joint friction [N m s/rad]
   Arm7Vector frictionloss = Arm7Vector::Zero();  // Coulomb joint friction [N m]
-  Arm7Vector armature = Arm7Vector::Zero();      // reflected rotor inertia [kg m^2]
   bool limited = true;                           // joint ranges from q_min/q_max
   // MuJoCo's friction loss is a soft constraint; these make it stick (a
   // brake must hold, not creep). Empty: MuJoCo's defaults.

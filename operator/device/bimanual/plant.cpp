@@ -49,6 +49,7 @@ hk::Arm7Model perturbed(const hk::Arm7Model& nominal, const ModelError& e, std::
     l.inertia *= si;
     l.com += e.com_m * dc.normalized();
   }
+  for (int i = 0; i < hk::kArm7Dof; ++i) m.armature(i) *= 1.0 + e.inertia * u(rng);
   return m;
 }
 

@@ -20,7 +20,6 @@ TEST(Arm7Mjcf, MujocoReadsBackTheModel) {
   o.prefix = "r_";
   o.damping = hk::Arm7Vector::Constant(0.5);
   o.frictionloss = hk::Arm7Vector::LinSpaced(0.1, 0.7);
-  o.armature = hk::Arm7Vector::Constant(0.01);
   o.link_radius = hk::Arm7Vector::Constant(0.06);
   o.contype = 2;
   o.conaffinity = 5;
@@ -46,7 +45,7 @@ TEST(Arm7Mjcf, MujocoReadsBackTheModel) {
     EXPECT_DOUBLE_EQ(mm->jnt_range[2 * i + 1], m.q_max(i));
     EXPECT_DOUBLE_EQ(mm->dof_frictionloss[i], o.frictionloss(i));
     EXPECT_DOUBLE_EQ(mm->dof_damping[i], 0.5);
-    EXPECT_DOUBLE_EQ(mm->dof_armature[i], 0.01);
+    EXPECT_DOUBLE_EQ(mm->dof_armature[i], m.armature(i));
     const int g = mj_name2id(mm, mjOBJ_GEOM, ("r_geom" + std::to_string(i + 1)).c_str());
     ASSERT_GE(g, 0);
     EXPECT_EQ(mm->geom_bodyid[g], b);

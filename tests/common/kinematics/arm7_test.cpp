@@ -146,6 +146,27 @@ TEST(Arm7Kinematics, PartialJacobiansMatchFiniteDifferencesAndMujoco) {
   }
 }
 
+TEST(Arm7Kinematics, DriftAccelerationIsTheJacobianRateTimesTheJointRates) {
+  const hk::Arm7Model m = hk::lwr_arm_model();
+  std::mt19937_64 rng(16);
+  for (int k = 0; k < 100; ++k) {
+    const Arm7Vector q = random_q(m, rng), qd = random_vec(rng, 2.0);
+    hk::Arm7Frames f;
+    hk::forward_kinematics(m, q, f);
+    const int link = 1 + k % 7;
+    const Eigen::Vector3d p_J(0.02, 0.03, 0.07);
+    const hk::Wrench6 a = hk::drift_acceleration(m, f, qd, link, f.joint(link) * p_J);
+    // d/dt (J(q(t)) qd) along q(t) = q + t qd, the point moving with the link.
+    const double h = 1e-6;
+    hk::Arm7Frames fp, fm;
+    hk::forward_kinematics(m, q + h * qd, fp);
+    hk::forward_kinematics(m, q - h * qd, fm);
+    const hk::Wrench6 vp = hk::partial_jacobian(m, fp, link, fp.joint(link) * p_J) * qd;
+    const hk::Wrench6 vm = hk::partial_jacobian(m, fm, link, fm.joint(link) * p_J) * qd;
+    ASSERT_LT((a - (vp - vm) / (2 * h)).norm(), 1e-6) << "link " << link;
+  }
+}
+
 TEST(Arm7Dynamics, MassMatrixBiasAndInverseDynamicsMatchMujoco) {
   const hk::Arm7Model m = hk::lwr_arm_model();
   // Horizontal mount: gravity has a component along the base axis.
@@ -234,6 +255,7 @@ TEST(Arm7Dynamics, PointMassOnPlanarTwoLinkChainHasTheTextbookForm) {
   // gravity torque is the moment of m g about each axis.
   hk::Arm7Model m = hk::lwr_arm_model();
   for (auto& l : m.link) l = hk::RigidBodyInertia{};
+  m.armature.setZero();
   const double mass = 3.0;
   m.link[6].mass = mass;  // at J7's origin, the flange
   const double l1 = 0.4, l2 = 0.39 + 0.078;
