@@ -26,7 +26,8 @@ std::string inertial(const hk::RigidBodyInertia& b) {
          "\" fullinertia=\"" + mjcf_numbers({I(0, 0), I(1, 1), I(2, 2), I(0, 1), I(0, 2), I(1, 2)}) + "\"/>\n";
 }
 
-std::string handle_body(const std::string& p, const HandleSpec& h, int contype, int conaffinity, double margin) {
+std::string handle_body(const std::string& p, const HandleSpec& h, int contype, int conaffinity, double margin,
+                        double timestep_s) {
   const Eigen::Vector3d e = h.T_J7_E.translation();
   std::string s = "<body name=\"" + p + "handle\">\n";
   // The spec's mass includes the grip lever, a body of its own here.
@@ -44,8 +45,10 @@ std::string handle_body(const std::string& p, const HandleSpec& h, int contype, 
     // The lever under the forefinger: slides along -x of J7 towards the palm.
     const double m = h.grip_lever_mass;
     s += "<body name=\"" + p + "lever\" pos=\"" + mjcf_numbers({0.04, 0.0, e.z()}) + "\">\n";
+    // Stiff end stops (MuJoCo's limits are soft by default).
     s += "<joint name=\"" + p + "grip\" type=\"slide\" axis=\"-1 0 0\" limited=\"true\" range=\"" +
-         mjcf_numbers({0.0, h.grip_travel}) + "\" damping=\"0.05\"/>\n";
+         mjcf_numbers({0.0, h.grip_travel}) + "\" damping=\"0.05\" solreflimit=\"" + mjcf_numbers({2.0 * timestep_s, 1.0}) +
+         "\" solimplimit=\"0.99 0.999 0.001\"/>\n";
     s += "<inertial pos=\"0 0 0\" mass=\"" + mjcf_numbers({m}) + "\" diaginertia=\"" +
          mjcf_numbers({1e-6, 1e-6, 1e-6}) + "\"/>\n";
     s += "<geom type=\"box\" size=\"0.005 0.01 0.02\" contype=\"0\" conaffinity=\"0\" mass=\"0\" rgba=\"0.8 0.5 0.1 1\"/>\n";
@@ -88,7 +91,7 @@ std::string bimanual_scene_mjcf(const SceneSpec& sp) {
     o.margin = sp.proximity_margin_m;
     o.solreffriction = mjcf_numbers({2.0 * sp.timestep_s, 1.0});
     o.solimpfriction = "0.9999 0.9999 0.001";
-    o.flange_children = handle_body(p, sp.handles[a], contype, conaffinity, sp.proximity_margin_m);
+    o.flange_children = handle_body(p, sp.handles[a], contype, conaffinity, sp.proximity_margin_m, sp.timestep_s);
     s += hk::arm7_mjcf_chain(sp.arms[a], o);
     s += "</body>\n";
   }
