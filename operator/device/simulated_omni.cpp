@@ -16,13 +16,8 @@ const char* check_model(const SimulatedOmniModel& m) {
     return "stiffness must be finite, end_stop_stiffness > 0";
   if (!pos(m.dt_s) || m.substeps < 1 || m.substeps > 1000) return "dt_s > 0, 1 <= substeps <= 1000";
   if (!pos(m.thermal_time_constant_s)) return "thermal_time_constant_s must be > 0";
-  if (!pos(m.limits.peak_force) || !pos(m.limits.max_continuous_force) ||
-      m.limits.max_continuous_force > m.limits.peak_force)
-    return "need 0 < max_continuous_force <= peak_force";
-  if (!m.limits.workspace_min_H.allFinite() || !m.limits.workspace_max_H.allFinite() ||
-      !(m.limits.workspace_min_H.array() < m.limits.workspace_max_H.array()).all())
-    return "workspace box must be finite with min < max";
-  return nullptr;
+  if (m.limits.renders_torque) return "the Omni renders no torque";
+  return check_limits(m.limits);
 }
 
 Eigen::Vector3d limit_force(const SimulatedOmniModel& m, SimulatedOmniData& d,
@@ -83,6 +78,8 @@ SimulatedOmni::SimulatedOmni(const SimulatedOmniModel& model,
   if (const char* why = check_model(model_))
     throw std::invalid_argument(std::string("SimulatedOmni: ") + why);
   if (!script_) throw std::invalid_argument("SimulatedOmni: null hand script");
+  limits_.end_effectors = 1;
+  limits_.ee[0] = model_.limits;
   const HandTarget t0 = script_->at(0.0);
   data_.position_H = t0.position_H;
   data_.orientation_H = t0.orientation_H;
@@ -90,13 +87,26 @@ SimulatedOmni::SimulatedOmni(const SimulatedOmniModel& model,
 }
 
 void SimulatedOmni::read(DeviceSample& out) noexcept {
-  out.position_H = data_.position_H;
-  out.orientation_H = data_.orientation_H;
-  out.velocity_H = data_.velocity_H;
-  out.buttons = data_.buttons;
+  out.end_effectors = 1;
+  EndEffectorSample& e = out.ee[0];
+  e.position_H = data_.position_H;
+  e.orientation_H = data_.orientation_H;
+  e.velocity_H = data_.velocity_H;
+  e.angular_velocity_H.setZero();
+  e.handle = HandleInputs{};
+  e.handle.buttons = data_.buttons;
+  e.enabled = true;
 }
 
-void SimulatedOmni::write(const Eigen::Vector3d& force_H) noexcept {
+void SimulatedOmni::write(const DeviceCommand& cmd) noexcept {
+  const EndEffectorCommand& c = cmd.ee[0];
+  Eigen::Vector3d force_H = Eigen::Vector3d::Zero();
+  if (!wrench_is_finite(c)) {
+    ++data_.nonfinite_commands;
+  } else {
+    force_H = c.force_H;
+    if (c.grip_force != 0.0) ++data_.ignored_grip_commands;
+  }
   // The target at the end of the period: the hand reacts within the step.
   simulated_omni_step(model_, data_, script_->at(data_.t_s + model_.dt_s), force_H);
 }

@@ -9,7 +9,11 @@
 // the hand as on a real one: a constant force F displaces it by F / k_hand at
 // steady state. The workspace box has stiff one-sided end stops (spring +
 // damper, never pulling). Orientation and buttons follow the script directly
-// (the Omni renders no torque). Integration: semi-implicit (symplectic) Euler
+// (the Omni renders no torque; its angular velocity is reported as zero).
+// As a HapticDevice it has one end-effector that renders force only: the
+// commanded torque is ignored, a grip force is ignored and counted (the stylus
+// has no grip), a command with any non-finite entry acts as zero and is
+// counted. Integration: semi-implicit (symplectic) Euler
 // with `substeps` sub-steps per servo period, stable for the end-stop
 // stiffness at 1 kHz.
 //
@@ -34,7 +38,7 @@
 namespace hemm::device {
 
 struct SimulatedOmniModel {
-  DeviceLimits limits = phantom_omni_limits();
+  EndEffectorLimits limits = phantom_omni_limits().ee[0];
   double device_mass = 0.045;     // [kg] stylus + linkage, reflected at the tip
   double device_damping = 0.05;   // [N s/m] linkage friction, viscous stand-in
   double hand_mass = 0.30;        // [kg] fingers + part of the forearm
@@ -58,7 +62,8 @@ struct SimulatedOmniData {
   Eigen::Vector3d applied_force_H = Eigen::Vector3d::Zero();  // after the limits
   double mean_square_force = 0.0;  // thermal state [N^2]
   std::uint64_t steps = 0;
-  std::uint64_t nonfinite_commands = 0;  // commands replaced by zero
+  std::uint64_t nonfinite_commands = 0;     // commands replaced by zero
+  std::uint64_t ignored_grip_commands = 0;  // writes with a non-zero grip force
 };
 
 // nullptr if the model is usable, else a description of the first bad
@@ -81,9 +86,10 @@ class SimulatedOmni final : public HapticDevice {
   SimulatedOmni(const SimulatedOmniModel& model, std::shared_ptr<const HandScript> script);
 
   void read(DeviceSample& out) noexcept override;
-  // Applies the force for one period dt_s and steps the simulation.
-  void write(const Eigen::Vector3d& force_H) noexcept override;
-  const DeviceLimits& limits() const noexcept override { return model_.limits; }
+  // Applies end-effector 0's force for one period dt_s and steps the
+  // simulation (torque ignored, grip force ignored and counted).
+  void write(const DeviceCommand& cmd) noexcept override;
+  const DeviceLimits& limits() const noexcept override { return limits_; }
   std::string_view name() const noexcept override { return "simulated-phantom-omni"; }
 
   const SimulatedOmniModel& model() const { return model_; }
@@ -92,6 +98,7 @@ class SimulatedOmni final : public HapticDevice {
 
  private:
   SimulatedOmniModel model_;
+  DeviceLimits limits_;  // one end-effector: model_.limits
   SimulatedOmniData data_;
   std::shared_ptr<const HandScript> script_;
 };

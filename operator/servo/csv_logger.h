@@ -23,7 +23,7 @@ class CsvLogger {
   // Writes one record as a CSV line (with '\n') into buf; returns its length,
   // 0 if it does not fit.
   using FormatFn = std::size_t (*)(const T&, char* buf, std::size_t size);
-  static constexpr std::size_t kLineMax = 1024;
+  static constexpr std::size_t kLineMax = 4096;
 
   CsvLogger(std::size_t capacity, std::string header, FormatFn format)
       : ring_(capacity), header_(std::move(header)), format_(format) {}
@@ -66,6 +66,7 @@ class CsvLogger {
   std::uint64_t written() const noexcept { return written_.load(std::memory_order_relaxed); }
   bool write_failed() const noexcept { return write_failed_.load(std::memory_order_relaxed); }
   std::size_t capacity() const noexcept { return ring_.capacity(); }
+  const std::string& header() const noexcept { return header_; }
 
  private:
   void drain() {

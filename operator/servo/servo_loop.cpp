@@ -43,6 +43,33 @@ void copy3(const Eigen::Vector3d& v, double* out) noexcept {
   out[2] = v.z();
 }
 
+void log_end_effector(const device::EndEffectorSample& in, const RenderPoints& points,
+                      const device::EndEffectorCommand& cmd, ServoLogEndEffector& e) noexcept {
+  copy3(in.position_H, e.position);
+  e.orientation[0] = in.orientation_H.w();
+  e.orientation[1] = in.orientation_H.x();
+  e.orientation[2] = in.orientation_H.y();
+  e.orientation[3] = in.orientation_H.z();
+  copy3(in.velocity_H, e.velocity);
+  copy3(in.angular_velocity_H, e.angular_velocity);
+  copy3(points.proxy_position_H, e.proxy_position);
+  copy3(points.interaction_point_H, e.interaction_point);
+  copy3(cmd.force_H, e.force);
+  copy3(cmd.torque_H, e.torque);
+  e.grip_force = cmd.grip_force;
+  const device::HandleInputs& h = in.handle;
+  e.buttons = h.buttons;
+  e.inputs = device::handle_input_bits(h);
+  e.enabled = in.enabled ? 1 : 0;
+  e.deadman = h.deadman ? 1 : 0;
+  e.switch_on = h.switch_on ? 1 : 0;
+  e.attached = h.attached ? 1 : 0;
+  e.grip_position = h.grip_position;
+  e.grip_velocity = h.grip_velocity;
+  e.joystick[0] = h.joystick.x();
+  e.joystick[1] = h.joystick.y();
+}
+
 std::string errno_text(int e) { return std::strerror(e); }
 
 #ifndef HEMM_SANITIZE
@@ -75,11 +102,17 @@ ServoLoop::ServoLoop(device::HapticDevice& device, ServoTask& task, ModelChannel
       snapshots_(snapshots),
       config_(config),
       log_(log),
+      end_effectors_(device.limits().end_effectors),
       stats_(std::make_unique<TimingStats>()) {
   if (config_.period_ns < 100'000 || config_.period_ns > 1'000'000'000)
     throw std::invalid_argument("ServoLoop: period_ns must be in [100 us, 1 s]");
   if (config_.late_wake_threshold_ns <= 0)
     throw std::invalid_argument("ServoLoop: late_wake_threshold_ns must be > 0");
+  if (const char* why = device::check_limits(device.limits()))
+    throw std::invalid_argument(std::string("ServoLoop: device limits: ") + why);
+  if (log_ != nullptr && log_->header() != servo_log_header(end_effectors_))
+    throw std::invalid_argument("ServoLoop: the log was made for another end-effector count than the device's " +
+                                std::to_string(end_effectors_));
 }
 
 ServoLoop::~ServoLoop() { stop(); }
@@ -181,23 +214,27 @@ void ServoLoop::thread_main() noexcept {
 
     device_.read(sample);
     sample.t_ns = wake;
+    sample.end_effectors = end_effectors_;
     const ModelSnapshot* snap = snapshots_.acquire();
     const ModelSnapshot& model = snap != nullptr ? *snap : empty_snapshot_;
 
-    out.force_H.setZero();
+    const device::EndEffectorSample& ee0 = sample.ee[0];
+    out.command = device::DeviceCommand{};
     out.setpoint.t_ns = wake;
     out.setpoint.tick = tick;
-    out.setpoint.position_H = sample.position_H;
-    out.setpoint.orientation_H = sample.orientation_H;
-    out.setpoint.velocity_H = sample.velocity_H;
-    out.setpoint.buttons = sample.buttons;
+    out.setpoint.position_H = ee0.position_H;
+    out.setpoint.orientation_H = ee0.orientation_H;
+    out.setpoint.velocity_H = ee0.velocity_H;
+    out.setpoint.buttons = ee0.handle.buttons;
     out.setpoint.mode = 0;
     out.publish_setpoint = true;
-    out.proxy_position_H = sample.position_H;
-    out.interaction_point_H = sample.position_H;
+    for (int i = 0; i < end_effectors_; ++i) {
+      const Eigen::Vector3d& p = sample.ee[static_cast<std::size_t>(i)].position_H;
+      out.points[static_cast<std::size_t>(i)] = RenderPoints{p, p};
+    }
     out.mode = 0;
     task_.tick(sample, model, out);
-    device_.write(out.force_H);
+    device_.write(out.command);
     if (out.publish_setpoint) setpoints_.put(out.setpoint);
 
     const std::int64_t done = now_ns();
@@ -206,12 +243,11 @@ void ServoLoop::thread_main() noexcept {
       rec.tick = tick;
       rec.wake_latency_ns = latency;
       rec.compute_ns = done - wake;
-      copy3(sample.position_H, rec.device_position);
-      copy3(sample.velocity_H, rec.device_velocity);
-      copy3(out.proxy_position_H, rec.proxy_position);
-      copy3(out.interaction_point_H, rec.interaction_point);
-      copy3(out.force_H, rec.force);
-      rec.buttons = sample.buttons;
+      rec.end_effectors = end_effectors_;
+      for (int i = 0; i < end_effectors_; ++i) {
+        const auto k = static_cast<std::size_t>(i);
+        log_end_effector(sample.ee[k], out.points[k], out.command.ee[k], rec.ee[k]);
+      }
       rec.mode = out.mode;
       rec.model_age_ns = snap != nullptr ? wake - model.stamp_ns : -1;
       rec.model_version = model.version;

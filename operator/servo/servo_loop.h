@@ -1,9 +1,10 @@
 // The operator station's 1 kHz servo loop (DESIGN.md principle 2: the servo
 // thread is sacred). One thread wakes on an absolute deadline grid
 // (clock_nanosleep TIMER_ABSTIME, CLOCK_MONOTONIC) and each tick:
-//   reads the device -> takes the newest model snapshot -> ServoTask::tick ->
-//   writes the force -> puts the setpoint into a newest-wins mailbox for the
-//   network thread -> pushes a log record into a ring -> records timing.
+//   reads the device (every end-effector) -> takes the newest model snapshot
+//   -> ServoTask::tick -> writes the command (one wrench per end-effector) ->
+//   puts the setpoint into a newest-wins mailbox for the network thread ->
+//   pushes a log record into a ring -> records timing.
 // Inside the loop there is no allocation, no lock, no logging and no system
 // call but the sleep (clock_gettime goes through the vDSO). Real-time setup
 // (SCHED_FIFO, mlockall, CPU pinning) is tried in start() and reported in a
@@ -13,6 +14,7 @@
 // than run back to back.
 #pragma once
 
+#include <array>
 #include <atomic>
 #include <cstddef>
 #include <cstdint>
@@ -37,7 +39,8 @@ struct ModelSnapshot {
 };
 using ModelChannel = SnapshotChannel<ModelSnapshot>;
 
-// What the servo thread hands the network side each tick (frame H).
+// What the servo thread hands the network side each tick (frame H):
+// end-effector 0's pose, velocity and buttons unless the task says otherwise.
 struct ServoSetpoint {
   std::int64_t t_ns = 0;
   std::uint64_t tick = 0;
@@ -48,16 +51,23 @@ struct ServoSetpoint {
   std::uint32_t mode = 0;
 };
 
-// Filled by the task. Before tick() the loop resets it: zero force, the
-// setpoint copied from the device sample, proxy and interaction point at the
-// device position, mode 0, publish_setpoint true.
+// Where the task put an end-effector's proxy and interaction point (frame H),
+// for the log.
+struct RenderPoints {
+  Eigen::Vector3d proxy_position_H = Eigen::Vector3d::Zero();
+  Eigen::Vector3d interaction_point_H = Eigen::Vector3d::Zero();
+};
+
+// Filled by the task. Before tick() the loop resets it: a zero wrench on every
+// end-effector, the setpoint copied from end-effector 0 of the device sample,
+// proxy and interaction point of each end-effector at its position, mode 0,
+// publish_setpoint true.
 struct TickOutput {
-  Eigen::Vector3d force_H = Eigen::Vector3d::Zero();
+  device::DeviceCommand command;  // written to the device after the tick
   ServoSetpoint setpoint;
   bool publish_setpoint = true;
-  Eigen::Vector3d proxy_position_H = Eigen::Vector3d::Zero();      // logged
-  Eigen::Vector3d interaction_point_H = Eigen::Vector3d::Zero();   // logged
-  std::uint32_t mode = 0;                                          // logged
+  std::array<RenderPoints, device::kMaxEndEffectors> points{};  // logged
+  std::uint32_t mode = 0;                                       // logged
 };
 
 class ServoTask {
@@ -67,7 +77,8 @@ class ServoTask {
   virtual void on_servo_start() noexcept {}
   virtual void on_servo_stop() noexcept {}
   // The force law. Runs at 1 kHz on the servo thread: must not allocate,
-  // lock, log, block or make system calls. `model` is the newest published
+  // lock, log, block or make system calls. `in` has in.end_effectors valid
+  // end-effectors (the device's count); `model` is the newest published
   // snapshot (version 0 before the first publish).
   virtual void tick(const device::DeviceSample& in, const ModelSnapshot& model,
                     TickOutput& out) noexcept = 0;
@@ -97,8 +108,10 @@ struct RealtimeStatus {
 
 class ServoLoop {
  public:
-  // All references must outlive the loop. `log` may be null (no log).
-  // Throws std::invalid_argument on a bad config.
+  // All references must outlive the loop. `log` may be null (no log); it
+  // must be made for the device's end-effector count (make_servo_logger).
+  // Throws std::invalid_argument on a bad config, bad device limits or a log
+  // for another end-effector count.
   ServoLoop(device::HapticDevice& device, ServoTask& task, ModelChannel& snapshots,
             const ServoConfig& config, ServoLogger* log = nullptr);
   ~ServoLoop();
@@ -131,6 +144,7 @@ class ServoLoop {
   ModelChannel& snapshots_;
   ServoConfig config_;
   ServoLogger* log_;
+  int end_effectors_;  // the device's, fixed for the loop's life
   std::unique_ptr<TimingStats> stats_;  // ~120 kB: on the heap, allocated here
   LatestMailbox<ServoSetpoint> setpoints_;
   ModelSnapshot empty_snapshot_;

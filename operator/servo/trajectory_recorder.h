@@ -1,7 +1,8 @@
-// Records what a device reports, in the trajectory CSV format that
-// ReplayDevice plays (operator/device/trajectory_csv.h). The servo thread only
-// pushes samples into a preallocated ring (never blocks; overflow is counted);
-// the recorder's writer thread formats and writes them.
+// Records what a device reports, in the trajectory CSV format (version 2:
+// every end-effector's pose, twist and handle inputs) that ReplayDevice plays
+// (operator/device/trajectory_csv.h). The servo thread only pushes samples
+// into a preallocated ring (never blocks; overflow is counted); the
+// recorder's writer thread formats and writes them.
 #pragma once
 
 #include <cstddef>
@@ -14,8 +15,8 @@ namespace hemm::servo {
 
 using TrajectoryRecorder = CsvLogger<device::TrajectorySample>;
 
-// A recorder for either CSV layout (with or without the quaternion columns).
-TrajectoryRecorder make_trajectory_recorder(bool with_orientation, std::size_t capacity = 16384);
+// A recorder for a device with `end_effectors` end-effectors.
+TrajectoryRecorder make_trajectory_recorder(int end_effectors = 1, std::size_t capacity = 16384);
 
 // Wraps a device: every read() is passed through and also pushed to the
 // recorder, stamped t_s = (number of previous reads) * dt_s, i.e. servo ticks
@@ -23,19 +24,19 @@ TrajectoryRecorder make_trajectory_recorder(bool with_orientation, std::size_t c
 // sample. write() goes to the wrapped device unchanged.
 class RecordingDevice final : public device::HapticDevice {
  public:
-  RecordingDevice(device::HapticDevice& inner, TrajectoryRecorder& recorder, double dt_s = 0.001)
-      : inner_(inner), recorder_(recorder), dt_s_(dt_s) {}
+  // Throws std::invalid_argument if the recorder was made for another
+  // end-effector count than the device's.
+  RecordingDevice(device::HapticDevice& inner, TrajectoryRecorder& recorder, double dt_s = 0.001);
 
   void read(device::DeviceSample& out) noexcept override {
     inner_.read(out);
     device::TrajectorySample s;
     s.t_s = static_cast<double>(reads_++) * dt_s_;
-    s.position_H = out.position_H;
-    s.orientation_H = out.orientation_H;
-    s.buttons = out.buttons;
+    s.end_effectors = end_effectors_;
+    s.ee = out.ee;
     recorder_.push(s);
   }
-  void write(const Eigen::Vector3d& force_H) noexcept override { inner_.write(force_H); }
+  void write(const device::DeviceCommand& cmd) noexcept override { inner_.write(cmd); }
   const device::DeviceLimits& limits() const noexcept override { return inner_.limits(); }
   std::string_view name() const noexcept override { return inner_.name(); }
 
@@ -43,6 +44,7 @@ class RecordingDevice final : public device::HapticDevice {
   device::HapticDevice& inner_;
   TrajectoryRecorder& recorder_;
   double dt_s_;
+  int end_effectors_;
   std::uint64_t reads_ = 0;
 };
 

@@ -211,7 +211,7 @@ OperatorStation::OperatorStation(asio::io_context& io, OperatorClient& client, c
   if (!(o.stats_period_s > 0)) throw std::invalid_argument("stats_period_s must be positive");
   model_ = std::make_unique<ModelThread>(channel_, o.model);
   if (!o.log_path.empty()) {
-    servo_log_ = std::make_unique<servo::ServoLogger>(16384, servo::servo_log_header(), &servo::format_servo_log_record);
+    servo_log_ = std::make_unique<servo::ServoLogger>(16384, servo::servo_log_header(device_->limits().end_effectors), &servo::format_servo_log_record);
     world_log_ = std::make_unique<StationLogger>(16384, station_log_header(), &format_station_log_record);
   }
   if (!view_) view_ = std::make_shared<OperatorView>();  // the summary's final pose comes from it

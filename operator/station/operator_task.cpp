@@ -91,12 +91,14 @@ void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelS
     T_W_R_ = integrate_unicycle(snap->T_W_R, snap->v, snap->omega, dt);
   }
   const Eigen::Matrix3d R = R_B_H();
-  const Eigen::Vector3d p_B = in.position_H.allFinite() ? Eigen::Vector3d(R * in.position_H) : Eigen::Vector3d::Zero();
+  const Eigen::Vector3d& p_H = in.ee[0].position_H;  // the Omni's stylus: end-effector 0
+  const Eigen::Vector3d p_B = p_H.allFinite() ? Eigen::Vector3d(R * p_H) : Eigen::Vector3d::Zero();
 
   // Buttons: rising edges switch modes (not on the very first tick: a held
   // button at start-up is not a press).
-  const std::uint32_t rising = first_ ? 0u : (in.buttons & ~buttons_prev_);
-  buttons_prev_ = in.buttons;
+  const std::uint32_t buttons = in.ee[0].handle.buttons;
+  const std::uint32_t rising = first_ ? 0u : (buttons & ~buttons_prev_);
+  buttons_prev_ = buttons;
   if (!first_) {
     if (rising & device::kButton1) {
       switch_to(mode_ == math::Mode::kExploration   ? math::Mode::kNavigation
@@ -142,10 +144,10 @@ void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelS
 
   const Eigen::Vector3d F_B = math::force_W_to_B(T_W_R_, proxy_.force_W);
   const Eigen::Vector3d F_H = R.transpose() * F_B;
-  out.force_H = F_H.allFinite() ? F_H : Eigen::Vector3d::Zero();
+  out.command.ee[0].force_H = F_H.allFinite() ? F_H : Eigen::Vector3d::Zero();
   out.publish_setpoint = false;  // the base / arm command travels in StationSetpoint
-  out.proxy_position_H = R.transpose() * proxy_B;
-  out.interaction_point_H = R.transpose() * (p_B + anchor_.offset_B);
+  out.points[0].proxy_position_H = R.transpose() * proxy_B;
+  out.points[0].interaction_point_H = R.transpose() * (p_B + anchor_.offset_B);
   out.mode = static_cast<std::uint32_t>(to_wire_mode(mode_));
 
   if (view_ != nullptr) {
@@ -167,7 +169,7 @@ void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelS
     r.proxy_W[1] = proxy_.proxy_W.y();
     r.force_W[0] = proxy_.force_W.x();
     r.force_W[1] = proxy_.force_W.y();
-    for (int i = 0; i < 3; ++i) r.force_H[i] = out.force_H[i];
+    for (int i = 0; i < 3; ++i) r.force_H[i] = out.command.ee[0].force_H[i];
     r.v = sp.v;
     r.omega = sp.omega;
     r.contacts = proxy_.contact_count;

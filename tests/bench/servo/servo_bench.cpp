@@ -29,8 +29,8 @@ class WallTask final : public servo::ServoTask {
             servo::TickOutput& out) noexcept override {
     if (model.version == 0) return;
     const auto& wall = static_cast<const WallSnapshot&>(model);
-    const double pen = in.position_H.x() - wall.wall_x;
-    if (pen > 0.0) out.force_H = Vector3d(-wall.stiffness * pen, 0, 0);
+    const double pen = in.ee[0].position_H.x() - wall.wall_x;
+    if (pen > 0.0) out.command.ee[0].force_H = Vector3d(-wall.stiffness * pen, 0, 0);
   }
 };
 
@@ -99,7 +99,7 @@ void BM_SimulatedOmniStep(benchmark::State& state) {
   device::DeviceSample s;
   for (auto _ : state) {
     omni.read(s);
-    omni.write(Vector3d(0.1, 0, 0));
+    omni.write(device::force_command(Vector3d(0.1, 0, 0)));
     benchmark::DoNotOptimize(s);
   }
 }
@@ -145,17 +145,22 @@ void BM_LogRingPushPop(benchmark::State& state) {
 }
 BENCHMARK(BM_LogRingPushPop);
 
+// Arg: end-effectors in the record (1: the Omni; 2: a bimanual device).
 void BM_FormatLogRecord(benchmark::State& state) {
   servo::ServoLogRecord rec;
-  rec.device_position[0] = 0.0123456789;
-  rec.force[2] = -0.987654321;
-  char buf[1024];
+  rec.end_effectors = static_cast<int>(state.range(0));
+  for (auto& e : rec.ee) {
+    e.position[0] = 0.0123456789;
+    e.force[2] = -0.987654321;
+    e.orientation[1] = 0.31415926535;
+  }
+  char buf[servo::ServoLogger::kLineMax];
   for (auto _ : state) {
     ++rec.tick;
     benchmark::DoNotOptimize(servo::format_servo_log_record(rec, buf, sizeof buf));
   }
 }
-BENCHMARK(BM_FormatLogRecord);
+BENCHMARK(BM_FormatLogRecord)->Arg(1)->Arg(2);
 
 }  // namespace
 

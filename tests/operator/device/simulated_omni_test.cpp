@@ -53,15 +53,15 @@ TEST(SimulatedOmni, ConstantForceDisplacesHandByForceOverHandStiffness) {
   SimulatedOmni omni(m, script);
   const Vector3d f(0.3, -0.2, 0.4);  // |f| = 0.54 N: under the continuous limit
   ASSERT_LT(f.norm(), m.limits.max_continuous_force);
-  for (int i = 0; i < 5000; ++i) omni.write(f);
+  for (int i = 0; i < 5000; ++i) omni.write(force_command(f));
   const Vector3d expected = Vector3d(0.01, -0.02, 0.005) + f / m.hand_stiffness;
   EXPECT_LT((omni.data().position_H - expected).norm(), 1e-7);
   EXPECT_LT(omni.data().velocity_H.norm(), 1e-6);
   EXPECT_EQ(omni.data().applied_force_H, f);
   DeviceSample s;
   omni.read(s);
-  EXPECT_EQ(s.position_H, omni.data().position_H);
-  EXPECT_EQ(s.velocity_H, omni.data().velocity_H);
+  EXPECT_EQ(s.ee[0].position_H, omni.data().position_H);
+  EXPECT_EQ(s.ee[0].velocity_H, omni.data().velocity_H);
 }
 
 TEST(SimulatedOmni, ForceIsClampedToPeakKeepingItsDirection) {
@@ -115,7 +115,7 @@ TEST(SimulatedOmni, EndStopsHoldTheHandAtTheWorkspaceBoundary) {
   SimulatedOmni omni(m, script);
   double max_x = -1, min_y = 1;
   for (int i = 0; i < 4000; ++i) {
-    omni.write(Vector3d::Zero());
+    omni.write(DeviceCommand{});
     max_x = std::max(max_x, omni.data().position_H.x());
     min_y = std::min(min_y, omni.data().position_H.y());
   }
@@ -136,7 +136,7 @@ TEST(SimulatedOmni, RenderedForcePushesAgainstEndStopOnlyFromInside) {
   // Hand at the centre, device pushed out along -z by 0.8 N: F/k = 4 mm, inside.
   auto script = std::make_shared<HoldScript>(Vector3d::Zero());
   SimulatedOmni omni(m, script);
-  for (int i = 0; i < 3000; ++i) omni.write(Vector3d(0, 0, -0.8));
+  for (int i = 0; i < 3000; ++i) omni.write(force_command(Vector3d(0, 0, -0.8)));
   EXPECT_NEAR(omni.data().position_H.z(), -0.8 / m.hand_stiffness, 1e-7);
 }
 
@@ -144,12 +144,77 @@ TEST(SimulatedOmni, NonFiniteForceIsTreatedAsZeroAndCounted) {
   const SimulatedOmniModel m;
   auto script = std::make_shared<HoldScript>(Vector3d(0.01, 0, 0));
   SimulatedOmni omni(m, script);
-  omni.write(Vector3d(std::numeric_limits<double>::quiet_NaN(), 0, 0));
-  omni.write(Vector3d(0, std::numeric_limits<double>::infinity(), 0));
+  omni.write(force_command(Vector3d(std::numeric_limits<double>::quiet_NaN(), 0, 0)));
+  omni.write(force_command(Vector3d(0, std::numeric_limits<double>::infinity(), 0)));
   EXPECT_EQ(omni.data().nonfinite_commands, 2u);
   EXPECT_EQ(omni.data().applied_force_H, Vector3d::Zero());
   EXPECT_TRUE(omni.data().position_H.allFinite());
   EXPECT_TRUE(std::isfinite(omni.data().mean_square_force));
+}
+
+TEST(SimulatedOmni, IsOneForceOnlyEndEffectorWithButtonsOnly) {
+  const SimulatedOmniModel m;
+  auto script = std::make_shared<HoldScript>(Vector3d(0.01, 0.02, -0.01), kButton2);
+  SimulatedOmni omni(m, script);
+  ASSERT_EQ(omni.limits().end_effectors, 1);
+  EXPECT_FALSE(omni.limits().ee[0].renders_torque);
+  EXPECT_EQ(omni.limits().ee[0].peak_force, phantom_omni_limits().ee[0].peak_force);
+  EXPECT_EQ(omni.limits().ee[0].workspace_max_H, phantom_omni_limits().ee[0].workspace_max_H);
+  EXPECT_EQ(check_limits(omni.limits()), nullptr);
+  // Whatever the sample held before, read() reports one end-effector whose
+  // handle has buttons and nothing else.
+  DeviceSample s;
+  s.end_effectors = 2;
+  s.ee[0].handle.has_grip = true;
+  s.ee[0].handle.grip_position = 0.01;
+  s.ee[0].angular_velocity_H = Vector3d(1, 2, 3);
+  s.ee[0].enabled = false;
+  omni.read(s);
+  EXPECT_EQ(s.end_effectors, 1);
+  EXPECT_EQ(s.ee[0].position_H, Vector3d(0.01, 0.02, -0.01));
+  EXPECT_EQ(s.ee[0].angular_velocity_H, Vector3d::Zero());
+  EXPECT_TRUE(s.ee[0].enabled);
+  EXPECT_EQ(s.ee[0].handle.buttons, kButton2);
+  EXPECT_EQ(handle_input_bits(s.ee[0].handle), 0u);
+  EXPECT_EQ(s.ee[0].handle.grip_position, 0.0);
+}
+
+TEST(SimulatedOmni, TorqueIsIgnoredAndGripForceIgnoredAndCounted) {
+  const SimulatedOmniModel m;
+  auto script = std::make_shared<LineScript>(Vector3d::Zero(), Vector3d(0.02, -0.01, 0.01), 0.05);
+  SimulatedOmni plain(m, script), with_extras(m, script);
+  DeviceCommand extras = force_command(Vector3d(0.2, 0.1, -0.3));
+  extras.ee[0].torque_H = Vector3d(0.05, -0.02, 0.01);
+  extras.ee[0].grip_force = 1.5;
+  extras.ee[1].force_H = Vector3d(9, 9, 9);  // no second end-effector: ignored
+  for (int i = 0; i < 500; ++i) {
+    plain.write(force_command(extras.ee[0].force_H));
+    with_extras.write(extras);
+  }
+  // Bit for bit the same motion: only the force acts.
+  EXPECT_EQ(with_extras.data().position_H, plain.data().position_H);
+  EXPECT_EQ(with_extras.data().applied_force_H, plain.data().applied_force_H);
+  EXPECT_EQ(with_extras.data().ignored_grip_commands, 500u);
+  EXPECT_EQ(plain.data().ignored_grip_commands, 0u);
+  EXPECT_EQ(with_extras.data().nonfinite_commands, 0u);
+}
+
+TEST(SimulatedOmni, NonFiniteTorqueOrGripForceZeroesTheWholeWrench) {
+  const SimulatedOmniModel m;
+  auto script = std::make_shared<HoldScript>(Vector3d::Zero());
+  SimulatedOmni omni(m, script);
+  DeviceCommand c = force_command(Vector3d(0.5, 0, 0));
+  c.ee[0].torque_H.z() = std::numeric_limits<double>::quiet_NaN();
+  omni.write(c);
+  EXPECT_EQ(omni.data().applied_force_H, Vector3d::Zero());
+  c = force_command(Vector3d(0.5, 0, 0));
+  c.ee[0].grip_force = -std::numeric_limits<double>::infinity();
+  omni.write(c);
+  EXPECT_EQ(omni.data().applied_force_H, Vector3d::Zero());
+  EXPECT_EQ(omni.data().nonfinite_commands, 2u);
+  EXPECT_EQ(omni.data().ignored_grip_commands, 0u);
+  omni.write(force_command(Vector3d(0.5, 0, 0)));  // a good command acts again
+  EXPECT_EQ(omni.data().applied_force_H, Vector3d(0.5, 0, 0));
 }
 
 TEST(SimulatedOmni, ButtonsAndOrientationFollowTheScript) {
@@ -162,8 +227,8 @@ TEST(SimulatedOmni, ButtonsAndOrientationFollowTheScript) {
   std::uint32_t seen[40];
   for (int i = 0; i < 40; ++i) {
     omni.read(s);
-    seen[i] = s.buttons;
-    omni.write(Vector3d::Zero());
+    seen[i] = s.ee[0].handle.buttons;
+    omni.write(DeviceCommand{});
   }
   // read i reports the state after i steps, i.e. the script at t = i ms.
   EXPECT_EQ(seen[10], 0u);

@@ -11,7 +11,10 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <limits>
+#include <map>
 #include <memory>
+#include <sstream>
 #include <string>
 #include <thread>
 
@@ -23,6 +26,7 @@
 #include "operator/device/simulated_omni.h"
 #include "operator/servo/servo_loop.h"
 #include "tests/operator/servo/alloc_counter.h"
+#include "tests/operator/servo/two_hand_device.h"
 
 namespace hemm::servo {
 namespace {
@@ -47,14 +51,15 @@ class WallTask final : public ServoTask {
     if (model.version < last_version) ++versions_backwards;
     last_version = model.version;
     const auto& wall = static_cast<const WallSnapshot&>(model);
-    const double pen = in.position_H.x() - wall.wall_x;
-    out.proxy_position_H = in.position_H;
+    const Vector3d& p = in.ee[0].position_H;
+    const double pen = p.x() - wall.wall_x;
+    out.points[0].proxy_position_H = p;
     if (pen > 0.0) {
-      out.force_H = Vector3d(-wall.stiffness * pen, 0, 0);
-      out.proxy_position_H.x() = wall.wall_x;
+      out.command.ee[0].force_H = Vector3d(-wall.stiffness * pen, 0, 0);
+      out.points[0].proxy_position_H.x() = wall.wall_x;
       out.mode = 1;
     }
-    out.interaction_point_H = out.proxy_position_H;
+    out.points[0].interaction_point_H = out.points[0].proxy_position_H;
   }
   std::uint64_t ticks = 0, last_version = 0, versions_backwards = 0;
 };
@@ -314,6 +319,172 @@ TEST(ServoLoop, StartTwiceThrowsAndStopIsIdempotent) {
   EXPECT_FALSE(loop.running());
   cfg.period_ns = 0;
   EXPECT_THROW(ServoLoop(omni, task, models, cfg), std::invalid_argument);
+}
+
+// Renders on both end-effectors of the two-hand test double: a spring to each
+// centre, a rotational damper on end-effector 0 asking more torque than the
+// device's peak, a grip force on end-effector 1, and every 50th tick a NaN
+// torque on end-effector 1 (a broken renderer the device must survive).
+class TwoHandTask final : public ServoTask {
+ public:
+  static constexpr double kK = 200.0;        // N/m
+  static constexpr double kDamping = 0.6;    // N m s/rad: 0.6 * 2 pi > 3 N m peak
+  static constexpr double kGripGain = 100.0;  // N/m
+  void on_servo_start() noexcept override { test::count_allocations_on_this_thread(true); }
+  void on_servo_stop() noexcept override { test::count_allocations_on_this_thread(false); }
+  void tick(const device::DeviceSample& in, const ModelSnapshot&, TickOutput& out) noexcept override {
+    if (in.end_effectors != 2) ++wrong_count;
+    const device::EndEffectorSample &a = in.ee[0], &b = in.ee[1];
+    out.command.ee[0].force_H = -kK * (a.position_H - test::TwoHandDevice::c0());
+    out.command.ee[0].torque_H = -kDamping * a.angular_velocity_H;
+    out.command.ee[1].force_H = -kK * (b.position_H - test::TwoHandDevice::c1());
+    out.command.ee[1].grip_force = kGripGain * b.handle.grip_position;
+    if (n % 50 == 49) {
+      out.command.ee[1].torque_H.y() = std::numeric_limits<double>::quiet_NaN();
+      ++nan_ticks;
+    }
+    out.points[0].proxy_position_H = test::TwoHandDevice::c0();
+    out.points[1].proxy_position_H = test::TwoHandDevice::c1();
+    out.mode = 3;
+    ++n;
+  }
+  std::uint64_t n = 0, nan_ticks = 0, wrong_count = 0;
+};
+
+std::vector<std::string> split_csv(const std::string& s) {
+  std::vector<std::string> out;
+  std::stringstream ss(s);
+  for (std::string f; std::getline(ss, f, ',');) out.push_back(f);
+  return out;
+}
+
+TEST(ServoLoop, TwoEndEffectorsBothWrenchesReachTheDeviceAndTheLog) {
+  using test::TwoHandDevice;
+  const std::string log_path = testing::TempDir() + "servo_loop_two_hands.csv";
+  TwoHandDevice dev(20000);
+  TwoHandTask task;
+  ModelChannel models;
+  auto logger = make_servo_logger(8192, 2);
+  ASSERT_FALSE(logger.start(log_path));
+  ServoConfig cfg;
+  cfg.realtime = false;
+  cfg.lock_memory = false;
+  ServoLoop loop(dev, task, models, cfg, &logger);
+  const std::uint64_t allocs_before = test::counted_allocations();
+  loop.start();
+  const auto t0 = std::chrono::steady_clock::now();
+  while (loop.summary().ticks < 700 && std::chrono::steady_clock::now() - t0 < std::chrono::seconds(10))
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  loop.stop();
+  logger.stop();
+  const std::uint64_t ticks = loop.summary().ticks;
+  ASSERT_GE(ticks, 700u);
+  ASSERT_LE(ticks, 20000u);
+
+  EXPECT_EQ(test::counted_allocations() - allocs_before, 0u);
+  EXPECT_EQ(task.wrong_count, 0u);
+  ASSERT_EQ(dev.writes(), ticks);
+  // Each NaN command zeroed end-effector 1's wrench and was counted.
+  EXPECT_EQ(dev.nonfinite(), task.nan_ticks);
+  EXPECT_GE(task.nan_ticks, 14u);
+
+  // What the device applied, against the closed-form state of each tick.
+  const double w = TwoHandDevice::kW;
+  for (std::uint64_t i = 0; i < ticks; ++i) {
+    const double t = static_cast<double>(i) * 0.001;
+    const device::DeviceCommand& c = dev.applied(i);
+    // End-effector 0: the spring force of the circle's radius, the damper's
+    // torque cut to the 3 N m peak.
+    const Vector3d f0 = -TwoHandTask::kK * TwoHandDevice::kRadius * Vector3d(std::cos(w * t), std::sin(w * t), 0);
+    ASSERT_LT((c.ee[0].force_H - f0).norm(), 1e-9) << i;
+    ASSERT_NEAR(c.ee[0].torque_H.z(), -3.0, 1e-12) << i;
+    const bool disabled = i >= TwoHandDevice::kDisabledFrom && i < TwoHandDevice::kDisabledTo;
+    const bool nan_tick = i % 50 == 49;
+    if (disabled || nan_tick) {
+      ASSERT_EQ(c.ee[1].force_H, Vector3d::Zero()) << i;
+      ASSERT_EQ(c.ee[1].torque_H, Vector3d::Zero()) << i;
+      ASSERT_EQ(c.ee[1].grip_force, 0.0) << i;
+    } else {
+      const double fz = -TwoHandTask::kK * TwoHandDevice::kBob * std::sin(w * t);
+      ASSERT_NEAR(c.ee[1].force_H.z(), fz, 1e-9) << i;
+      ASSERT_NEAR(c.ee[1].grip_force, TwoHandTask::kGripGain * 0.01 * (1.0 + std::sin(w * t)), 1e-9) << i;
+    }
+  }
+
+  // The log: both end-effectors, every tick, under their names.
+  EXPECT_EQ(logger.dropped(), 0u);
+  std::ifstream f(log_path);
+  std::string line;
+  std::getline(f, line);
+  ASSERT_EQ(line, servo_log_header(2));
+  const auto h = split_csv(line);
+  std::map<std::string, std::size_t> col;
+  for (std::size_t i = 0; i < h.size(); ++i) col[h[i]] = i;
+  std::uint64_t rows = 0;
+  while (std::getline(f, line)) {
+    const auto v = split_csv(line);
+    ASSERT_EQ(v.size(), h.size());
+    auto num = [&](const char* name) { return std::stod(v.at(col.at(name))); };
+    const auto i = static_cast<std::uint64_t>(num("tick"));
+    ASSERT_EQ(i, rows);
+    ++rows;
+    const device::DeviceSample want = dev.expected(i);
+    const device::EndEffectorSample &a = want.ee[0], &b = want.ee[1];
+    // Shortest round-trip text: the logged numbers are the sampled doubles.
+    EXPECT_EQ(num("dev_x"), a.position_H.x());
+    EXPECT_EQ(num("dev_vy"), a.velocity_H.y());
+    EXPECT_EQ(num("dev_qz"), a.orientation_H.z());
+    EXPECT_EQ(num("dev_wz"), w);
+    EXPECT_EQ(num("joy_x"), a.handle.joystick.x());
+    EXPECT_EQ(num("inputs"), device::kHasDeadman | device::kHasJoystick);
+    EXPECT_EQ(num("buttons"), a.handle.buttons);
+    EXPECT_EQ(num("proxy_x"), TwoHandDevice::c0().x());
+    EXPECT_EQ(num("ee1_dev_z"), b.position_H.z());
+    EXPECT_EQ(num("ee1_dev_vz"), b.velocity_H.z());
+    EXPECT_EQ(num("ee1_grip"), b.handle.grip_position);
+    EXPECT_EQ(num("ee1_inputs"), device::kHasGrip | device::kHasClutch);
+    EXPECT_EQ(num("ee1_enabled"), b.enabled ? 1 : 0);
+    EXPECT_EQ(num("ee1_proxy_x"), TwoHandDevice::c1().x());
+    EXPECT_EQ(num("mode"), 3);
+    // The log shows what the task commanded; the device applied less.
+    EXPECT_NEAR(num("tz"), -TwoHandTask::kDamping * w, 1e-12);
+    EXPECT_NEAR(num("fx"), -TwoHandTask::kK * (a.position_H.x() - TwoHandDevice::c0().x()), 1e-12);
+    EXPECT_NEAR(num("ee1_fz"), -TwoHandTask::kK * (b.position_H.z() - TwoHandDevice::c1().z()), 1e-12);
+    EXPECT_NEAR(num("ee1_grip_force"), TwoHandTask::kGripGain * b.handle.grip_position, 1e-12);
+    EXPECT_EQ(std::isnan(num("ee1_ty")), i % 50 == 49);
+  }
+  EXPECT_EQ(rows, ticks);
+  std::remove(log_path.c_str());
+}
+
+TEST(ServoLoop, RejectsALogForAnotherEndEffectorCountAndBadDeviceLimits) {
+  test::TwoHandDevice two(1);
+  auto script = std::make_shared<device::HoldScript>(Vector3d::Zero());
+  device::SimulatedOmni omni(device::SimulatedOmniModel{}, script);
+  SlowTask task;
+  ModelChannel models;
+  ServoConfig cfg;
+  auto one_log = make_servo_logger(8, 1);
+  auto two_log = make_servo_logger(8, 2);
+  EXPECT_THROW(ServoLoop(two, task, models, cfg, &one_log), std::invalid_argument);
+  EXPECT_THROW(ServoLoop(omni, task, models, cfg, &two_log), std::invalid_argument);
+  EXPECT_NO_THROW(ServoLoop(two, task, models, cfg, &two_log));
+  EXPECT_NO_THROW(ServoLoop(omni, task, models, cfg, &one_log));
+
+  // A device whose limits make no sense is refused before any tick.
+  class BadDevice final : public device::HapticDevice {
+   public:
+    BadDevice() { lim.end_effectors = device::kMaxEndEffectors + 1; }
+    void read(device::DeviceSample&) noexcept override {}
+    void write(const device::DeviceCommand&) noexcept override {}
+    const device::DeviceLimits& limits() const noexcept override { return lim; }
+    std::string_view name() const noexcept override { return "bad"; }
+    device::DeviceLimits lim = device::phantom_omni_limits();
+  } bad;
+  EXPECT_THROW(ServoLoop(bad, task, models, cfg), std::invalid_argument);
+  bad.lim = device::phantom_omni_limits();
+  bad.lim.ee[0].peak_force = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_THROW(ServoLoop(bad, task, models, cfg), std::invalid_argument);
 }
 
 }  // namespace

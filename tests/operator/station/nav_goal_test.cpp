@@ -145,7 +145,7 @@ TEST(HandTarget, StaysInsideTheDeviceWorkspace) {
   ho::NavGoalParams p;
   p.v_cruise = 5.0;  // ask for more than the map gives: the offsets clamp
   p.omega_cruise = 5.0;
-  const hd::DeviceLimits lim = hd::phantom_omni_limits();
+  const hd::EndEffectorLimits lim = hd::phantom_omni_limits().ee[0];
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> u(-6.0, 6.0);
   for (int i = 0; i < 2000; ++i) {
@@ -348,7 +348,7 @@ LoopResult run_closed_loop(std::int64_t delay_ns, const std::vector<Eigen::Vecto
     hs::ModelSnapshot empty;
     hs::TickOutput out;
     task.tick(in, snap != nullptr ? *snap : empty, out);
-    omni.write(out.force_H);
+    omni.write(out.command);
     if (script.view->valid) {
       const hm::Pose2& p = script.view->T_W_R;
       r.max_prediction_error = std::max(r.max_prediction_error, std::hypot(p.x - truth.x, p.y - truth.y));

@@ -48,8 +48,8 @@ struct Runner {
     hd::DeviceSample s;
     t += 1'000'000;
     s.t_ns = t;
-    s.position_H = p_H;
-    s.buttons = buttons;
+    s.ee[0].position_H = p_H;
+    s.ee[0].handle.buttons = buttons;
     hs::TickOutput out;
     task.tick(s, m, out);
     return out;
@@ -83,15 +83,15 @@ TEST(Exploration, WallAheadOfATurnedRobotPushesTheStylusBack) {
   const hs::TickOutput out = r.move(*snap, H(0, 0, 0), H(xb, 0, 0), 500, 300);
   const double pen_device = 0.05 / 50.0;
   // Force back toward the user: +z_H, magnitude k * penetration (device metres).
-  EXPECT_NEAR(out.force_H.z(), kK * pen_device, 0.01 * kK * pen_device);
-  EXPECT_NEAR(out.force_H.x(), 0.0, 1e-6);
-  EXPECT_NEAR(out.force_H.y(), 0.0, 1e-6);
+  EXPECT_NEAR(out.command.ee[0].force_H.z(), kK * pen_device, 0.01 * kK * pen_device);
+  EXPECT_NEAR(out.command.ee[0].force_H.x(), 0.0, 1e-6);
+  EXPECT_NEAR(out.command.ee[0].force_H.y(), 0.0, 1e-6);
   EXPECT_NEAR(r.task.proxy().proxy_W.y(), 2.0 - p.proxy.probe_radius, 1e-6);
   EXPECT_NEAR(r.task.proxy().proxy_W.x(), 1.0, 1e-6);
   EXPECT_FALSE(r.task.last_setpoint().moves_robot);
   EXPECT_EQ(out.mode, static_cast<std::uint32_t>(hemm::wire::MODE_EXPLORATION));
   // The logged proxy (H) sits short of the device by the penetration.
-  EXPECT_NEAR((out.proxy_position_H - H(xb, 0, 0)).norm(), pen_device, 1e-6);
+  EXPECT_NEAR((out.points[0].proxy_position_H - H(xb, 0, 0)).norm(), pen_device, 1e-6);
 }
 
 TEST(Navigation, ForceRisesAsTheRobotNearsAWallAndTheCommandStopsShort) {
@@ -108,12 +108,12 @@ TEST(Navigation, ForceRisesAsTheRobotNearsAWallAndTheCommandStopsShort) {
     const hs::TickOutput out =
         first ? r.move(*snap, H(0, 0, 0), H(xb, 0, 0), 300, 300) : r.move(*snap, H(xb, 0, 0), H(xb, 0, 0), 1, 300);
     first = false;
-    forces.push_back(out.force_H.norm());
+    forces.push_back(out.command.ee[0].force_H.norm());
     speeds.push_back(r.task.last_setpoint().v);
     const double pen = std::max(0.0, x + xb * scale - (2.0 - p.proxy.probe_radius));
-    EXPECT_NEAR(out.force_H.norm(), kK * pen / scale, 0.01) << "robot at x = " << x;
+    EXPECT_NEAR(out.command.ee[0].force_H.norm(), kK * pen / scale, 0.01) << "robot at x = " << x;
     if (pen > 0) {
-      EXPECT_GT(out.force_H.z(), 0.0);  // pushes the stylus back
+      EXPECT_GT(out.command.ee[0].force_H.z(), 0.0);  // pushes the stylus back
     }
   }
   EXPECT_EQ(forces.front(), 0.0);
@@ -124,7 +124,7 @@ TEST(Navigation, ForceRisesAsTheRobotNearsAWallAndTheCommandStopsShort) {
   const auto near = wall_snapshot({2, -3}, {2, 3}, {-1, 0}, {1.8, 0, 0});
   const hs::TickOutput out = r.move(*near, H(xb, 0, 0), H(xb, 0, 0), 1, 300);
   EXPECT_EQ(r.task.last_setpoint().v, 0.0);
-  EXPECT_GT(out.force_H.norm(), forces.back() * 0.99);  // still pressed (clamped to the device's limits)
+  EXPECT_GT(out.command.ee[0].force_H.norm(), forces.back() * 0.99);  // still pressed (clamped to the device's limits)
 }
 
 TEST(Navigation, PointStartsAheadOfTheChassis) {
@@ -134,7 +134,7 @@ TEST(Navigation, PointStartsAheadOfTheChassis) {
   // Wall 0.5 m ahead of a robot at the origin; stylus 10 mm forward: point at 0.35 + 0.25 = 0.6.
   const auto snap = wall_snapshot({0.5, -3}, {0.5, 3}, {-1, 0}, {0, 0, 0});
   const hs::TickOutput out = r.move(*snap, H(0, 0, 0), H(0.010, 0, 0), 200, 300);
-  EXPECT_NEAR(out.force_H.norm(), kK * (0.6 - 0.47) / 25.0, 0.01);
+  EXPECT_NEAR(out.command.ee[0].force_H.norm(), kK * (0.6 - 0.47) / 25.0, 0.01);
   EXPECT_EQ(r.task.last_setpoint().v, 0.0);  // proxy held 0.12 m past the origin: inside the dead band
 }
 
@@ -144,7 +144,7 @@ TEST(Modes, ButtonsCycleAndSwitchingKeepsTheForce) {
   const auto snap = wall_snapshot({-3, 1}, {3, 1}, {0, -1}, {0, 0, hm::kPi / 2});  // wall 1 m ahead
   const double xb = 1.03 / 50.0;  // 0.06 past the proxy's stop in exploration
   hs::TickOutput out = r.move(*snap, H(0, 0, 0), H(xb, 0, 0), 500, 300);
-  const double f0 = out.force_H.norm();
+  const double f0 = out.command.ee[0].force_H.norm();
   ASSERT_GT(f0, 0.2);
   // Without re-anchoring, navigation (scale 25) would put the point
   // 0.35 + 0.515 m ahead (no contact: force 0): a jump of f0.
@@ -152,21 +152,21 @@ TEST(Modes, ButtonsCycleAndSwitchingKeepsTheForce) {
 
   const hm::Mode order[] = {hm::Mode::kNavigation, hm::Mode::kManipulation, hm::Mode::kExploration};
   double max_step = 0.0;
-  Eigen::Vector3d prev = out.force_H;
+  Eigen::Vector3d prev = out.command.ee[0].force_H;
   for (hm::Mode expected : order) {
     out = r.tick(*snap, H(xb, 0, 0), hd::kButton1);  // press
     EXPECT_EQ(r.task.mode(), expected);
-    max_step = std::max(max_step, (out.force_H - prev).norm());
-    prev = out.force_H;
+    max_step = std::max(max_step, (out.command.ee[0].force_H - prev).norm());
+    prev = out.command.ee[0].force_H;
     for (int i = 0; i < 50; ++i) {  // hold the button: no further switch
       out = r.tick(*snap, H(xb, 0, 0), hd::kButton1);
-      max_step = std::max(max_step, (out.force_H - prev).norm());
-      prev = out.force_H;
+      max_step = std::max(max_step, (out.command.ee[0].force_H - prev).norm());
+      prev = out.command.ee[0].force_H;
     }
     EXPECT_EQ(r.task.mode(), expected);
     out = r.tick(*snap, H(xb, 0, 0), 0);  // release
-    max_step = std::max(max_step, (out.force_H - prev).norm());
-    prev = out.force_H;
+    max_step = std::max(max_step, (out.command.ee[0].force_H - prev).norm());
+    prev = out.command.ee[0].force_H;
   }
   EXPECT_EQ(r.task.mode_switches(), 3u);
   // The force is continuous across switches: per-tick changes are far below f0.
@@ -189,19 +189,19 @@ TEST(Modes, AnchorRelaxesAtBoundedForceRate) {
   ASSERT_EQ(r.task.mode(), hm::Mode::kNavigation);
   const double offset0 = r.task.anchor().offset_B.norm();
   ASSERT_GT(offset0, 1e-3);
-  Eigen::Vector3d prev = out.force_H;
+  Eigen::Vector3d prev = out.command.ee[0].force_H;
   double max_step = 0.0;
   const int n = static_cast<int>(offset0 / p.relax_speed * 1000.0) + 200;
   for (int i = 0; i < n; ++i) {
     out = r.tick(*snap, H(xb, 0, 0), 0);
-    max_step = std::max(max_step, (out.force_H - prev).norm());
-    prev = out.force_H;
+    max_step = std::max(max_step, (out.command.ee[0].force_H - prev).norm());
+    prev = out.command.ee[0].force_H;
   }
   EXPECT_LT(r.task.anchor().offset_B.norm(), 1e-9);  // back on the natural map
   // Bounded by k * relax_speed * T (plus the damping term's share).
   EXPECT_LT(max_step, 2.0 * kK * p.relax_speed * 1e-3);
   // Natural navigation map: 0.865 m ahead, no contact.
-  EXPECT_NEAR(out.force_H.norm(), 0.0, 1e-9);
+  EXPECT_NEAR(out.command.ee[0].force_H.norm(), 0.0, 1e-9);
 }
 
 TEST(Manipulation, ArmTargetFollowsTheProxyInR) {
