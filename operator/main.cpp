@@ -3,12 +3,15 @@
 // the haptic device (SIMULATED Omni with a scripted hand, or a replayed
 // trajectory) in the 1 kHz servo loop against the local model built from the
 // robot's scans, streams commands, and prints link and station statistics at
-// exit.
+// exit. With the SIMULATED bimanual interface (device sim-bimanual) it runs
+// that device in the same servo loop against local planes, without a robot.
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
 
 #include <asio.hpp>
+#include <atomic>
 #include <cctype>
+#include <csignal>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -21,6 +24,9 @@
 #include "common/net/exit_codes.h"
 #include "common/net/station_cli.h"
 #include "config_operator.pb.h"
+#include "operator/bimanual/bimanual_config.h"
+#include "operator/bimanual/bimanual_scripts.h"
+#include "operator/bimanual/bimanual_session.h"
 #include "operator/client/operator_client.h"
 #include "operator/station/demo_scripts.h"
 #include "operator/station/operator_station.h"
@@ -43,6 +49,49 @@ std::optional<Eigen::Vector2d> parse_goal(const std::string& s) {
   double x = 0, y = 0;
   if (!num(s.substr(0, comma), &x) || !num(s.substr(comma + 1), &y)) return std::nullopt;
   return Eigen::Vector2d(x, y);
+}
+
+std::atomic<bool> g_bimanual_stop{false};
+extern "C" void on_bimanual_signal(int) { g_bimanual_stop.store(true); }
+
+// The SIMULATED bimanual interface in the servo loop against its local
+// environment: no robot, no link (DeviceConfig.type "sim-bimanual").
+int run_bimanual(const config::OperatorConfig& cfg, const std::string& hands, double duration_s,
+                 const std::string& servo_log, const std::string& station_json) {
+  op::BimanualSessionOptions o;
+  try {
+    o.setup = op::bimanual_setup(cfg.device().bimanual());
+  } catch (const std::exception& e) {
+    std::cerr << "hemm-operator: bad config: device.bimanual: " << e.what() << "\n";
+    return net::kExitUsage;
+  }
+  if (!hands.empty()) o.setup.script = hands;
+  o.servo.period_ns = 1'000'000'000LL / cfg.servo().rate_hz();
+  o.servo.realtime = cfg.servo().realtime_priority();
+  o.servo.lock_memory = cfg.servo().realtime_priority();
+  o.setup.sim.plant.control_period_s = static_cast<double>(o.servo.period_ns) * 1e-9;
+  o.log_path = servo_log;
+  o.duration_s = duration_s;
+  std::signal(SIGINT, on_bimanual_signal);
+  std::signal(SIGTERM, on_bimanual_signal);
+  op::BimanualSessionSummary s;
+  try {
+    s = op::run_bimanual_session(o, &g_bimanual_stop, [](const servo::RealtimeStatus& rt) {
+      for (const auto& w : rt.warnings) spdlog::warn("event=servo_realtime warning=\"{}\"", w);
+      spdlog::info("event=station_started device=sim-bimanual fifo={} memory_locked={}", rt.fifo, rt.memory_locked);
+    });
+  } catch (const std::exception& e) {
+    std::cerr << "hemm-operator: " << e.what() << "\n";
+    spdlog::error("event=station_failed error=\"{}\"", e.what());
+    return net::kExitUsage;
+  }
+  std::cout << op::to_string(s) << std::flush;
+  std::string error;
+  if (!station_json.empty() && !net::write_text_file(station_json, op::to_json(s), &error)) {
+    std::cerr << "hemm-operator: --station-json: " << error << "\n";
+    return net::kExitInternal;
+  }
+  return net::kExitOk;
 }
 
 int run(int argc, char** argv) {
@@ -85,6 +134,15 @@ int run(int argc, char** argv) {
   app.add_option("--log", servo_log,
                  "1 kHz servo CSV log (also FILE.world.csv per tick in W, FILE.map.csv: the final map)");
   app.add_option("--replay", replay_file, "replay this device trajectory CSV (overrides device.type/replay_file)");
+  std::string device_type, bimanual_hands;
+  app.add_option("--device", device_type,
+                 "device (overrides device.type): sim-omni, replay, or sim-bimanual (the SIMULATED bimanual "
+                 "interface: two 7-DoF arms in MuJoCo with scripted hands, rendering local planes; no robot)")
+      ->check(CLI::IsMember({"sim-omni", "replay", "sim-bimanual"}));
+  app.add_option("--hands", bimanual_hands,
+                 "SIMULATED hand script for the sim-bimanual device (overrides device.bimanual.script): features "
+                 "(each feature in turn, 14 s), idle")
+      ->check(CLI::IsMember(op::bimanual_script_names()));
   // Hidden: lets tests speak a wrong protocol version.
   app.add_option("--test-protocol-version", test_version, "")->group("");
   try {
@@ -113,11 +171,23 @@ int run(int argc, char** argv) {
 
   config::OperatorConfig cfg;
   if (!config_path.empty()) {
-    if (auto err = config::load_operator_config(config_path, &cfg)) {
+    if (auto err = config::load_text_config(config_path, &op::validate_operator_config_with_bimanual, &cfg)) {
       std::cerr << "hemm-operator: bad config: " << err->to_string() << "\n";
       spdlog::error("event=bad_config error=\"{}\"", err->to_string());
       return net::kExitUsage;
     }
+  }
+  if (!device_type.empty()) cfg.mutable_device()->set_type(device_type);
+  if (replay_file.empty() && cfg.device().type() == "sim-bimanual") {
+    if (const auto issues = op::validate_bimanual_config(cfg.device().bimanual()); !issues.empty()) {
+      std::cerr << "hemm-operator: bad config: " << issues.front().field << ": " << issues.front().message << "\n";
+      return net::kExitUsage;
+    }
+    return run_bimanual(cfg, bimanual_hands, duration_s, servo_log, station_json);
+  }
+  if (!bimanual_hands.empty()) {
+    std::cerr << "hemm-operator: --hands needs the sim-bimanual device\n";
+    return net::kExitUsage;
   }
   const auto key = net::load_station_key("hemm-operator", key_path, config_path, cfg.link().key_file());
   if (!key) return net::kExitKey;

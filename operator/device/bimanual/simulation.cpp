@@ -31,6 +31,24 @@ BimanualSimulation::BimanualSimulation(const SimulationConfig& config)
     in_[static_cast<std::size_t>(a)].qd = r.qd;
   }
   controller_.update(in_, out_);
+  update_end_effectors();
+}
+
+void BimanualSimulation::update_end_effectors() noexcept {
+  for (int a = 0; a < kArms; ++a) {
+    const auto k = static_cast<std::size_t>(a);
+    const ArmSide side = static_cast<ArmSide>(a);
+    const ArmReading& r = plant_.reading(side);
+    const kinematics::Arm7Model& m = controller_.nominal(side);
+    kinematics::Arm7Frames f;
+    kinematics::forward_kinematics(m, r.q, f);
+    const Eigen::Isometry3d& T_D_A = config_.plant.rig.T_D_A[k];
+    ee_[k].T_D_E = T_D_A * f.joint(7) * controller_.handle(side).T_J7_E;
+    const kinematics::Wrench6 v =
+        kinematics::partial_jacobian(m, f, 7, T_D_A.inverse() * ee_[k].T_D_E.translation()) * r.qd;
+    ee_[k].velocity_D = T_D_A.linear() * v.head<3>();
+    ee_[k].angular_velocity_D = T_D_A.linear() * v.tail<3>();
+  }
 }
 
 void BimanualSimulation::step(const std::array<HumanTarget, kArms>& human) noexcept {
@@ -70,6 +88,7 @@ void BimanualSimulation::step(const std::array<kinematics::Wrench6, kArms>& w_en
     act[k].power = true;  // the hardware interlock (dead-man, clutch) cuts it
   }
   plant_.step(act, human);
+  update_end_effectors();
 }
 
 }  // namespace hemm::device::bimanual

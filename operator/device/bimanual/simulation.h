@@ -13,6 +13,14 @@
 
 namespace hemm::device::bimanual {
 
+// An end-effector's state from the latest joint readings (nominal kinematics,
+// frame D): where the handle's E frame is and how it moves.
+struct EndEffectorState {
+  Eigen::Isometry3d T_D_E = Eigen::Isometry3d::Identity();
+  Eigen::Vector3d velocity_D = Eigen::Vector3d::Zero();
+  Eigen::Vector3d angular_velocity_D = Eigen::Vector3d::Zero();
+};
+
 struct SimulationConfig {
   PlantConfig plant{};
   std::array<ArmControlParams, kArms> control{default_arm_control(), default_arm_control()};
@@ -36,6 +44,9 @@ class BimanualSimulation {
   bool enabled(ArmSide s) const noexcept { return plant_.reading(s).powered; }
   const ArmReading& reading(ArmSide s) const noexcept { return plant_.reading(s); }
   const ArmOutput& output(ArmSide s) const noexcept { return out_[static_cast<std::size_t>(index(s))]; }
+  // The end-effector after the last step (output() holds the controller's
+  // view from before it).
+  const EndEffectorState& end_effector(ArmSide s) const noexcept { return ee_[static_cast<std::size_t>(index(s))]; }
   const PlantTruth& truth() const noexcept { return plant_.truth(); }
   double time_s() const noexcept { return plant_.time_s(); }
   // What the human holds at the start: each end-effector's pose.
@@ -51,6 +62,9 @@ class BimanualSimulation {
   BimanualController controller_;
   std::array<ArmInput, kArms> in_{};
   std::array<ArmOutput, kArms> out_{};
+  std::array<EndEffectorState, kArms> ee_{};
+
+  void update_end_effectors() noexcept;
 };
 
 }  // namespace hemm::device::bimanual
