@@ -2,14 +2,19 @@
 // tick (median and p99 over recorded states of a run in which the hands
 // push the arms towards each other and the table, so collision avoidance is
 // busy), the MuJoCo plant's real-time factor (simulated s per wall-clock s),
-// and a whole servo period (controllers + plant).
+// a whole servo period (controllers + plant), and hemm-operator's servo tick
+// with this device (read, environment task, write).
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
 #include <cmath>
 #include <chrono>
+#include <memory>
 #include <vector>
 
+#include "operator/bimanual/bimanual_scripts.h"
+#include "operator/bimanual/bimanual_task.h"
+#include "operator/device/bimanual/simulated_bimanual_device.h"
 #include "operator/device/bimanual/simulation.h"
 
 namespace hb = hemm::device::bimanual;
@@ -130,6 +135,40 @@ void BM_ServoPeriod(benchmark::State& state) {
   state.SetLabel("controllers + plant, hands pushing towards each other and the table");
 }
 BENCHMARK(BM_ServoPeriod)->MinTime(2.0)->UseRealTime();
+
+// hemm-operator's whole servo tick with this device: read() both
+// end-effectors, the station's environment task, write() (device-layer
+// checks, both controllers, the plant), along the "features" hand script.
+void BM_StationTick(benchmark::State& state) {
+  hb::SimulationConfig c;
+  c.plant.handles = {hb::HandleKind::kGripForce, hb::HandleKind::kJoystick};
+  const auto hands = hemm::op::make_bimanual_hands("features", c);
+  auto device = std::make_unique<hb::SimulatedBimanualDevice>(c, hands.hands);
+  hemm::op::HandEnvironment env;
+  env.grip_object = true;
+  hemm::op::BimanualTask task({env, env});
+  const hemm::servo::ModelSnapshot model;
+  hemm::device::DeviceSample s;
+  std::vector<double> us;
+  us.reserve(1 << 20);
+  for (auto _ : state) {
+    if (device->simulation().time_s() > hands.duration_s) {
+      state.PauseTiming();
+      device = std::make_unique<hb::SimulatedBimanualDevice>(c, hands.hands);
+      state.ResumeTiming();
+    }
+    const auto t0 = std::chrono::steady_clock::now();
+    device->read(s);
+    hemm::servo::TickOutput out;
+    task.tick(s, model, out);
+    device->write(out.command);
+    const auto t1 = std::chrono::steady_clock::now();
+    if (us.size() < us.capacity()) us.push_back(std::chrono::duration<double, std::micro>(t1 - t0).count());
+  }
+  report_quantiles(state, us, c.plant.control_period_s);
+  state.SetLabel("read + environment task + write (controllers + plant), features script");
+}
+BENCHMARK(BM_StationTick)->MinTime(2.0)->UseRealTime();
 
 }  // namespace
 
