@@ -17,6 +17,7 @@
 #include <cstdlib>
 #include <iostream>
 #include <optional>
+#include <sstream>
 #include <vector>
 
 #include "common/config/config.h"
@@ -30,6 +31,10 @@
 #include "operator/client/operator_client.h"
 #include "operator/station/demo_scripts.h"
 #include "operator/station/operator_station.h"
+#ifdef HEMM_WITH_VIEW
+#include "common/view/view_options.h"
+#include "operator/view/live_view.h"
+#endif
 
 namespace {
 
@@ -119,14 +124,23 @@ int run(int argc, char** argv) {
   app.add_option("--stats-json", stats_json, "write the final link statistics as JSON to this file");
   std::string script = "idle", servo_log, replay_file;
   app.add_option("--script", script,
-                 "SIMULATED hand script for the sim-omni device: idle, nav-to-wall, probe-cylinder, nav-to-goal "
-                 "(closed loop: drives the robot to --goal and stops within 0.10 m; ~25 s)")
+                 "SIMULATED hand script for the sim-omni device: idle, nav-to-wall (steers for --goal behind a wall "
+                 "and keeps pushing), probe-cylinder (exploration: the probe sweeps --probe-line out and back), "
+                 "nav-to-goal (closed loop: drives the robot to --goal and stops within 0.10 m; ~25 s). All assume "
+                 "the robot starts at the W origin heading +x and the default maps (exploration 4 m, navigation "
+                 "2 m); without --goal / --probe-line they aim at deploy/scenes/home.xml's wall and bin")
       ->check(CLI::IsMember(op::demo_script_names()));
   std::vector<std::string> goal_args;
   app.add_option("--goal", goal_args,
                  "nav-to-goal: goal X,Y in W metres; repeat for a route (the robot passes the earlier goals and "
-                 "stops at the last; default: 2.2,0 then 2.45,-1.6)")
+                 "stops at the last; default: 2.2,0 then 2.45,-1.6). nav-to-wall: one point X,Y behind the wall "
+                 "(default 4.5,1.6)")
       ->allow_extra_args(false);
+  std::string probe_line_arg;
+  app.add_option("--probe-line", probe_line_arg,
+                 "probe-cylinder: X0,Y0,X1,Y1 in W metres, the line the probe sweeps (out and back); pass it a few "
+                 "cm off the object's centre so the probe meets its seen face; within 4 m of the start "
+                 "(default 1.42,-0.8,1.42,-1.6: home.xml's bin)");
   std::string station_json;
   app.add_option("--station-json", station_json,
                  "write the station summary (servo timing, model, commands, logs, final predicted pose, "
@@ -143,6 +157,11 @@ int run(int argc, char** argv) {
                  "SIMULATED hand script for the sim-bimanual device (overrides device.bimanual.script): features "
                  "(each feature in turn, 14 s), idle")
       ->check(CLI::IsMember(op::bimanual_script_names()));
+#ifdef HEMM_WITH_VIEW
+  view::ViewOptions view_opts;
+  view::ViewOptionStrings view_strs;
+  view::add_view_options(app, &view_opts, &view_strs);
+#endif
   // Hidden: lets tests speak a wrong protocol version.
   app.add_option("--test-protocol-version", test_version, "")->group("");
   try {
@@ -151,6 +170,12 @@ int run(int argc, char** argv) {
     const int rc = app.exit(e);
     return rc == 0 ? net::kExitOk : net::kExitUsage;
   }
+#ifdef HEMM_WITH_VIEW
+  if (auto e = view::finish_view_options(view_strs, &view_opts)) {
+    std::cerr << "hemm-operator: " << *e << "\n";
+    return net::kExitUsage;
+  }
+#endif
   std::vector<Eigen::Vector2d> goal_route;
   for (const std::string& g : goal_args) {
     const auto p = parse_goal(g);
@@ -160,9 +185,33 @@ int run(int argc, char** argv) {
     }
     goal_route.push_back(*p);
   }
-  if (!goal_route.empty() && script != "nav-to-goal") {
-    std::cerr << "hemm-operator: --goal needs --script nav-to-goal\n";
+  if (!goal_route.empty() && script != "nav-to-goal" && !(script == "nav-to-wall" && goal_route.size() == 1)) {
+    std::cerr << "hemm-operator: --goal needs --script nav-to-goal (or one --goal with nav-to-wall)\n";
     return net::kExitUsage;
+  }
+  std::vector<Eigen::Vector2d> probe_line;
+  if (!probe_line_arg.empty()) {
+    std::vector<double> v;
+    std::stringstream ss(probe_line_arg);
+    for (std::string item; std::getline(ss, item, ',');) {
+      char* end = nullptr;
+      const double x = std::strtod(item.c_str(), &end);
+      if (item.empty() || end != item.c_str() + item.size() || !std::isfinite(x)) {
+        v.clear();
+        break;
+      }
+      v.push_back(x);
+    }
+    if (v.size() != 4 || std::hypot(v[0], v[1]) > 4.0 || std::hypot(v[2], v[3]) > 4.0) {
+      std::cerr << "hemm-operator: --probe-line '" << probe_line_arg
+                << "': expected X0,Y0,X1,Y1 (four finite numbers, metres in W, within 4 m of the start)\n";
+      return net::kExitUsage;
+    }
+    if (script != "probe-cylinder") {
+      std::cerr << "hemm-operator: --probe-line needs --script probe-cylinder\n";
+      return net::kExitUsage;
+    }
+    probe_line = {{v[0], v[1]}, {v[2], v[3]}};
   }
   if (!net::setup_station_logging("operator", log_level)) {
     std::cerr << "hemm-operator: bad --log-level '" << log_level << "'\n";
@@ -179,6 +228,12 @@ int run(int argc, char** argv) {
   }
   if (!device_type.empty()) cfg.mutable_device()->set_type(device_type);
   if (replay_file.empty() && cfg.device().type() == "sim-bimanual") {
+#ifdef HEMM_WITH_VIEW
+    if (view_opts.enabled()) {
+      std::cerr << "hemm-operator: the live view shows the robot station's scene; not available with sim-bimanual\n";
+      return net::kExitUsage;
+    }
+#endif
     if (const auto issues = op::validate_bimanual_config(cfg.device().bimanual()); !issues.empty()) {
       std::cerr << "hemm-operator: bad config: " << issues.front().field << ": " << issues.front().message << "\n";
       return net::kExitUsage;
@@ -214,6 +269,7 @@ int run(int argc, char** argv) {
                        : std::string();
   so.script = script;
   so.goal_route = goal_route;
+  so.probe_line = probe_line;
   so.log_path = servo_log;
   so.command_rate_hz = cfg.net().command_rate_hz();
   if (cfg.servo().rate_hz() < 100 || cfg.servo().rate_hz() > 4000 || so.command_rate_hz < 100 ||
@@ -237,6 +293,11 @@ int run(int argc, char** argv) {
     spdlog::error("event=station_failed error=\"{}\"", e.what());
     return net::kExitUsage;
   }
+#ifdef HEMM_WITH_VIEW
+  std::unique_ptr<op::OperatorLiveView> live_view;  // the view thread: started after the station
+  if (view_opts.enabled())
+    live_view = std::make_unique<op::OperatorLiveView>(view_opts, *station, op::client_view_links(client, io));
+#endif
   int exit_code = net::kExitOk;
   bool stopping = false;
   asio::steady_timer grace(io);
@@ -271,6 +332,9 @@ int run(int argc, char** argv) {
     for (const auto& w : rt.warnings) spdlog::warn("event=servo_realtime warning=\"{}\"", w);
     spdlog::info("event=station_started device={} script={} fifo={} memory_locked={}", so.device, so.script, rt.fifo,
                  rt.memory_locked);
+#ifdef HEMM_WITH_VIEW
+    if (live_view) live_view->start();
+#endif
   } catch (const std::exception& e) {
     std::cerr << "hemm-operator: " << e.what() << "\n";
     spdlog::error("event=station_failed error=\"{}\"", e.what());
@@ -304,6 +368,9 @@ int run(int argc, char** argv) {
   // beside it.
   io.run();
   station->stop();
+#ifdef HEMM_WITH_VIEW
+  if (live_view) live_view->stop();  // after a last picture of the final state
+#endif
   const op::OperatorStationSummary summary = station->summary();
   std::cout << op::to_string(summary);
   if (!station_json.empty() && !net::write_text_file(station_json, op::to_json(summary), &error)) {

@@ -45,7 +45,8 @@ std::string validate(const RangeScan2D& s) {
 std::string validate(const MapParams& p) {
   const double vals[] = {p.jump_ratio,  p.jump_abs,       p.min_view_angle,  p.max_segment_length,
                          p.min_point_spacing, p.normal_window, p.range_noise, p.sonar_merge_ratio, p.sonar_merge_abs, p.sonar_max_gap,
-                         p.sonar_laser_tolerance, p.sonar_laser_max_age_s, p.clear_tolerance, p.window_age_s, p.window_radius, p.cell_size};
+                         p.sonar_laser_tolerance, p.sonar_laser_max_age_s, p.clear_tolerance, p.window_age_s, p.window_radius, p.cell_size,
+                         p.shadow_depth, p.shadow_clip_step, p.temporal_gain, p.temporal_gate};
   for (double v : vals)
     if (!std::isfinite(v) || v < 0.0) return "map params: values must be finite and >= 0";
   // Larger would clear surfaces well behind the one measured.
@@ -55,6 +56,9 @@ std::string validate(const MapParams& p) {
   if (p.max_bridged_dropouts < 0) return "map params: max_bridged_dropouts must be >= 0";
   if (p.sonar_arc_pieces < 1 || p.sonar_arc_pieces > 64) return "map params: sonar_arc_pieces in [1, 64]";
   if (p.max_segments == 0 || p.max_cells == 0) return "map params: max_segments and max_cells must be > 0";
+  if (p.shadow_depth > 5.0) return "map params: shadow_depth must be <= 5 m";
+  if (!(p.temporal_gain > 0.0) || p.temporal_gain > 1.0) return "map params: temporal_gain in (0, 1]";
+  if (p.shadow_depth > 0.0 && p.shadow_clip_step < 0.005) return "map params: shadow_clip_step must be >= 5 mm";
   return {};
 }
 
@@ -113,6 +117,50 @@ void emit_polyline(const MapParams& p, const std::vector<Vector2d>& run, const V
   }
 }
 
+double beam_limit(const RangeScan2D& s, std::size_t i);
+
+// The shadow edge at one end of a polyline: beam `edge` is the polyline's
+// last return on that side, `dir` (+1 / -1) the way out of the polyline. The
+// first informative beam beyond (dropouts skipped, a few at most) decides: it
+// passed the face (farther, or nothing up to range_max) -> an edge along beam
+// `edge`, normal toward the passing beam; nearer or alike -> none (a nearer
+// object's own shadow covers it; a surface alike continues the face).
+void emit_shadow_edge(const MapParams& p, const RangeScan2D& scan, const math::Pose2& T_W_S, std::size_t edge,
+                      int dir, std::vector<Segment2>& out) {
+  if (!(p.shadow_depth > 0.0)) return;
+  const double r = scan.ranges[edge];
+  const auto n = static_cast<std::ptrdiff_t>(scan.ranges.size());
+  for (std::ptrdiff_t j = static_cast<std::ptrdiff_t>(edge) + dir, hops = 0;
+       j >= 0 && j < n && hops <= p.max_bridged_dropouts + 2; j += dir, ++hops) {
+    const double lj = beam_limit(scan, static_cast<std::size_t>(j));
+    if (lj < 0.0) continue;  // dropout: no information, look one further
+    double len = 0.0;
+    if (!beam_is_return(scan, static_cast<std::size_t>(j))) {
+      len = p.shadow_depth;  // nothing up to range_max beside the face
+    } else if (lj > r + (hops == 0 ? p.range_noise : p.jump_ratio * r + p.jump_abs)) {
+      // Ends at the surface behind. Next to the face that may be the same
+      // object seen edge-on (the windowing broke the polyline there): a
+      // short edge, continued by the next run's own. Across dropouts only a
+      // real range jump counts (a wall seen through dropouts continues).
+      len = std::min(p.shadow_depth, lj - r);
+    } else {
+      return;
+    }
+    const double a = beam_angle(scan, edge);
+    const Vector2d u = math::rotate(T_W_S, Vector2d(std::cos(a), std::sin(a)));
+    Segment2 e;
+    e.a = math::apply(T_W_S, Vector2d(r * std::cos(a), r * std::sin(a)));
+    e.b = e.a + len * u;
+    e.normal = (beam_angle(scan, static_cast<std::size_t>(j)) > a ? 1.0 : -1.0) * math::perp(u);
+    e.stamp_ns = scan.stamp_ns;
+    e.kind = SensorKind::kLaser;
+    e.interpolated = true;
+    e.shadow = true;
+    out.push_back(e);
+    return;
+  }
+}
+
 void extract_laser(const MapParams& p, const RangeScan2D& scan, const math::Pose2& T_W_S,
                    std::vector<Segment2>& out) {
   const Vector2d o_W = math::translation(T_W_S);
@@ -122,6 +170,16 @@ void extract_laser(const MapParams& p, const RangeScan2D& scan, const math::Pose
   double prev_r = 0.0;
   Vector2d prev_W = Vector2d::Zero();
   std::vector<Vector2d> run;  // the current polyline
+  std::size_t run_first = 0, run_last = 0;  // its first and last beam (down-sampled ones included)
+  auto finish_run = [&] {
+    emit_polyline(p, run, o_W, scan.stamp_ns, out);
+    // Also for a lone return (a thin leg, or the grazing end of a round
+    // object that the windowing cut off): no face, but its shadow is unseen.
+    if (!run.empty()) {
+      emit_shadow_edge(p, scan, T_W_S, run_first, -1, out);
+      emit_shadow_edge(p, scan, T_W_S, run_last, +1, out);
+    }
+  };
   for (std::size_t i = 0; i < scan.ranges.size(); ++i) {
     if (!beam_is_return(scan, i)) {
       ++dropped;
@@ -145,19 +203,24 @@ void extract_laser(const MapParams& p, const RangeScan2D& scan, const math::Pose
         // |sin| of the angle between segment and beam: small means edge-on.
         join = rn > 0.0 && std::abs(math::cross2(d, ray)) / (len * rn) >= sin_min_view;
       }
-      if (join && len < p.min_point_spacing) continue;  // down-sample: keep prev, skip this one
+      if (join && len < p.min_point_spacing) {  // down-sample: keep prev, skip this one
+        run_last = i;
+        continue;
+      }
     }
     if (!join) {  // windowing: the surface breaks here
-      emit_polyline(p, run, o_W, scan.stamp_ns, out);
+      finish_run();
       run.clear();
+      run_first = i;
     }
     run.push_back(p_W);
+    run_last = i;
     have_prev = true;
     dropped = 0;
     prev_r = r;
     prev_W = p_W;
   }
-  emit_polyline(p, run, o_W, scan.stamp_ns, out);
+  finish_run();
 }
 
 // Does a laser return lie inside cone (apex o_W, unit axis u_W, half angle)
@@ -367,6 +430,24 @@ std::size_t clear_reobserved_segments(const MapParams& p, LocalMap& map, const R
     // Only older segments: a late (reordered) scan never clears newer data,
     // and a chunk never clears its own scan's other chunks.
     if (seg.kind != scan.kind || seg.stamp_ns >= scan.stamp_ns) continue;
+    if (seg.shadow) {
+      // A shadow edge bounds unseen space: cut it where the scan saw free
+      // space along it; gone when its base (the silhouette) is seen through.
+      const double len = (seg.b - seg.a).norm();
+      const int steps = std::max(1, static_cast<int>(std::ceil(len / p.shadow_clip_step)));
+      for (int k = 0; k <= steps; ++k) {
+        const Vector2d q = seg.a + (seg.b - seg.a) * (static_cast<double>(k) / steps);
+        if (!seen(q)) continue;
+        if (k == 0) {
+          seg.reobserved = 7u;
+        } else {
+          seg.b = seg.a + (seg.b - seg.a) * (static_cast<double>(k - 1) / steps);
+          if ((seg.b - seg.a).norm() < 1e-3) seg.reobserved = 7u;
+        }
+        break;
+      }
+      continue;
+    }
     if (!(seg.reobserved & 1u) && seen(seg.a)) seg.reobserved |= 1u;
     if (!(seg.reobserved & 2u) && seen(0.5 * (seg.a + seg.b))) seg.reobserved |= 2u;
     if (!(seg.reobserved & 4u) && seen(seg.b)) seg.reobserved |= 4u;
@@ -407,9 +488,57 @@ std::string extract_segments(const MapParams& p, const RangeScan2D& scan, std::v
   return {};
 }
 
-std::string add_scan(const MapParams& p, LocalMap& map, const RangeScan2D& scan) {
+std::size_t filter_scan_against_map(const MapParams& p, const LocalMap& map, RangeScan2D& scan) {
+  if (scan.kind != SensorKind::kLaser || !(p.temporal_gain < 1.0) || !scan.beam_angles.empty()) return 0;
+  if (!validate(p).empty() || !validate(scan).empty() || scan.ranges.empty()) return 0;
+  const math::Pose2 T_S_W = math::inverse(math::compose(scan.T_W_R, scan.T_R_S));
+  const std::size_t n = scan.ranges.size();
+  // Nearest current laser surface along each beam: each old face segment
+  // (measured, older than the scan) is cast only against the beams between
+  // its endpoints' bearings, so the cost is segments + beams.
+  std::vector<double> old(n, std::numeric_limits<double>::infinity());
+  for (const Segment2& seg : map.segments) {
+    if (seg.kind != SensorKind::kLaser || seg.interpolated || seg.shadow || seg.stamp_ns >= scan.stamp_ns) continue;
+    const Vector2d a = math::apply(T_S_W, seg.a), b = math::apply(T_S_W, seg.b);
+    double ta = std::atan2(a.y(), a.x()), tb = std::atan2(b.y(), b.x());
+    if (ta > tb) std::swap(ta, tb);
+    if (tb - ta > 0.5 * math::kPi) continue;  // behind the sensor or spanning its back
+    const double k0 = std::ceil((ta - scan.angle_min) / scan.angle_step);
+    const double k1 = std::floor((tb - scan.angle_min) / scan.angle_step);
+    if (k1 < 0.0 || k0 > static_cast<double>(n - 1)) continue;
+    const Vector2d ab = b - a;
+    for (auto k = static_cast<std::size_t>(std::max(0.0, k0)); k <= static_cast<std::size_t>(std::min(k1, static_cast<double>(n - 1))); ++k) {
+      const double th = beam_angle(scan, k);
+      const Vector2d u(std::cos(th), std::sin(th));
+      // o + r u = a + s ab  ->  r = cross(a, ab) / cross(u, ab)
+      const double den = math::cross2(u, ab);
+      if (std::abs(den) < 1e-12) continue;
+      const double r = math::cross2(a, ab) / den;
+      if (r > 0.0 && r < old[k]) old[k] = r;
+    }
+  }
+  std::size_t filtered = 0;
+  for (std::size_t k = 0; k < n; ++k) {
+    if (!beam_is_return(scan, k) || !std::isfinite(old[k])) continue;
+    const double r = scan.ranges[k];
+    if (std::abs(r - old[k]) > p.temporal_gate) continue;  // a real move (or another surface): as measured
+    scan.ranges[k] = static_cast<float>(old[k] + p.temporal_gain * (r - old[k]));
+    ++filtered;
+  }
+  return filtered;
+}
+
+std::string add_scan(const MapParams& p, LocalMap& map, const RangeScan2D& scan_in) {
   if (std::string e = validate(p); !e.empty()) return e;
-  if (std::string e = validate(scan); !e.empty()) return e;
+  if (std::string e = validate(scan_in); !e.empty()) return e;
+  const RangeScan2D* use = &scan_in;
+  RangeScan2D filtered;
+  if (scan_in.kind == SensorKind::kLaser && p.temporal_gain < 1.0) {
+    filtered = scan_in;
+    filter_scan_against_map(p, map, filtered);
+    use = &filtered;
+  }
+  const RangeScan2D& scan = *use;
   if (p.clear_reobserved) clear_reobserved_segments(p, map, scan);
   std::string e = extract_segments(p, scan, map.segments, &map.laser);
   if (!e.empty()) return e;
@@ -431,6 +560,41 @@ void slide_window(const MapParams& p, LocalMap& map, std::int64_t now_ns, const 
                        map.segments.begin() + static_cast<std::ptrdiff_t>(map.segments.size() - p.max_segments));
   }
 }
+
+namespace {
+// Where an object's far side was seen too (a thin board from both sides, a
+// column from two viewpoints), the solid behind a face ends at it: a proxy
+// resting on the far side must not count as inside the near face. The far
+// side is any piece behind this piece's line, over it, and facing away from
+// it (normals more than 90 deg apart).
+constexpr double kDepthSearch = 0.25;  // m: deeper than the proxy's own push-out depth (one_sided_depth)
+
+void set_depth_limits(const MapParams&, MapSnapshot& s) {
+  std::vector<std::uint32_t> near(256);
+  for (Segment2& seg : s.segments) {
+    const Vector2d mid = 0.5 * (seg.a + seg.b);
+    const double half = 0.5 * (seg.b - seg.a).norm();
+    std::size_t n = query_segments(s, mid, half + kDepthSearch, near.data(), near.size());
+    while (n > near.size()) {
+      near.resize(2 * near.size());
+      n = query_segments(s, mid, half + kDepthSearch, near.data(), near.size());
+    }
+    double limit = std::numeric_limits<double>::infinity();
+    const Vector2d ab = seg.b - seg.a;
+    const double L2 = ab.squaredNorm();
+    for (std::size_t k = 0; k < n; ++k) {
+      const Segment2& o = s.segments[near[k]];
+      if (&o == &seg || o.normal.dot(seg.normal) >= 0.0) continue;
+      for (const Vector2d& q : {o.a, Vector2d(0.5 * (o.a + o.b)), o.b}) {
+        const double h = -seg.normal.dot(q - seg.a);  // depth behind seg's line
+        const double t = L2 > 0.0 ? ab.dot(q - seg.a) / L2 : 0.0;
+        if (h > 1e-4 && t >= 0.0 && t <= 1.0) limit = std::min(limit, h);
+      }
+    }
+    seg.depth_limit = static_cast<float>(limit);
+  }
+}
+}  // namespace
 
 MapSnapshot build_snapshot(const MapParams& p, const LocalMap& map) {
   MapSnapshot s;
@@ -486,6 +650,7 @@ MapSnapshot build_snapshot(const MapParams& p, const LocalMap& map) {
   s.items.resize(s.segments.size());
   std::vector<std::uint32_t> fill(s.cell_start.begin(), s.cell_start.end() - 1);
   for (std::size_t i = 0; i < s.segments.size(); ++i) s.items[fill[cell_of(s.segments[i])]++] = static_cast<std::uint32_t>(i);
+  set_depth_limits(p, s);
   return s;
 }
 
@@ -510,8 +675,8 @@ std::size_t query_segments(const MapSnapshot& s, const Eigen::Vector2d& p, doubl
         const std::uint32_t idx = s.items[k];
         const Segment2& seg = s.segments[idx];
         if ((p - math::closest_point_on_segment(seg.a, seg.b, p)).squaredNorm() > r2) continue;
-        if (count < cap) out[count] = idx;
-        ++count;
+        if (count == cap) return cap + 1;  // truncated: the caller shrinks its query
+        out[count++] = idx;
       }
     }
   }

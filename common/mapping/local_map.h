@@ -79,6 +79,14 @@ struct Segment2 {
   std::int64_t stamp_ns = 0;                         // scan acquisition time
   SensorKind kind = SensorKind::kLaser;
   bool interpolated = false;  // sonar arc / bridge: inferred, not a measured point pair
+  // Shadow edge (laser): the side of the unseen space behind a visible face,
+  // drawn from the face's silhouette point along the grazing beam, normal
+  // toward the beam that passed it (see MapParams::shadow_depth).
+  bool shadow = false;
+  // Snapshot pieces only: how deep behind this piece's line the solid may
+  // reach before another surface facing the other way (the object's far
+  // side, e.g. the back of a thin board) begins. +inf: nothing behind.
+  float depth_limit = std::numeric_limits<float>::infinity();
   // Ray clearing (model thread only): bits 1 = a, 2 = midpoint, 4 = b seen
   // through by a newer scan (or chunk) of the same kind; all three: removed.
   std::uint8_t reobserved = 0;
@@ -119,6 +127,36 @@ struct MapParams {
   // (~3 sigma of laser range noise + a margin for odometry between scans).
   bool clear_reobserved = true;
   double clear_tolerance = 0.05;   // m
+  // Unseen space behind a visible surface is not free. Where a laser
+  // polyline ends at a silhouette (the next beam passes it: a farther return
+  // or nothing up to range_max), a shadow edge closes the unseen region
+  // behind the face: a segment from the silhouette point along the grazing
+  // beam, this long, or only to the passing beam's range when that is
+  // nearer (it ends at the surface behind). A later scan that sees through
+  // part of it (free space) clips it there, and the clipped rest goes when
+  // its first point is seen through. The proxy therefore slides along the
+  // visible face and on along the shadow edge instead of falling into the
+  // object round its silhouette. Why 0.6 m: deeper than the diameter of the
+  // round objects in scope (columns, bins, legs up to r = 0.3 m), so the
+  // whole object lies inside the closed shadow, and than the device's deepest
+  // push at the exploration scale (3.3 N / 300 N/m * 50 = 0.55 m): a probe
+  // pressed into the shadow is held by its edge, not released past its end.
+  // 0: no shadow edges.
+  double shadow_depth = 0.6;       // m
+  double shadow_clip_step = 0.05;  // m, spacing of the points tested when clipping a shadow edge
+  // Temporal filter of laser surfaces (scan noise must not reach the hand as
+  // force spikes on a resting contact). Each return whose beam meets the
+  // map's current laser surface within temporal_gate of it is drawn at
+  //   r_old + temporal_gain * (r - r_old)
+  // (an exponential average along the beam, per surface point: at gain g the
+  // steady noise is sqrt(g / (2 - g)) of the raw, 0.33 at 0.2). A return
+  // farther than the gate from the old surface is taken as it is: a real
+  // move of more than the gate per scan (3 cm at 30 Hz = 0.9 m/s) is
+  // followed at once; below that the lag of a steady move v is
+  // v T (1 - g) / g (13 mm at 0.1 m/s, at 30 Hz). Registration keeps the
+  // static scene still in the map frame, so only moving objects lag. 1 = off.
+  double temporal_gain = 0.2;
+  double temporal_gate = 0.03;     // m, ~3 sigma of the laser's range noise
   // Sliding window: keep only what the probe can reach.
   double window_age_s = 3.0;       // drop segments older than this
   double window_radius = 6.0;      // m, drop segments farther than this from the centre
@@ -156,7 +194,13 @@ struct LocalMap {
 std::string extract_segments(const MapParams& p, const RangeScan2D& scan, std::vector<Segment2>& out,
                              const LaserCoverage* laser = nullptr);
 
-// Clears what the scan re-observes (clear_reobserved), then extract_segments
+// The temporal filter (MapParams::temporal_gain) alone: the laser scan's
+// returns moved toward the map's current surface along their beams. Returns
+// how many returns were filtered; a sonar scan or gain 1 changes nothing.
+std::size_t filter_scan_against_map(const MapParams& p, const LocalMap& map, RangeScan2D& scan);
+
+// Filters a laser scan against the map (temporal_gain), clears what the scan
+// re-observes (clear_reobserved), then extract_segments
 // into the map (sonar against map.laser; a laser scan also updates
 // map.laser); on error the map is unchanged.
 std::string add_scan(const MapParams& p, LocalMap& map, const RangeScan2D& scan);
@@ -187,8 +231,10 @@ struct MapSnapshot {
 MapSnapshot build_snapshot(const MapParams& p, const LocalMap& map);
 
 // Indices of all snapshot segments within distance r of p (exact test), written
-// to out[0 .. min(count, cap)). Returns the count, which may exceed cap (then
-// the result is truncated: the caller must shrink its query). Never allocates.
+// to out[0 .. min(count, cap)). Returns the count, or cap + 1 as soon as more
+// than cap are found (the result is truncated: the caller must shrink its
+// query); so its cost is bounded by the items of the cells visited. Never
+// allocates.
 std::size_t query_segments(const MapSnapshot& s, const Eigen::Vector2d& p, double r, std::uint32_t* out,
                            std::size_t cap);
 

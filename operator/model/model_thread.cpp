@@ -1,6 +1,8 @@
 #include "operator/model/model_thread.h"
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <stdexcept>
 
 namespace hemm::op {
@@ -12,8 +14,17 @@ std::int64_t steady_now_ns() {
 }  // namespace
 
 ModelThread::ModelThread(servo::ModelChannel& channel, const ModelThreadParams& p)
-    : channel_(channel), p_(p), scans_(p.scan_queue), commands_(p.command_queue), history_(p.history) {
+    : channel_(channel),
+      p_(p),
+      scans_(p.scan_queue),
+      commands_(p.command_queue),
+      localizer_(p.registration),
+      history_(p.history) {
   if (std::string e = mapping::validate(p.map); !e.empty()) throw std::invalid_argument("ModelThread: " + e);
+  if (std::string e = validate(p.registration); !e.empty()) throw std::invalid_argument("ModelThread: " + e);
+  if (!(p.correction_blend_speed > 0.0) || !(p.correction_blend_turn_rate > 0.0) ||
+      !std::isfinite(p.correction_blend_speed) || !std::isfinite(p.correction_blend_turn_rate))
+    throw std::invalid_argument("ModelThread: correction blend rates must be finite and > 0");
   if (!(p.rate_hz > 0.0 && p.rate_hz <= 1000.0)) throw std::invalid_argument("ModelThread: rate_hz outside (0, 1000]");
 }
 
@@ -40,6 +51,9 @@ ModelStats ModelThread::stats() const {
   s.commands_dropped = commands_dropped_.load();
   s.snapshots = snapshots_.load();
   s.freed = freed_.load();
+  std::lock_guard<std::mutex> lock(stats_mutex_);  // never taken by the servo thread
+  s.registration = reg_stats_;
+  s.correction_shown = shown_stats_;
   return s;
 }
 
@@ -61,10 +75,13 @@ void ModelThread::step(std::int64_t now_ns) {
   }
   std::shared_ptr<const wire::RangeScan> m;
   mapping::RangeScan2D scan;
+  localizer_.begin_step();
   while (scans_.try_pop(m)) {
     std::optional<std::string> e = scan_from_wire(*m, offset, &scan);
     m.reset();  // the ring slot keeps a copy of the pointer until overwritten; drop ours now
     if (!e) {
+      // Placed by the corrected odometry, registered against the map.
+      localizer_.place(scan, map_);
       std::string err = mapping::add_scan(p_.map, map_, scan);
       if (!err.empty()) e = std::move(err);
     }
@@ -76,12 +93,13 @@ void ModelThread::step(std::int64_t now_ns) {
     }
   }
 
+  blend_correction(now_ns);
   auto snap = std::make_unique<OperatorModelSnapshot>();
   snap->stamp_ns = now_ns;
   snap->version = ++version_;
   snap->have_state = have_state_;
   if (have_state_) {
-    PredictionInput in{state_.T_W_R_odom, state_.stamp_local_ns, state_.v, state_.omega};
+    PredictionInput in{math::compose(shown_, state_.T_W_R_odom), state_.stamp_local_ns, state_.v, state_.omega};
     snap->T_W_R = predict_pose(in, history_, delay_ns_.load(), now_ns, p_.max_prediction_s);
     snap->state = state_;
     // The motion acting now: the newest command that reached the robot.
@@ -101,9 +119,33 @@ void ModelThread::step(std::int64_t now_ns) {
   mapping::slide_window(p_.map, map_, now_ns, math::translation(snap->T_W_R));
   snap->map = mapping::build_snapshot(p_.map, map_);
   snap->segments = map_.segments.size();
+  if (observer_) observer_(*snap);
   channel_.publish(std::move(snap));  // also frees what the servo retired
   snapshots_.fetch_add(1);
   freed_.store(channel_.freed_by_collect());
+}
+
+void ModelThread::blend_correction(std::int64_t now_ns) {
+  const math::Pose2& target = localizer_.stats().correction;
+  const double dt = last_step_ns_ == 0 ? 0.0 : std::clamp(static_cast<double>(now_ns - last_step_ns_) * 1e-9, 0.0, 0.1);
+  last_step_ns_ = now_ns;
+  // Moves the shown correction toward the estimate at bounded speed. The
+  // correction's translation depends on its rotation about W's origin, so
+  // the blend is on the pose of the robot it maps: from shown * odom toward
+  // target * odom, then expressed back as a correction.
+  const math::Pose2 odom = have_state_ ? state_.T_W_R_odom : math::Pose2{};
+  const math::Pose2 from = math::compose(shown_, odom), to = math::compose(target, odom);
+  const Eigen::Vector2d d(to.x - from.x, to.y - from.y);
+  const double dth = math::wrap_angle(to.theta - from.theta);
+  const double max_d = p_.correction_blend_speed * dt, max_th = p_.correction_blend_turn_rate * dt;
+  const double dn = d.norm();
+  const Eigen::Vector2d step = dn > max_d ? Eigen::Vector2d(d * (max_d / dn)) : d;
+  const double th = std::clamp(dth, -max_th, max_th);
+  const math::Pose2 next{from.x + step.x(), from.y + step.y(), math::wrap_angle(from.theta + th)};
+  shown_ = math::compose(next, math::inverse(odom));
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  reg_stats_ = localizer_.stats();
+  shown_stats_ = shown_;
 }
 
 void ModelThread::start() {

@@ -16,13 +16,16 @@
 
 #include <atomic>
 #include <cstdint>
+#include <functional>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <thread>
 
 #include "common/mapping/local_map.h"
 #include "operator/model/pose_prediction.h"
 #include "operator/model/scan_convert.h"
+#include "operator/model/scan_registration.h"
 #include "operator/servo/latest_mailbox.h"
 #include "operator/servo/servo_loop.h"
 #include "operator/servo/spsc_ring.h"
@@ -32,7 +35,9 @@ namespace hemm::op {
 // What the servo thread sees. stamp_ns: the local time T_W_R was predicted for.
 struct OperatorModelSnapshot final : servo::ModelSnapshot {
   mapping::MapSnapshot map;
-  math::Pose2 T_W_R;          // predicted robot pose at stamp_ns
+  // Predicted robot pose at stamp_ns, in the map frame: odometry corrected by
+  // scan registration (the correction blended in, see ModelThreadParams).
+  math::Pose2 T_W_R;
   double v = 0.0;             // command acting at stamp_ns (for extrapolation)
   double omega = 0.0;
   bool have_state = false;    // false: no RobotState yet, T_W_R is the origin
@@ -47,6 +52,17 @@ struct ModelThreadParams {
   std::size_t command_queue = 1024;      // power of two
   std::size_t history = 4096;            // sent commands kept for prediction
   double max_prediction_s = 2.0;
+  RegistrationParams registration;
+  // A registration correction reaches the published pose (and so the
+  // device's mapping and force) at most this fast, never as a step: at 50
+  // snapshots/s, 0.2 m/s is 4 mm per snapshot (0.16 mm of device travel at
+  // the navigation scale, 0.05 N at 300 N/m). Not slower: the map takes
+  // the full correction at once, so while the correction is still being
+  // blended in, the robot is drawn that far off the map; on the skid-steer
+  // base's slip during an approach (a few cm/s of correction), 0.05 m/s left
+  // the robot 2 cm nearer the wall than it was shown (the Fig. 8 run).
+  double correction_blend_speed = 0.2;       // m/s
+  double correction_blend_turn_rate = 0.3;   // rad/s
 };
 
 struct ModelStats {
@@ -58,6 +74,8 @@ struct ModelStats {
   std::uint64_t commands_dropped = 0;
   std::uint64_t snapshots = 0;
   std::uint64_t freed = 0;
+  LocalizerStats registration;   // scan registration: counts, last fit, the correction
+  math::Pose2 correction_shown;  // the blended correction the published pose uses
 };
 
 class ModelThread {
@@ -81,6 +99,11 @@ class ModelThread {
   // it directly while the thread is not running). Publishes a snapshot.
   void step(std::int64_t now_ns);
 
+  // Called on the model thread with every snapshot just before it is
+  // published (the live view copies what it draws). Set before start().
+  using SnapshotObserver = std::function<void(const OperatorModelSnapshot&)>;
+  void set_snapshot_observer(SnapshotObserver f) { observer_ = std::move(f); }
+
   void start();
   void stop();  // idempotent; joins
   // Model-thread side (or after stop()): the map and the last error.
@@ -89,6 +112,7 @@ class ModelThread {
 
  private:
   void run();
+  void blend_correction(std::int64_t now_ns);
 
   servo::ModelChannel& channel_;
   ModelThreadParams p_;
@@ -99,14 +123,22 @@ class ModelThread {
 
   // model-thread state
   mapping::LocalMap map_;
+  Localizer localizer_;
+  math::Pose2 shown_;                   // blended correction (toward localizer_'s)
+  std::int64_t last_step_ns_ = 0;
   CommandHistory history_;
   RobotStateSample state_;
   bool have_state_ = false;
   std::uint64_t version_ = 0;
   std::string last_error_;
+  SnapshotObserver observer_;
 
   std::atomic<std::uint64_t> scans_in_{0}, scans_rejected_{0}, scans_dropped_{0}, states_in_{0},
       states_rejected_{0}, commands_dropped_{0}, snapshots_{0}, freed_{0};
+  // Registration figures for stats() (read from other threads).
+  mutable std::mutex stats_mutex_;
+  LocalizerStats reg_stats_;
+  math::Pose2 shown_stats_;
   std::atomic<bool> stop_{false};
   std::thread thread_;
 };

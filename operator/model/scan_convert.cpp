@@ -44,6 +44,8 @@ std::optional<std::string> scan_from_wire(const wire::RangeScan& m, std::int64_t
   if (m.beam_count() > kMaxBeamsPerScan || static_cast<std::uint64_t>(m.first_beam()) + n > m.beam_count())
     return std::string("scan: beams outside beam_count");
   if (m.valid_size() != n) return std::string("scan: valid[] size differs from ranges[]");
+  if (m.no_return_size() != 0 && m.no_return_size() != n)
+    return std::string("scan: no_return[] size differs from ranges[]");
   if (m.beam_angles_size() != 0 && m.beam_angles_size() != n)
     return std::string("scan: beam_angles[] size differs from ranges[]");
   if (!std::isfinite(m.angle_min()) || !std::isfinite(m.angle_step())) return std::string("scan: bad angles");
@@ -55,6 +57,17 @@ std::optional<std::string> scan_from_wire(const wire::RangeScan& m, std::int64_t
   s.ranges.assign(m.ranges().begin(), m.ranges().end());
   s.valid.resize(static_cast<std::size_t>(n));
   for (int i = 0; i < n; ++i) s.valid[static_cast<std::size_t>(i)] = m.valid(i) ? 1 : 0;
+  // "Nothing up to range_max" becomes a valid beam at range_max: not a
+  // return (beam_is_return), but free space the map clears through.
+  if (m.no_return_size() != 0) {
+    for (int i = 0; i < n; ++i) {
+      const auto k = static_cast<std::size_t>(i);
+      if (m.no_return(i) && !m.valid(i)) {
+        s.valid[k] = 1;
+        s.ranges[k] = static_cast<float>(s.range_max);
+      }
+    }
+  }
   if (m.beam_angles_size() != 0) s.beam_angles.assign(m.beam_angles().begin(), m.beam_angles().end());
   if (std::string e = mapping::validate(s); !e.empty()) return "scan: " + e;
   *out = std::move(s);

@@ -102,18 +102,31 @@ device::HandTarget NavGoalHand::at(double t_s) const noexcept {
 
 std::vector<Eigen::Vector2d> default_nav_goal_route() { return {{2.2, 0.0}, {2.45, -1.6}}; }
 Eigen::Vector2d nav_to_wall_target() { return {4.5, 1.6}; }
+std::vector<Eigen::Vector2d> default_probe_line() { return {{1.42, -0.8}, {1.42, -1.6}}; }
 
 std::vector<std::string> demo_script_names() { return {"idle", "nav-to-wall", "probe-cylinder", "nav-to-goal"}; }
 
 DemoScript make_demo_script(std::string_view name, const DemoScriptOptions& o) {
   DemoScript d;
+  if (!o.route_W.empty() && name != "nav-to-goal" && name != "nav-to-wall")
+    throw std::invalid_argument("a goal route is for nav-to-goal or nav-to-wall");
+  if (name == "nav-to-wall" && o.route_W.size() > 1)
+    throw std::invalid_argument("nav-to-wall takes one goal (a point behind the wall)");
+  if (!o.probe_line_W.empty()) {
+    if (name != "probe-cylinder") throw std::invalid_argument("a probe line is for probe-cylinder");
+    if (o.probe_line_W.size() != 2) throw std::invalid_argument("a probe line is two points");
+    for (const Eigen::Vector2d& q : o.probe_line_W)
+      if (!q.allFinite() || q.norm() > 4.0)
+        throw std::invalid_argument("probe line points must be finite and within 4 m of the robot's start");
+  }
   if (name == "idle") {
     d.hand = std::make_shared<device::HoldScript>(Eigen::Vector3d::Zero());
     d.mode = math::Mode::kExploration;
   } else if (name == "nav-to-wall") {
     // The operator steers for a point behind wall_mid_n and keeps pushing.
     d.view = std::make_shared<OperatorView>();
-    auto hand = std::make_shared<const NavGoalHand>(d.view, std::vector<Eigen::Vector2d>{nav_to_wall_target()});
+    auto hand = std::make_shared<const NavGoalHand>(
+        d.view, o.route_W.empty() ? std::vector<Eigen::Vector2d>{nav_to_wall_target()} : o.route_W);
     d.nav_goal = hand;
     d.hand = hand;
     d.mode = math::Mode::kNavigation;
@@ -124,10 +137,11 @@ DemoScript make_demo_script(std::string_view name, const DemoScriptOptions& o) {
     std::vector<device::Waypoint> w;
     w.push_back({0.0, Eigen::Vector3d::Zero(), 0});
     w.push_back({1.0, Eigen::Vector3d::Zero(), 0});
-    // 8 cm west of the bin's centre line, so the proxy slides round its side.
-    w.push_back({3.0, b(1.42, -0.8), 0});
-    w.push_back({9.0, b(1.42, -1.6), 0});
-    w.push_back({15.0, b(1.42, -0.8), 0});
+    // Default: 8 cm west of the bin's centre line, so the proxy slides round its side.
+    const std::vector<Eigen::Vector2d> line = o.probe_line_W.empty() ? default_probe_line() : o.probe_line_W;
+    w.push_back({3.0, b(line[0].x(), line[0].y()), 0});
+    w.push_back({9.0, b(line[1].x(), line[1].y()), 0});
+    w.push_back({15.0, b(line[0].x(), line[0].y()), 0});
     w.push_back({17.0, Eigen::Vector3d::Zero(), 0});
     d.hand = std::make_shared<device::WaypointScript>(std::move(w));
     d.mode = math::Mode::kExploration;

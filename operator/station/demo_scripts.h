@@ -140,12 +140,24 @@ struct DemoScript {
   std::shared_ptr<const NavGoalHand> nav_goal;
 };
 
+// Targets from the scene's config or the command line (the defaults are
+// home.xml's, see the file comment): other scenes name their own.
 struct DemoScriptOptions {
-  std::vector<Eigen::Vector2d> route_W;  // nav-to-goal: empty = default_nav_goal_route()
+  // nav-to-goal: the route (empty = default_nav_goal_route()); nav-to-wall:
+  // one point behind the wall to steer for (empty = nav_to_wall_target()).
+  std::vector<Eigen::Vector2d> route_W;
+  // probe-cylinder: the line in W the probe sweeps out and back along (it
+  // should pass a few cm off the object's centre, so the proxy meets its
+  // seen face and slides round it). Empty = default_probe_line().
+  std::vector<Eigen::Vector2d> probe_line_W;
 };
+// The default probe line of "probe-cylinder": (1.42, -0.8) -> (1.42, -1.6).
+std::vector<Eigen::Vector2d> default_probe_line();
 
 // Null hand if the name is unknown. Throws std::invalid_argument on a bad
-// route (non-finite goal).
+// route (non-finite goal), a route for a script that takes none, or a probe
+// line that is not two finite points within the exploration range (4 m) of
+// the robot's start.
 DemoScript make_demo_script(std::string_view name, const DemoScriptOptions& o = {});
 std::vector<std::string> demo_script_names();
 

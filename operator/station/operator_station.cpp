@@ -26,6 +26,10 @@ std::string to_string(const OperatorStationSummary& s) {
     << "model: scans_in=" << s.model.scans_in << " scans_rejected=" << s.model.scans_rejected
     << " scans_dropped=" << s.model.scans_dropped << " states_in=" << s.model.states_in
     << " states_rejected=" << s.model.states_rejected << " snapshots=" << s.model.snapshots << "\n"
+    << "registration: accepted=" << s.model.registration.accepted << " rejected=" << s.model.registration.rejected
+    << " degenerate=" << s.model.registration.degenerate << " last_rms_m=" << s.model.registration.last_rms
+    << " correction=(" << s.model.registration.correction.x << ", " << s.model.registration.correction.y << ", "
+    << s.model.registration.correction.theta << ")\n"
     << "commands: sent=" << s.commands.commands_sent << " failures=" << s.commands.send_failures
     << " link_down=" << s.commands.link_down << " mode_changes=" << s.commands.mode_changes_sent << " stale=" << s.commands.stale
     << " mode_switches=" << s.mode_switches << "\n"
@@ -119,6 +123,18 @@ std::string to_json(const OperatorStationSummary& s) {
     m.u("commands_dropped", s.model.commands_dropped);
     m.u("snapshots", s.model.snapshots);
     m.u("freed", s.model.freed);
+    // Scan registration: how often a correction was accepted, its last fit
+    // (point-to-line RMS, m) and step (m), and the correction itself (map
+    // frame from odometry's: x, y in m, theta in rad).
+    m.u("registration_attempted", s.model.registration.attempted);
+    m.u("registration_accepted", s.model.registration.accepted);
+    m.u("registration_rejected", s.model.registration.rejected);
+    m.u("registration_degenerate", s.model.registration.degenerate);
+    m.d("registration_last_rms_m", s.model.registration.last_rms);
+    m.d("registration_last_step_m", s.model.registration.last_step);
+    m.d("correction_x_m", s.model.registration.correction.x);
+    m.d("correction_y_m", s.model.registration.correction.y);
+    m.d("correction_theta_rad", s.model.registration.correction.theta);
     m.close();
   }
   top.key("commands");
@@ -188,13 +204,16 @@ bool write_map_csv(const mapping::LocalMap& map, const std::string& path, std::s
 OperatorStation::OperatorStation(asio::io_context& io, OperatorClient& client, const OperatorStationOptions& o)
     : io_(io), client_(client), o_(o), link_timer_(io) {
   OperatorTaskParams tp = o.task;
-  if (!o.goal_route.empty() && (o.device != "sim-omni" || o.hand || o.script != "nav-to-goal"))
-    throw std::invalid_argument("a goal route needs the sim-omni device with --script nav-to-goal");
+  if (!o.goal_route.empty() &&
+      (o.device != "sim-omni" || o.hand || (o.script != "nav-to-goal" && o.script != "nav-to-wall")))
+    throw std::invalid_argument("a goal route needs the sim-omni device with --script nav-to-goal or nav-to-wall");
+  if (!o.probe_line.empty() && (o.device != "sim-omni" || o.hand || o.script != "probe-cylinder"))
+    throw std::invalid_argument("a probe line needs the sim-omni device with --script probe-cylinder");
   if (o.device == "sim-omni" && o.hand) {
     view_ = o.view;
     device_ = std::make_unique<device::SimulatedOmni>(device::SimulatedOmniModel{}, o.hand);
   } else if (o.device == "sim-omni") {
-    DemoScript d = make_demo_script(o.script, DemoScriptOptions{o.goal_route});
+    DemoScript d = make_demo_script(o.script, DemoScriptOptions{o.goal_route, o.probe_line});
     if (!d.hand) throw std::invalid_argument("unknown --script '" + o.script + "'");
     tp.initial_mode = d.mode;
     view_ = d.view;
@@ -225,6 +244,13 @@ OperatorStation::OperatorStation(asio::io_context& io, OperatorClient& client, c
 }
 
 OperatorStation::~OperatorStation() { stop(); }
+
+void OperatorStation::attach_view(ModelThread::SnapshotObserver on_snapshot,
+                                  servo::LatestMailbox<StationLogRecord>* ticks, std::atomic<std::uint32_t>* presses) {
+  if (started_) throw std::logic_error("OperatorStation::attach_view after start()");
+  model_->set_snapshot_observer(std::move(on_snapshot));
+  task_->set_view_outputs(ticks, presses);
+}
 
 servo::RealtimeStatus OperatorStation::start() {
   if (started_) throw std::logic_error("OperatorStation already started");

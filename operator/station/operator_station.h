@@ -38,8 +38,11 @@ struct OperatorStationOptions {
   std::shared_ptr<const device::HandScript> hand;
   // With `hand`: the view a closed-loop hand reads (the task writes it), or null.
   std::shared_ptr<OperatorView> view;
-  // script == "nav-to-goal": the route in W (empty: default_nav_goal_route()).
+  // script == "nav-to-goal": the route in W (empty: default_nav_goal_route());
+  // "nav-to-wall": the point behind the wall (empty: nav_to_wall_target()).
   std::vector<Eigen::Vector2d> goal_route;
+  // script == "probe-cylinder": the probe's line in W (empty: default_probe_line()).
+  std::vector<Eigen::Vector2d> probe_line;
   std::string log_path;             // empty: no logs
   double command_rate_hz = 200.0;
   double stats_period_s = 0.1;      // link statistics -> servo log / model
@@ -92,6 +95,13 @@ class OperatorStation {
   void stop();
   // After stop(): everything counted.
   OperatorStationSummary summary() const;
+
+  // The live view's taps (operator/view), before start(): the model
+  // thread's snapshots, the servo task's per-tick record and button presses.
+  void attach_view(ModelThread::SnapshotObserver on_snapshot, servo::LatestMailbox<StationLogRecord>* ticks,
+                   std::atomic<std::uint32_t>* presses);
+  // The servo loop's timing, readable from any thread while it runs.
+  const servo::TimingStats& servo_stats() const { return loop_->stats(); }
 
   // For tests: the newest snapshot handed to the servo (model thread state).
   ModelThread& model() { return *model_; }

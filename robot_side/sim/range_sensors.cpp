@@ -17,10 +17,16 @@ double SimSonarParams::ring_radius(int beam) const {
 }
 
 bool measure_range(double r, double rmin, double rmax, double sigma, double p_drop, std::mt19937_64& rng,
-                   float* out) {
+                   float* out, bool* no_return) {
   *out = static_cast<float>(rmax);
-  if (!(r >= rmin && r <= rmax)) return false;  // no hit (negative), NaN, or out of limits
+  if (no_return != nullptr) *no_return = false;
+  // The dropout is drawn first, for every beam: a dropout hides "nothing
+  // there" as much as it hides a surface.
   if (p_drop > 0 && std::uniform_real_distribution<double>(0.0, 1.0)(rng) < p_drop) return false;
+  if (!(r >= rmin && r <= rmax)) {  // no hit (negative), NaN, or out of limits
+    if (no_return != nullptr) *no_return = r < 0.0 || r > rmax;
+    return false;
+  }
   double m = r;
   if (sigma > 0) m += std::normal_distribution<double>(0.0, sigma)(rng);
   *out = static_cast<float>(std::clamp(m, rmin, rmax));
@@ -41,13 +47,17 @@ RangeScanData simulate_laser_scan(const SimLaserParams& p, const RayCaster& cast
   s.beam_width = 0.0;
   s.ranges.resize(static_cast<size_t>(n));
   s.valid.resize(static_cast<size_t>(n));
+  s.no_return.resize(static_cast<size_t>(n));
   const Eigen::Vector3d o = T_W_S.translation();
   for (int i = 0; i < n; ++i) {
     const double a = s.angle_min + i * s.angle_step;
     const Eigen::Vector3d d = T_W_S.linear() * Eigen::Vector3d(std::cos(a), std::sin(a), 0.0);
     const double r = caster.cast(o, d);
     const auto k = static_cast<size_t>(i);
-    s.valid[k] = measure_range(r, p.range_min, p.range_max, p.sigma, p.dropout_probability, rng, &s.ranges[k]) ? 1 : 0;
+    bool none = false;
+    s.valid[k] =
+        measure_range(r, p.range_min, p.range_max, p.sigma, p.dropout_probability, rng, &s.ranges[k], &none) ? 1 : 0;
+    s.no_return[k] = none ? 1 : 0;
   }
   return s;
 }
@@ -71,6 +81,7 @@ RangeScanData simulate_sonar_scan(const SimSonarParams& p, const RayCaster& cast
   s.range_max = p.range_max + rho_max;
   s.ranges.resize(static_cast<size_t>(n));
   s.valid.resize(static_cast<size_t>(n));
+  s.no_return.resize(static_cast<size_t>(n));
   const Eigen::Vector3d o = T_W_S.translation();
   const int rays = std::max(1, p.rays_per_cone);
   for (int i = 0; i < n; ++i) {
@@ -85,9 +96,11 @@ RangeScanData simulate_sonar_scan(const SimSonarParams& p, const RayCaster& cast
     const double rho = p.ring_radius(i);
     const auto k = static_cast<size_t>(i);
     float m = 0.0f;
+    bool none = false;
     const bool ok = measure_range(nearest < 0 ? -1.0 : nearest - rho, p.range_min, p.range_max, p.sigma,
-                                  p.dropout_probability, rng, &m);
+                                  p.dropout_probability, rng, &m, &none);
     s.valid[k] = ok ? 1 : 0;
+    s.no_return[k] = none ? 1 : 0;
     s.ranges[k] = ok ? static_cast<float>(m + rho) : static_cast<float>(s.range_max);
   }
   return s;

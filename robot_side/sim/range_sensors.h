@@ -2,7 +2,8 @@
 // each ray cast through an abstract RayCaster (MuJoCo's mj_ray in the
 // simulation, anything in tests), with Gaussian range noise and random
 // dropouts. A dropout or a missing return is flagged invalid, never reported
-// as a range of zero.
+// as a range of zero; no_return tells them apart (nothing up to range_max is
+// free space the operator's map clears through; a dropout says nothing).
 #pragma once
 
 #include <cstdint>
@@ -57,9 +58,11 @@ struct SimSonarParams {
 
 // A measured range from a true one: returns false (invalid) for no hit, out of
 // [range_min, range_max], or a dropout; else adds N(0, sigma) noise, clamped
-// into the limits.
+// into the limits. *no_return (optional) is set when the beam is invalid
+// because nothing lies within range_max (no hit or beyond it, and no
+// dropout); a dropout, a hit below range_min or a NaN leave it false.
 bool measure_range(double true_range, double range_min, double range_max, double sigma, double dropout_probability,
-                   std::mt19937_64& rng, float* out);
+                   std::mt19937_64& rng, float* out, bool* no_return = nullptr);
 
 // Casts one scan. T_W_S is the true sensor pose used to cast; the poses that
 // the scan reports (odometry, truth) and the stamp are filled in by the caller.

@@ -58,7 +58,9 @@ enum class RangeSensorKind { kLaser, kSonar };
 // One complete scan. Beam i points at angle_min + i * angle_step in frame S
 // (rotation about z_S); its range is measured from the origin of S. A beam with
 // valid[i] == 0 is a dropout or has no return within the limits: its range is
-// set to range_max and carries no information (never an obstacle at 0 m).
+// set to range_max and is never an obstacle (never an obstacle at 0 m).
+// no_return[i] == 1 (valid 0) tells the two apart: nothing up to range_max
+// (free space along the beam), not a dropout (no information).
 struct RangeScanData {
   int64_t stamp_ns = 0;
   uint32_t scan_id = 0;
@@ -74,8 +76,26 @@ struct RangeScanData {
   double beam_width = 0.0;  // rad, full cone (sonar), 0 for the laser
   std::vector<float> ranges;
   std::vector<uint8_t> valid;  // 1 valid, 0 invalid
+  std::vector<uint8_t> no_return;  // empty, or per beam: 1 = nothing up to range_max
 
   size_t size() const { return ranges.size(); }
+};
+
+// SIMULATION ONLY: what the robot station's live view draws (robot_side/view):
+// the MuJoCo state to pose its own copy of the scene, the true contacts, and
+// the newest scans with the true pose of their acquisition.
+struct SimContact {
+  Eigen::Vector3d pos_W = Eigen::Vector3d::Zero();
+  Eigen::Vector3d force_W = Eigen::Vector3d::Zero();  // on geom2 from geom1 (normal and friction)
+  int geom1 = -1, geom2 = -1;                         // MuJoCo geom ids of the scene
+};
+struct SimViewFrame {
+  int64_t t_ns = 0;              // simulation time
+  std::vector<double> qpos;      // the scene model's qpos
+  std::vector<SimContact> contacts;
+  std::vector<RangeScanData> scans;  // newest scan of each sensor
+  RobotStateSim state;
+  bool link_up = false, in_control = false;
 };
 
 }  // namespace hemm::robot

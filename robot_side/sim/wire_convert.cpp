@@ -148,9 +148,12 @@ void fill_beams(const RangeScanData& s, size_t first, size_t n, wire::RangeScan*
   m->set_first_beam(static_cast<uint32_t>(first));
   m->clear_ranges();
   m->clear_valid();
+  m->clear_no_return();
+  const bool nr = s.no_return.size() == s.ranges.size();
   for (size_t i = first; i < first + n; ++i) {
     m->add_ranges(s.ranges[i]);
     m->add_valid(s.valid[i] != 0);
+    if (nr) m->add_no_return(s.no_return[i] != 0);
   }
 }
 }  // namespace
@@ -161,9 +164,10 @@ std::vector<wire::RangeScan> to_wire_chunks(const RangeScanData& s, size_t max_b
   wire::RangeScan header;
   fill_header(s, &header);
   header.set_first_beam(static_cast<uint32_t>(n));  // worst-case varint size
-  const size_t head = header.ByteSizeLong() + 12;  // + tags and lengths of the two packed fields
+  const size_t head = header.ByteSizeLong() + 18;  // + tags and lengths of the three packed fields
   // 4 bytes per float, 1 per bool (packed).
-  size_t per = max_bytes > head + 5 ? (max_bytes - head) / 5 : 1;
+  const size_t bytes_per_beam = s.no_return.size() == n ? 6 : 5;
+  size_t per = max_bytes > head + bytes_per_beam ? (max_bytes - head) / bytes_per_beam : 1;
   per = std::max<size_t>(1, per);
   for (size_t first = 0; first < n || (n == 0 && out.empty());) {
     size_t take = std::min(per, n - first);
@@ -182,6 +186,7 @@ std::vector<wire::RangeScan> to_wire_chunks(const RangeScanData& s, size_t max_b
 
 std::optional<std::string> from_wire(const wire::RangeScan& m, RangeScanData* out, uint32_t* first_beam) {
   if (m.ranges_size() != m.valid_size()) return "ranges and valid differ in length";
+  if (m.no_return_size() != 0 && m.no_return_size() != m.ranges_size()) return "no_return length mismatch";
   if (m.beam_angles_size() != 0 && m.beam_angles_size() != m.ranges_size()) return "beam_angles length mismatch";
   if (m.beam_count() > kMaxBeams) return "too many beams";
   if (static_cast<uint64_t>(m.first_beam()) + static_cast<uint64_t>(m.ranges_size()) > m.beam_count())
@@ -214,6 +219,11 @@ std::optional<std::string> from_wire(const wire::RangeScan& m, RangeScanData* ou
     const bool ok = m.valid(static_cast<int>(i)) && std::isfinite(s.ranges[i]) && s.ranges[i] >= m.range_min() &&
                     s.ranges[i] <= m.range_max();
     s.valid[i] = ok ? 1 : 0;
+  }
+  if (m.no_return_size() != 0) {
+    s.no_return.resize(s.ranges.size());
+    for (size_t i = 0; i < s.ranges.size(); ++i)
+      s.no_return[i] = (m.no_return(static_cast<int>(i)) && !s.valid[i]) ? 1 : 0;
   }
   *first_beam = m.first_beam();
   *out = std::move(s);

@@ -114,6 +114,17 @@ void god_object_tick(const ProxyModel& m, const Scene& scene, ProxyData& d, cons
   Vector2d x = d.initialized ? d.proxy_W : Vector2d(device_W.head<2>());
   d.initialized = true;
   d.device_W = device_W;
+  d.work = 0;
+  // Every surface evaluation is counted: the tick's cost is bounded by the
+  // caps (ProxyModel), and the tests check the count against that bound.
+  auto closest = [&](std::uint32_t id, const Vector2d& p) {
+    ++d.work;
+    return scene.closest(id, p);
+  };
+  auto sweep = [&](std::uint32_t id, const Vector2d& p, const Vector2d& dp) {
+    ++d.work;
+    return scene.sweep(id, p, dp, rho);
+  };
 
   // 1. Push the proxy out of surfaces it overlaps: only after the map changed
   //    under it (new scans), never as a result of its own motion.
@@ -123,7 +134,7 @@ void god_object_tick(const ProxyModel& m, const Scene& scene, ProxyData& d, cons
     for (int it = 0; it < 4; ++it) {
       bool moved = false;
       for (std::size_t i = 0; i < n; ++i) {
-        const Surface s = scene.closest(cand[i], x);
+        const Surface s = closest(cand[i], x);
         if (s.distance < rho - kPenetrationTol) {
           x += s.normal * (rho - s.distance);
           moved = true;
@@ -140,6 +151,10 @@ void god_object_tick(const ProxyModel& m, const Scene& scene, ProxyData& d, cons
   //    goal's projection), so a disc around the goal bounds the path.
   Vector2d goal = device_W.head<2>();
   double reach = (goal - x).norm();
+  if (reach > m.max_step) {  // bounded motion per tick (ProxyModel::max_step)
+    goal = x + (goal - x) * (m.max_step / reach);
+    reach = m.max_step;
+  }
   std::size_t n = 0;
   for (int shrink = 0;; ++shrink) {
     n = scene.gather(goal, reach + rho + 1e-6, cand, cap);
@@ -160,7 +175,7 @@ void god_object_tick(const ProxyModel& m, const Scene& scene, ProxyData& d, cons
   for (int iter = 0; iter < m.max_iterations; ++iter) {
     active = 0;
     for (std::size_t i = 0; i < n && active < kMaxContacts; ++i) {
-      const Surface s = scene.closest(cand[i], x);
+      const Surface s = closest(cand[i], x);
       if (s.distance <= rho + kContactTol) {
         active_ids[static_cast<std::size_t>(active)] = cand[i];
         d.contact_normals[static_cast<std::size_t>(active++)] = s.normal;
@@ -174,12 +189,12 @@ void god_object_tick(const ProxyModel& m, const Scene& scene, ProxyData& d, cons
     if (step_len <= 1e-12) break;
     double s_min = 1.0;
     for (std::size_t i = 0; i < n && s_min > 0.0; ++i) {
-      const Surface s = scene.closest(cand[i], x);
+      const Surface s = closest(cand[i], x);
       if (s.distance <= rho + kContactTol) {
         if (s.normal.dot(step) < -1e-9 * step_len) s_min = 0.0;
         continue;
       }
-      s_min = std::min(s_min, scene.sweep(cand[i], x, step, rho));
+      s_min = std::min(s_min, sweep(cand[i], x, step));
     }
     x += s_min * step;
     if (s_min >= 1.0 && step == delta) break;  // reached the goal freely
@@ -189,7 +204,7 @@ void god_object_tick(const ProxyModel& m, const Scene& scene, ProxyData& d, cons
       // circle): retract back onto it along its normal, swept like any other
       // motion, so that the next step starts on the surface. Without this the
       // proxy zig-zags toward the constrained minimum and converges slowly.
-      const Surface s = scene.closest(active_ids[static_cast<std::size_t>(slide_on)], x);
+      const Surface s = closest(active_ids[static_cast<std::size_t>(slide_on)], x);
       const double gap = s.distance - rho;
       // Infinite: the step left a one-sided surface's front (map segments):
       // nothing to retract onto.
@@ -197,12 +212,12 @@ void god_object_tick(const ProxyModel& m, const Scene& scene, ProxyData& d, cons
         const Vector2d back = -gap * s.normal;
         double r_min = 1.0;
         for (std::size_t i = 0; i < n && r_min > 0.0; ++i) {
-          const Surface si = scene.closest(cand[i], x);
+          const Surface si = closest(cand[i], x);
           if (si.distance <= rho + kContactTol) {
             if (si.normal.dot(back) < -1e-9 * gap) r_min = 0.0;
             continue;
           }
-          r_min = std::min(r_min, scene.sweep(cand[i], x, back, rho));
+          r_min = std::min(r_min, sweep(cand[i], x, back));
         }
         x += r_min * back;
       }
@@ -210,7 +225,7 @@ void god_object_tick(const ProxyModel& m, const Scene& scene, ProxyData& d, cons
   }
   active = 0;
   for (std::size_t i = 0; i < n && active < kMaxContacts; ++i) {
-    const Surface s = scene.closest(cand[i], x);
+    const Surface s = closest(cand[i], x);
     if (s.distance <= rho + 10.0 * kContactTol) d.contact_normals[static_cast<std::size_t>(active++)] = s.normal;
   }
   d.contact_count = active;
@@ -238,6 +253,7 @@ void god_object_tick(const ProxyModel& m, const Scene& scene, ProxyData& d, cons
   const double alpha = std::min(1.0, m.period / m.continuous_time_constant);
   d.force_filtered += alpha * (F.norm() - d.force_filtered);
   d.force_W = Eigen::Vector3d(F.x(), F.y(), 0.0);
+  d.max_work = std::max(d.max_work, d.work);
 }
 
 }  // namespace hemm::haptics::detail

@@ -32,13 +32,28 @@ struct SnapshotScene {
     if (h >= 0.0) return detail::segment_surface(s.a, s.b, s.normal, x);
     const Eigen::Vector2d ab = s.b - s.a;
     const double t = ab.dot(x - s.a);
-    if (h >= -behind_depth && t >= 0.0 && t <= ab.squaredNorm()) return detail::Surface{h, s.normal};
-    return detail::Surface{};  // infinitely far
+    // Not past the object's far side where that was seen (MapSnapshot depth_limit).
+    const double depth = std::min(behind_depth, 0.5 * static_cast<double>(s.depth_limit));
+    if (h < -depth) return detail::Surface{};  // unseen space: infinitely far
+    if (t >= 0.0 && t <= ab.squaredNorm()) return detail::Surface{h, s.normal};
+    // Beside an end, barely behind the line: the rounded end still holds.
+    // Where a face meets its shadow edge (a convex corner of the outline)
+    // this closes the sliver behind both lines that noise can put the
+    // proxy in, which would otherwise be free.
+    return detail::segment_surface(s.a, s.b, s.normal, x);
   }
   double sweep(std::uint32_t id, const Eigen::Vector2d& x, const Eigen::Vector2d& dx, double rho) const {
     const mapping::Segment2& s = map.segments[id];
-    if (s.normal.dot(x - s.a) < 0.0) return detail::kInf;  // behind: see closest()
-    return detail::segment_sweep(s.a, s.b, x, dx, rho);
+    const double h = s.normal.dot(x - s.a);
+    if (h >= 0.0) return detail::segment_sweep(s.a, s.b, x, dx, rho);
+    // Behind the line: over the segment it is pushed out (closest()), and
+    // deeper it is unseen space; beside an end within the depth only the
+    // rounded end blocks.
+    const Eigen::Vector2d ab = s.b - s.a;
+    const double t = ab.dot(x - s.a);
+    const double depth = std::min(behind_depth, 0.5 * static_cast<double>(s.depth_limit));
+    if (h < -depth || (t >= 0.0 && t <= ab.squaredNorm())) return detail::kInf;
+    return std::min(detail::ray_circle(x, dx, s.a, rho), detail::ray_circle(x, dx, s.b, rho));
   }
 };
 
@@ -60,6 +75,7 @@ std::string validate(const ProxyModel& m) {
     return "proxy: stiffness violates Colgate's bound b > k T / 2 + |B|";
   if (m.max_candidates < 1 || m.max_candidates > (1u << 20)) return "proxy: max_candidates in [1, 2^20]";
   if (m.max_iterations < 1 || m.max_iterations > 64) return "proxy: max_iterations in [1, 64]";
+  if (!std::isfinite(m.max_step) || !(m.max_step > 0.0)) return "proxy: max_step must be > 0";
   return {};
 }
 

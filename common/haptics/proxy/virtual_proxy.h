@@ -81,8 +81,20 @@ struct ProxyModel {
   double continuous_time_constant = 2.0;  // s
   double device_max_stiffness = 800.0;    // N/m, assumed Omni usable stiffness
   double assumed_device_damping = 0.5;    // N s/m the hand+device is assumed to add (Colgate's b)
-  std::size_t max_candidates = 4096; // segments considered per tick
+  // Hard caps that bound the tick (tests/common/haptics/proxy time the worst
+  // case on a dense map): at most max_candidates segments are considered
+  // (a more crowded neighbourhood shortens the step, the rest follows next
+  // tick), at most max_iterations move/slide steps, and the proxy moves at
+  // most max_step in one tick (bounds the query disc, so the grid cells
+  // visited: 5 m per ms is far beyond any device motion at any scale; a
+  // larger jump is followed over a few ticks). A query stops counting at
+  // max_candidates + 1 (mapping::query_segments), so a crowded query costs
+  // at most the items of the cells it visits.
+  // Surface evaluations per tick (ProxyData::work)
+  //   <= (5 + 3 max_iterations) max_candidates + max_iterations.
+  std::size_t max_candidates = 512;  // segments considered per tick
   int max_iterations = 16;            // move/slide steps per tick
+  double max_step = 5.0;              // m in W per tick
   // Map segments are one-sided (see above): a proxy centre more than this
   // far behind a segment's line is in unseen space and not held by it.
   double one_sided_depth = 0.05;     // m in W, >= 0
@@ -114,6 +126,8 @@ struct ProxyData {
   std::uint64_t shrunk_queries = 0;   // ticks whose motion was shortened to fit max_candidates
   std::uint64_t depenetrations = 0;   // proxy pushed out of a surface (after a map change)
   std::uint64_t rejected_inputs = 0;  // non-finite device point or scale
+  std::uint64_t work = 0;             // surface evaluations (closest / sweep) in the last tick
+  std::uint64_t max_work = 0;         // the most in any tick
 };
 
 ProxyData make_proxy_data(const ProxyModel& m);

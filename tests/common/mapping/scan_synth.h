@@ -24,6 +24,10 @@ struct SynthScanSpec {
   double beam_width = 0.0;        // sonar cone
   int rays_per_cone = 1;          // sonar: nearest echo over this many rays across the cone
   std::uint32_t seed = 1;
+  // As the operator's scan conversion reports a beam that saw nothing up to
+  // range_max (wire no_return): valid at range_max, free space, not a return.
+  // false: flagged invalid like a dropout (senders without no_return).
+  bool no_return_valid = false;
 };
 
 // ray(origin_W, unit_dir_W, max_range) -> optional distance.
@@ -58,7 +62,7 @@ mapping::RangeScan2D synth_scan(const RayFn& ray, const math::Pose2& T_W_R, cons
     const bool drop = uni(rng) < spec.dropout_probability;
     if (!best || drop) {
       s.ranges.push_back(drop ? 0.0f : static_cast<float>(spec.range_max));  // a dropout reads 0: must not matter
-      s.valid.push_back(0);
+      s.valid.push_back(!drop && spec.no_return_valid ? 1 : 0);
       continue;
     }
     const double r = *best + spec.sigma * noise(rng);

@@ -58,6 +58,24 @@ TEST(ScanFromWire, ConvertsChunksAndMapsTheClock) {
   EXPECT_EQ(s.kind, hemm::mapping::SensorKind::kLaser);
 }
 
+TEST(ScanFromWire, NoReturnBecomesFreeSpaceAndDropoutsStayUnknown) {
+  hw::RangeScan m = wall_scan(1.0, {}, 1000, 0, 3);
+  m.set_valid(1, false);
+  m.set_valid(2, false);
+  m.add_no_return(false);
+  m.add_no_return(true);   // nothing up to range_max
+  m.add_no_return(false);  // a dropout
+  hemm::mapping::RangeScan2D s;
+  ASSERT_FALSE(ho::scan_from_wire(m, 0, &s));
+  EXPECT_EQ(s.valid[1], 1);  // says "free up to range_max" ...
+  EXPECT_FLOAT_EQ(s.ranges[1], 10.0f);
+  EXPECT_FALSE(hemm::mapping::beam_is_return(s, 1));  // ... and is never an obstacle
+  EXPECT_EQ(s.valid[2], 0);  // a dropout says nothing
+  EXPECT_TRUE(hemm::mapping::beam_is_return(s, 0));
+  m.add_no_return(true);  // one flag too many
+  EXPECT_TRUE(ho::scan_from_wire(m, 0, &s).has_value());
+}
+
 TEST(ScanFromWire, HostileInputIsRejectedWithoutChange) {
   const hw::RangeScan good = wall_scan(1.0, {}, 1000);
   hemm::mapping::RangeScan2D s;
@@ -159,6 +177,42 @@ TEST(ModelThread, StepBuildsTheWallAndCountsBadScans) {
   mt.step(t0 + 2'000'000);
   EXPECT_EQ(mt.map().segments.size(), before);
   EXPECT_EQ(mt.stats().scans_rejected, 2u);
+}
+
+TEST(ModelThread, RegistrationCorrectionIsBlendedIntoThePublishedPose) {
+  // The robot stands 1 m before a wall; its odometry then slips 5 cm forward
+  // while the scans still see the wall 1 m ahead. Registration corrects the
+  // pose back to x = 0 in the map frame, and the published pose (which the
+  // device's mapping and so the force follow) moves there at the blend
+  // speed, never in one step.
+  hemm::servo::ModelChannel ch;
+  ho::ModelThreadParams p;
+  p.registration.enabled = true;
+  ho::ModelThread mt(ch, p);
+  const std::int64_t t0 = 10'000'000'000, dt = 20'000'000;  // 50 snapshots/s
+  double prev = 0.0, max_step = 0.0;
+  for (int k = 0; k < 120; ++k) {
+    const std::int64_t t = t0 + k * dt;
+    const double odom_x = k < 10 ? 0.0 : 0.05;
+    hw::RobotState st;
+    st.set_stamp_ns(t);
+    st.mutable_t_w_r_odom()->set_x(odom_x);
+    mt.submit_state(st);
+    mt.submit_scan(std::make_shared<const hw::RangeScan>(wall_scan(1.0, {odom_x, 0.0, 0.0}, t, 0, 121)));
+    mt.step(t + 1'000'000);
+    const auto* snap = newest(ch);
+    ASSERT_NE(snap, nullptr);
+    if (k > 10) max_step = std::max(max_step, std::abs(snap->T_W_R.x - prev));  // after the odometry's jump
+    prev = snap->T_W_R.x;
+  }
+  const ho::ModelStats s = mt.stats();
+  EXPECT_GT(s.registration.accepted, 50u);
+  EXPECT_NEAR(s.registration.correction.x, -0.05, 0.01);  // the slip, found by registration
+  EXPECT_NEAR(prev, 0.0, 0.01);                           // the published pose got there ...
+  // ... after the odometry's own 5 cm jump (k = 10), in steps of at most
+  // correction_blend_speed * 20 ms = 4 mm per snapshot: no force step.
+  EXPECT_LE(max_step, p.correction_blend_speed * 0.02 + 1e-9);
+  EXPECT_GT(max_step, 0.0);
 }
 
 TEST(ModelThread, PredictsWithRecordedCommandsAndFreesRetiredSnapshots) {

@@ -193,7 +193,17 @@ TEST(NavGoalParams, Validation) {
   EXPECT_THROW(ho::NavGoalHand(view, {{1.0, std::nan("")}}), std::invalid_argument);
   EXPECT_THROW(ho::NavGoalHand(nullptr, {{1.0, 0.0}}), std::invalid_argument);
   EXPECT_THROW(ho::NavGoalHand(view, {{1.0, 0.0}}, p), std::invalid_argument);
-  EXPECT_THROW(ho::make_demo_script("nav-to-goal", {{{INFINITY, 0.0}}}), std::invalid_argument);
+  EXPECT_THROW(ho::make_demo_script("nav-to-goal", {{{INFINITY, 0.0}}, {}}), std::invalid_argument);
+  // Targets from the command line: a probe line is two finite points within
+  // the exploration range, for probe-cylinder only; nav-to-wall takes one goal.
+  EXPECT_TRUE(ho::make_demo_script("probe-cylinder", {{}, {{2.52, -0.1}, {2.52, -0.9}}}).hand);
+  EXPECT_THROW(ho::make_demo_script("probe-cylinder", {{}, {{2.52, -0.1}}}), std::invalid_argument);
+  EXPECT_THROW(ho::make_demo_script("probe-cylinder", {{}, {{5.0, 0.0}, {1.0, 0.0}}}), std::invalid_argument);
+  EXPECT_THROW(ho::make_demo_script("probe-cylinder", {{}, {{NAN, 0.0}, {1.0, 0.0}}}), std::invalid_argument);
+  EXPECT_THROW(ho::make_demo_script("nav-to-goal", {{}, {{1.0, 0.0}, {1.0, 1.0}}}), std::invalid_argument);
+  EXPECT_TRUE(ho::make_demo_script("nav-to-wall", {{{2.0, -1.6}}, {}}).hand);
+  EXPECT_THROW(ho::make_demo_script("nav-to-wall", {{{2.0, -1.6}, {3.0, 0.0}}, {}}), std::invalid_argument);
+  EXPECT_THROW(ho::make_demo_script("idle", {{{2.0, -1.6}}, {}}), std::invalid_argument);
 }
 
 // ---------------------------------------------------------------- the hand
@@ -297,7 +307,7 @@ LoopResult run_closed_loop(std::int64_t delay_ns, const std::vector<Eigen::Vecto
   hs::ModelChannel channel;
   ho::ModelThread model(channel, ho::ModelThreadParams{});
   model.set_command_delay(delay_ns);
-  ho::DemoScript script = ho::make_demo_script("nav-to-goal", {route});
+  ho::DemoScript script = ho::make_demo_script("nav-to-goal", {route, {}});
   EXPECT_TRUE(script.hand && script.view && script.nav_goal);
   ho::OperatorTaskParams tp;
   tp.initial_mode = script.mode;

@@ -41,6 +41,38 @@ TEST(RangeModel, MeasureRangeFlagsNoReturnAndLimits) {
   EXPECT_FALSE(hr::measure_range(2.0, 0.1, 5.0, 0.0, 1.0, rng, &r));  // always drops
 }
 
+TEST(RangeModel, NoReturnIsToldApartFromDropout) {
+  std::mt19937_64 rng(3);
+  float r = 0;
+  bool none = false;
+  EXPECT_FALSE(hr::measure_range(-1.0, 0.1, 5.0, 0.01, 0.0, rng, &r, &none));  // no hit
+  EXPECT_TRUE(none);
+  EXPECT_FALSE(hr::measure_range(7.0, 0.1, 5.0, 0.01, 0.0, rng, &r, &none));  // beyond range_max
+  EXPECT_TRUE(none);
+  EXPECT_FALSE(hr::measure_range(0.05, 0.1, 5.0, 0.01, 0.0, rng, &r, &none));  // too near: no information
+  EXPECT_FALSE(none);
+  EXPECT_FALSE(hr::measure_range(std::nan(""), 0.1, 5.0, 0.01, 0.0, rng, &r, &none));
+  EXPECT_FALSE(none);
+  EXPECT_FALSE(hr::measure_range(-1.0, 0.1, 5.0, 0.01, 1.0, rng, &r, &none));  // dropout hides "nothing"
+  EXPECT_FALSE(none);
+  EXPECT_TRUE(hr::measure_range(2.0, 0.1, 5.0, 0.0, 0.0, rng, &r, &none));
+  EXPECT_FALSE(none);
+  // A whole scan into open space: every beam that did not drop out says
+  // "nothing up to range_max"; the dropouts say nothing.
+  hr::SimLaserParams p;
+  p.dropout_probability = 0.2;
+  const hr::RangeScanData s = hr::simulate_laser_scan(p, NothingCaster{}, Eigen::Isometry3d::Identity(), rng);
+  ASSERT_EQ(s.no_return.size(), s.ranges.size());
+  int none_count = 0;
+  for (size_t i = 0; i < s.size(); ++i) {
+    EXPECT_EQ(s.valid[i], 0);
+    none_count += s.no_return[i];
+  }
+  EXPECT_NEAR(none_count / static_cast<double>(s.size()), 0.8, 0.1);
+  const hr::RangeScanData w = hr::simulate_laser_scan(p, RingCaster(2.0), Eigen::Isometry3d::Identity(), rng);
+  for (size_t i = 0; i < w.size(); ++i) EXPECT_EQ(w.no_return[i], 0);  // a hit or a dropout, never "nothing"
+}
+
 TEST(RangeModel, LaserNoiseHasTheConfiguredSigma) {
   hr::SimLaserParams p;
   p.beams = 361;

@@ -26,6 +26,7 @@ hr::RangeScanData make_scan(size_t n) {
   for (size_t i = 0; i < n; ++i) {
     s.ranges.push_back(0.5f + 0.01f * static_cast<float>(i % 300));
     s.valid.push_back(i % 7 != 0);
+    s.no_return.push_back(i % 14 == 0);  // half the invalid beams saw nothing, half dropped out
   }
   return s;
 }
@@ -36,7 +37,7 @@ TEST(WireConvert, LargeScanIsChunkedUnderThePayloadLimitAndReassembles) {
     const hr::RangeScanData s = make_scan(n);
     const auto chunks = hr::to_wire_chunks(s, hr::kMaxScanPayloadBytes);
     std::vector<float> ranges(n, -1.0f);
-    std::vector<uint8_t> valid(n, 2);
+    std::vector<uint8_t> valid(n, 2), no_return(n, 2);
     uint32_t expected_first = 0;
     for (const auto& m : chunks) {
       EXPECT_LE(m.ByteSizeLong(), hr::kMaxScanPayloadBytes);
@@ -52,13 +53,15 @@ TEST(WireConvert, LargeScanIsChunkedUnderThePayloadLimitAndReassembles) {
       for (size_t i = 0; i < back.size(); ++i) {
         ranges[first + i] = back.ranges[i];
         valid[first + i] = back.valid[i];
+        no_return[first + i] = back.no_return.at(i);
       }
       expected_first += static_cast<uint32_t>(back.size());
     }
     EXPECT_EQ(expected_first, n);
     EXPECT_EQ(ranges, s.ranges);
     EXPECT_EQ(valid, s.valid);
-    // 5 bytes a beam plus ~150 bytes of header: the default 181-beam laser
+    EXPECT_EQ(no_return, s.no_return);
+    // 6 bytes a beam plus ~150 bytes of header: the default 181-beam laser
     // scan needs two datagrams, the 16-beam sonar one.
     EXPECT_EQ(chunks.size() > 1, n >= 181) << n << " beams, " << chunks.size() << " chunks";
   }

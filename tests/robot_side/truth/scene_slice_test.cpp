@@ -174,5 +174,28 @@ TEST(SceneSlice, HomeSceneKnownFacts) {
   EXPECT_EQ(names(s35.included), in);
 }
 
+TEST(SceneSlice, CorridorsSceneColumnsBoardAndDoorway) {
+  SceneSlice s;
+  std::string err;
+  ASSERT_TRUE(load_scene_slice(HEMM_SOURCE_DIR "/deploy/scenes/corridors.xml", 0.30, &s, &err)) << err;
+  EXPECT_TRUE(s.skipped.empty());
+  const struct {
+    Eigen::Vector2d c;
+    double r;
+  } columns[] = {{{1.5, 0.55}, 0.07}, {{2.6, -0.5}, 0.12}, {{3.3, 0.6}, 0.30}, {{5.35, 2.2}, 0.22}};
+  for (const auto& col : columns) {
+    const auto* c = circle_at(s.scene, col.c);
+    ASSERT_NE(c, nullptr) << col.r;
+    EXPECT_NEAR(c->radius, col.r, 1e-12);
+  }
+  // The board is 1 cm thick, its faces at y = 3.195 and 3.205.
+  EXPECT_NEAR(haptics::distance_to_scene(s.scene, {4.35, 3.1}), 0.095, 1e-9);
+  EXPECT_NEAR(haptics::distance_to_scene(s.scene, {4.35, 3.3}), 0.095, 1e-9);
+  // The doorway's middle is 0.45 m from both jambs.
+  EXPECT_NEAR(haptics::distance_to_scene(s.scene, {5.0, 4.3}), 0.45, 1e-9);
+  // The start: corridor A's faces 0.95 m away on both sides.
+  EXPECT_NEAR(haptics::distance_to_scene(s.scene, {0.0, 0.0}), 0.95, 1e-12);
+}
+
 }  // namespace
 }  // namespace hemm::robot
