@@ -228,6 +228,11 @@ int run(int argc, char** argv) {
   }
   if (!device_type.empty()) cfg.mutable_device()->set_type(device_type);
   if (replay_file.empty() && cfg.device().type() == "sim-bimanual") {
+    if (app.count("--script") > 0 || !goal_route.empty()) {
+      std::cerr << "hemm-operator: --script and --goal drive the sim-omni hand; the sim-bimanual device takes "
+                   "--hands\n";
+      return net::kExitUsage;
+    }
 #ifdef HEMM_WITH_VIEW
     if (view_opts.enabled()) {
       std::cerr << "hemm-operator: the live view shows the robot station's scene; not available with sim-bimanual\n";

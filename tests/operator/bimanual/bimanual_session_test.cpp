@@ -51,10 +51,15 @@ TEST(BimanualSession, HoldsOneKilohertzWithTheDeviceInTheLoop) {
   std::printf("hemm-operator + sim-bimanual, 4 s: %.0f ticks, period median %.1f us p99 %.1f us, misses %.0f, "
               "compute median %.1f us\n",
               ticks, median, p99, misses, compute);
+  EXPECT_GT(ticks, 100);
+#ifndef HEMM_SANITIZE
+  // Wall clock, uninstrumented builds only (the sanitizers slow MuJoCo and
+  // the controllers several-fold).
   EXPECT_GE(ticks, 3600);
   EXPECT_NEAR(median, 1000.0, 20.0);
   EXPECT_LT(misses, 0.05 * ticks);  // a shared, loaded machine: misses happen, few
   EXPECT_LT(compute, 500.0);
+#endif
   EXPECT_EQ(json_number(j, "nonfinite_commands").value_or(-1), 0);
   EXPECT_EQ(json_number(j, "arm_arm_contact_steps").value_or(-1), 0);
   // The log has both end-effectors.
@@ -80,4 +85,7 @@ TEST(BimanualSession, BadConfigsAreUsageErrors) {
   EXPECT_NE(r.err.find("--hands needs the sim-bimanual device"), std::string::npos) << r.err;
   r = run(d, {"--device", "sim-bimanual", "--hands", "dance"});
   EXPECT_EQ(r.rc, 2);
+  r = run(d, {"--device", "sim-bimanual", "--script", "idle", "--duration", "1"});
+  EXPECT_EQ(r.rc, 2);
+  EXPECT_NE(r.err.find("takes --hands"), std::string::npos) << r.err;
 }
