@@ -249,13 +249,15 @@ int run(int argc, char** argv) {
     std::cerr << "hemm-operator: --hands needs the sim-bimanual device\n";
     return net::kExitUsage;
   }
-  const auto key = net::load_station_key("hemm-operator", key_path, config_path, cfg.link().key_file());
+  const std::string robot_address = robot.empty() ? cfg.net().robot_address() : robot;
+  const auto key =
+      net::load_station_key("hemm-operator", key_path, config_path, cfg.link().key_file(), robot_address);
   if (!key) return net::kExitKey;
 
   op::OperatorClientOptions o;
   const auto& link = cfg.link();
   net::apply_link_config(link, *key, &o);
-  o.robot_address = robot.empty() ? cfg.net().robot_address() : robot;
+  o.robot_address = robot_address;
   o.session_port =
       static_cast<uint16_t>(session_port >= 0 ? session_port : static_cast<int>(cfg.net().session_port()));
   o.stream_port = static_cast<uint16_t>(stream_port >= 0 ? stream_port : static_cast<int>(cfg.net().stream_port()));
@@ -265,6 +267,7 @@ int run(int argc, char** argv) {
   if (test_version != 0) o.protocol_version = test_version;
   o.connect_timeout_ms = link.connect_timeout_ms();
   o.reconnect_for_ms = link.reconnect_for_ms();
+  o.connect_for_ms = link.connect_for_ms();
 
   op::OperatorStationOptions so;
   so.device = replay_file.empty() ? cfg.device().type() : "replay";
@@ -314,6 +317,11 @@ int run(int argc, char** argv) {
     if (stopping) return;
     stopping = true;
     spdlog::info("event=shutdown reason=\"{}\"", why);
+    if (!client.ever_opened()) {
+      // The run ended without ever reaching the robot: that is a failure.
+      exit_code = net::kExitPeerLost;
+      std::cerr << "hemm-operator: " << why << " before a session was opened (exit code " << exit_code << ")\n";
+    }
     client.stop(why);
     leave_soon();
   };

@@ -90,12 +90,14 @@ int run(int argc, char** argv) {
       return net::kExitUsage;
     }
   }
-  const auto key = net::load_station_key("hemm-robot", key_path, config_path, cfg.link().key_file());
+  const std::string listen_address = listen.empty() ? cfg.net().listen_address() : listen;
+  const auto key =
+      net::load_station_key("hemm-robot", key_path, config_path, cfg.link().key_file(), listen_address);
   if (!key) return net::kExitKey;
 
   robot::RobotServerOptions o;
   net::apply_link_config(cfg.link(), *key, &o);
-  o.listen_address = listen.empty() ? cfg.net().listen_address() : listen;
+  o.listen_address = listen_address;
   o.session_port = static_cast<uint16_t>(session_port >= 0 ? session_port : static_cast<int>(cfg.net().session_port()));
   o.stream_port = static_cast<uint16_t>(stream_port >= 0 ? stream_port : static_cast<int>(cfg.net().stream_port()));
 

@@ -82,6 +82,9 @@ void check_link(const LinkConfig& link, const std::string& prefix, std::vector<F
   if (!in_range(link.max_frame_bytes(), 1024, 64u << 20))
     out.push_back({prefix + "max_frame_bytes", "must be 1024..67108864"});
   if (!in_range(link.replay_window(), 64, 65536)) out.push_back({prefix + "replay_window", "must be 64..65536"});
+  if (!in_range(link.stale_margin_ms(), 10, 10000)) out.push_back({prefix + "stale_margin_ms", "must be 10..10000"});
+  if (link.rtt_ms() > 60000) out.push_back({prefix + "rtt_ms", "must be 0..60000"});
+  if (link.connect_for_ms() > 3600000) out.push_back({prefix + "connect_for_ms", "must be 0..3600000"});
 }
 
 void check_port(uint32_t port, bool zero_ok, const std::string& field, std::vector<FieldIssue>& out) {

@@ -1,6 +1,7 @@
 #include "common/net/station_cli.h"
 
 #include <google/protobuf/stubs/logging.h>
+#include <asio.hpp>
 #include <spdlog/sinks/stdout_sinks.h>
 #include <spdlog/spdlog.h>
 
@@ -45,8 +46,15 @@ bool write_text_file(const std::string& path, const std::string& text, std::stri
   return true;
 }
 
+bool is_loopback_address(const std::string& address) {
+  asio::error_code ec;
+  const auto a = asio::ip::make_address(address, ec);
+  return !ec && a.is_loopback();
+}
+
 std::optional<Key> load_station_key(const std::string& program, const std::string& key_option,
-                                    const std::string& config_path, const std::string& config_key_file) {
+                                    const std::string& config_path, const std::string& config_key_file,
+                                    const std::string& network_address) {
   std::string key_path = key_option;
   if (key_path.empty()) key_path = config::resolve_relative_to(config_path, config_key_file);
   if (key_path.empty()) {
@@ -54,10 +62,25 @@ std::optional<Key> load_station_key(const std::string& program, const std::strin
     return std::nullopt;
   }
   std::string key_error;
-  auto key = load_key_file(key_path, &key_error);
+  KeyFileInfo info;
+  auto key = load_key_file(key_path, &key_error, &info);
+  if (key && is_demo_key(*key) && !is_loopback_address(network_address)) {
+    key.reset();
+    key_error = key_path + ": the demo key is public and accepted only on a loopback address, not " +
+                network_address + "; make a key with: head -c 32 /dev/urandom | od -An -tx1 | tr -d ' \\n' > FILE";
+  }
   if (!key) {
     std::cerr << program << ": bad key file: " << key_error << "\n";
     spdlog::error("event=bad_key error=\"{}\"", key_error);
+    return std::nullopt;
+  }
+  // The demo key is no secret: its permissions do not matter.
+  if (info.readable_by_others && !is_demo_key(*key)) {
+    char mode[8];
+    std::snprintf(mode, sizeof mode, "%04o", info.mode);
+    std::cerr << program << ": warning: key file " << key_path << " is accessible to group or others (mode " << mode
+              << "); chmod 600 " << key_path << "\n";
+    spdlog::warn("event=key_file_permissions file=\"{}\" mode={}", key_path, mode);
   }
   return key;
 }
@@ -75,6 +98,8 @@ void apply_link_config(const config::LinkConfig& link, const Key& psk, LinkOptio
   out->handshake_timeout_ms = link.handshake_timeout_ms();
   out->max_frame_bytes = link.max_frame_bytes();
   out->replay_window = link.replay_window();
+  out->stale_margin_ms = link.stale_margin_ms();
+  out->rtt_ms = link.rtt_ms();
 }
 
 }  // namespace hemm::net

@@ -22,11 +22,18 @@ bool setup_station_logging(const std::string& station, const std::string& level)
 bool write_text_file(const std::string& path, const std::string& text, std::string* error);
 
 // The pre-shared key of a station: --key if given, else the config's
-// link.key_file resolved relative to the config file. On failure prints why
-// (prefixed with `program`), logs it, and returns nullopt: the caller exits
-// with kExitKey.
+// link.key_file resolved relative to the config file. Refuses weak keys
+// (crypto.h) and the public demo key unless `network_address` (the robot's
+// listen address, the operator's robot address) is a loopback address; warns
+// when the file is readable or writable by group or others. On failure
+// prints one line (prefixed with `program`), logs it, and returns nullopt:
+// the caller exits with kExitKey.
 std::optional<Key> load_station_key(const std::string& program, const std::string& key_option,
-                                    const std::string& config_path, const std::string& config_key_file);
+                                    const std::string& config_path, const std::string& config_key_file,
+                                    const std::string& network_address);
+
+// True for 127.0.0.0/8 and ::1 (false for anything else, also names and 0.0.0.0).
+bool is_loopback_address(const std::string& address);
 
 // The link section of a station's config (with its key) into the options
 // both stations share.

@@ -48,10 +48,18 @@ wire::SessionFrame make_ack(uint64_t request_id, bool ok, const std::string& rea
 
 }  // namespace
 
+// A command and how much longer than the fastest command it took to arrive
+// (held on the path): the watchdog counts from its send time, so it gets
+// that much less time.
+struct TimedCommand {
+  BaseArmCommand command;
+  int64_t excess_age_ns = 0;
+};
+
 struct RobotStation::Shared {
   RobotServer* server = nullptr;
   asio::io_context* io = nullptr;
-  net::NewestMailbox<BaseArmCommand> commands;  // network thread -> simulation thread
+  net::NewestMailbox<TimedCommand> commands;  // network thread -> simulation thread
   std::mutex req_mu;
   std::vector<Request> requests;  // guarded by req_mu
   std::atomic<bool> stop{false};
@@ -63,7 +71,7 @@ struct RobotStation::Shared {
   std::atomic<int64_t> max_lateness_ns{0}, lateness_sum_ns{0};
   std::atomic<uint64_t> lateness_n{0};
   std::atomic<uint64_t> commands_received{0}, commands_without_control{0}, commands_malformed{0},
-      commands_mode_mismatch{0}, commands_applied{0}, commands_rejected{0};
+      commands_mode_mismatch{0}, commands_stale{0}, commands_applied{0}, commands_rejected{0};
   std::atomic<uint64_t> states_sent{0}, scans_sent{0}, scan_chunks_sent{0}, send_failures{0};
   std::atomic<uint64_t> mode_changes{0}, estop_changes{0}, requests_refused{0};
   std::atomic<bool> estop{false};
@@ -119,6 +127,7 @@ std::string to_json(const RobotStationStatistics& s, const std::string& indent) 
   f("commands_without_control", s.commands_without_control);
   f("commands_malformed", s.commands_malformed);
   f("commands_mode_mismatch", s.commands_mode_mismatch);
+  f("commands_stale", s.commands_stale);
   f("commands_applied", s.commands_applied);
   f("commands_rejected", s.commands_rejected);
   f("states_sent", s.states_sent);
@@ -143,6 +152,7 @@ std::string to_log_fields(const RobotStationStatistics& s) {
      << " commands_received=" << s.commands_received << " commands_applied=" << s.commands_applied
      << " commands_rejected=" << s.commands_rejected << " commands_without_control=" << s.commands_without_control
      << " commands_malformed=" << s.commands_malformed << " commands_mode_mismatch=" << s.commands_mode_mismatch
+     << " commands_stale=" << s.commands_stale
      << " states_sent=" << s.states_sent << " scans_sent=" << s.scans_sent
      << " scan_chunks_sent=" << s.scan_chunks_sent << " send_failures=" << s.send_failures
      << " mode_changes=" << s.mode_changes << " estop_changes=" << s.estop_changes
@@ -160,7 +170,8 @@ std::string to_summary(const RobotStationStatistics& s) {
      << " states with the collision guard limiting the base\n"
      << "  commands: " << s.commands_received << " received, " << s.commands_applied << " applied, "
      << s.commands_rejected << " rejected by the robot, " << s.commands_without_control << " without control, "
-     << s.commands_malformed << " malformed, " << s.commands_mode_mismatch << " wrong mode\n"
+     << s.commands_malformed << " malformed, " << s.commands_mode_mismatch << " wrong mode, " << s.commands_stale
+     << " stale\n"
      << "  sent: " << s.states_sent << " states, " << s.scans_sent << " scans (" << s.scan_chunks_sent
      << " chunks), " << s.send_failures << " send failures\n"
      << "  session: " << s.mode_changes << " mode changes, " << s.estop_changes << " e-stop changes, "
@@ -198,7 +209,7 @@ bool RobotStation::start(std::string* error) {
   const SharedPtr sh = shared_;
 
   server_.streams().on(wire::StreamMessage::kCommand,
-                       [sh](const net::DatagramHeader& h, int64_t, const wire::StreamMessage& m) {
+                       [sh](const net::DatagramHeader& h, int64_t recv_ns, const wire::StreamMessage& m) {
                          ++sh->commands_received;
                          // The server only delivers datagrams of the authenticated
                          // session; that session must also hold control.
@@ -209,14 +220,26 @@ bool RobotStation::start(std::string* error) {
                            }
                            return;
                          }
-                         BaseArmCommand c;
-                         if (auto err = from_wire(m.command(), h.seq, &c)) {
+                         TimedCommand c;
+                         if (auto err = from_wire(m.command(), h.seq, &c.command)) {
                            const uint64_t n = ++sh->commands_malformed;
                            if (is_power_of_two(n)) {
                              spdlog::warn("event=command_malformed count={} error=\"{}\"", n, *err);
                            }
                            return;
                          }
+                         // Something on the path may hold commands and release
+                         // them later: judge the command's age, not its arrival.
+                         const net::MessageAge age = sh->server->message_age(m.command().stamp_ns(), recv_ns);
+                         if (age.stale) {
+                           const uint64_t n = ++sh->commands_stale;
+                           if (is_power_of_two(n)) {
+                             spdlog::warn("event=command_dropped why=stale age_ms={} known={} count={}",
+                                          age.age_ns / 1'000'000, age.known, n);
+                           }
+                           return;
+                         }
+                         c.excess_age_ns = age.excess_ns;
                          sh->commands.publish(c);
                        });
 
@@ -279,6 +302,7 @@ RobotStationStatistics RobotStation::statistics() const {
   s.commands_without_control = sh.commands_without_control.load();
   s.commands_malformed = sh.commands_malformed.load();
   s.commands_mode_mismatch = sh.commands_mode_mismatch.load();
+  s.commands_stale = sh.commands_stale.load();
   s.commands_applied = sh.commands_applied.load();
   s.commands_rejected = sh.commands_rejected.load();
   s.states_sent = sh.states_sent.load();
@@ -399,7 +423,8 @@ void RobotStation::run() {
     requests.clear();
 
     // The newest command (older ones were superseded in the mailbox).
-    if (const BaseArmCommand* c = sh.commands.take()) {
+    if (const TimedCommand* tc = sh.commands.take()) {
+      const BaseArmCommand* c = &tc->command;
       if (!in_control) {
         ++sh.commands_without_control;  // arrived before control or the link was lost
       } else if (session_mode != wire::MODE_UNSPECIFIED && c->mode != session_mode) {
@@ -408,7 +433,7 @@ void RobotStation::run() {
           spdlog::warn("event=command_dropped why=mode_mismatch mode={} session_mode={} count={}",
                        wire::Mode_Name(c->mode), wire::Mode_Name(session_mode), n);
         }
-      } else if (auto err = robot_.set_command(*c, robot_.time_ns())) {
+      } else if (auto err = robot_.set_command(*c, robot_.time_ns() - tc->excess_age_ns)) {
         const uint64_t n = ++sh.commands_rejected;
         if (is_power_of_two(n)) spdlog::warn("event=command_rejected count={} error=\"{}\"", n, *err);
       } else {

@@ -12,7 +12,12 @@
 //
 // Safety: commands only count from the authenticated controlling operator
 // while its link is up; without one the robot reports SAFETY_NO_OPERATOR and
-// decelerates; with the link down it also reports SAFETY_LINK_LOST. Mode
+// decelerates; with the link down it also reports SAFETY_LINK_LOST.
+// A command older than the measured round trip plus link.stale_margin_ms
+// (its stamp mapped to the robot's clock with the link's offset estimate),
+// or arriving before there is an estimate, is refused (commands_stale). The
+// watchdog counts from a command's send time, not its arrival: a command
+// held on the path for t gets t less (README "Protocol", "Command age"). Mode
 // changes need control; engaging the e-stop does not (any authenticated
 // session may stop the robot), releasing it does.
 //
@@ -67,6 +72,7 @@ struct RobotStationStatistics {
   uint64_t commands_without_control = 0; // dropped: sender not the controlling operator / link down
   uint64_t commands_malformed = 0;       // dropped: failed wire validation
   uint64_t commands_mode_mismatch = 0;   // dropped: not in the session's mode
+  uint64_t commands_stale = 0;           // dropped: older than the measured round trip + margin (or age unknown)
   uint64_t commands_applied = 0;
   uint64_t commands_rejected = 0;        // rejected by the robot (limits, IK)
   uint64_t states_sent = 0;

@@ -220,5 +220,31 @@ TEST(HandshakeTest, ErrorReasonsAreTruncated) {
   EXPECT_EQ(f.error().reason().size(), kMaxReasonBytes);
 }
 
+// A peer's Error reason ends up in the other station's log: a newline and a
+// forged key=value line, an escape sequence and a quote must not get there.
+TEST(HandshakeTest, PeerSuppliedReasonsAreMadeLogSafe) {
+  const std::string hostile =
+      "x\n2026-01-01T00:00:00.000 level=critical station=robot event=estop engaged=false\x1b[2J\"\\ \xc3\xa9";
+  wire::SessionFrame f;
+  f.mutable_error()->set_code(wire::ERROR_INTERNAL);
+  f.mutable_error()->set_reason(hostile);
+  const std::string bytes = f.SerializeAsString();
+  const std::vector<uint8_t> frame(bytes.begin(), bytes.end());
+  auto check = [&](const HandshakeStep& st) {
+    ASSERT_EQ(st.kind, HandshakeStep::Kind::kFailed);
+    EXPECT_TRUE(st.reported_by_peer);
+    for (char c : st.reason) {
+      EXPECT_TRUE(c >= 0x20 && c <= 0x7e && c != '"' && c != '\\') << "byte " << static_cast<int>(c) << " in "
+                                                                       << st.reason;
+    }
+    EXPECT_NE(st.reason.find("level=critical"), std::string::npos);  // kept, but on the same line
+  };
+  ServerHandshake server(server_params(key(1)));
+  check(server.on_frame(frame));
+  ClientHandshake client(client_params(key(1)));
+  client.start();
+  check(client.on_frame(frame));
+}
+
 }  // namespace
 }  // namespace hemm::net

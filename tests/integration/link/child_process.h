@@ -21,6 +21,7 @@ class ChildProcess {
   ChildProcess& operator=(const ChildProcess&) = delete;
 
   bool started() const { return pid_ > 0; }
+  pid_t pid() const { return pid_; }
   // Exit status, or nullopt if it did not exit within the timeout (then it is killed: -9).
   std::optional<int> wait(std::chrono::milliseconds timeout);
   void signal(int sig);
