@@ -8,6 +8,8 @@
 // `hemm-operator estop --control-socket PATH` against a running station
 // started with --control-socket PATH. With a `vps` block in its config it renders that VPS scene (meshes,
 // held objects, 6-DoF couplings) with the device instead, without a robot.
+// With the SIMULATED bimanual interface (device sim-bimanual) it runs
+// that device in the same servo loop against local planes, without a robot.
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
 
@@ -29,6 +31,9 @@
 #include "common/net/station_cli.h"
 #include "common/net/station_control.h"
 #include "config_operator.pb.h"
+#include "operator/bimanual/bimanual_config.h"
+#include "operator/bimanual/bimanual_scripts.h"
+#include "operator/bimanual/bimanual_session.h"
 #include "operator/client/operator_client.h"
 #include "operator/station/demo_scripts.h"
 #include "operator/station/operator_station.h"
@@ -118,6 +123,17 @@ int run_vps(const config::OperatorConfig& cfg, const std::string& config_path, c
 }
 #endif
 
+    return net::kExitUsage;
+  }
+  std::cout << op::to_string(s) << std::flush;
+  std::string error;
+  if (!station_json.empty() && !net::write_text_file(station_json, op::to_json(s), &error)) {
+    std::cerr << "hemm-operator: --station-json: " << error << "\n";
+    return net::kExitInternal;
+  }
+  return net::kExitOk;
+}
+
 int run(int argc, char** argv) {
   CLI::App app{"hemm-operator: the operator station of hemm (authenticated session, 1 kHz haptic servo loop with "
                "the virtual proxy on the local model, commands to the robot, link statistics). A config with a vps block "
@@ -170,6 +186,15 @@ int run(int argc, char** argv) {
   app.add_option("--replay", replay_file, "replay this device trajectory CSV (overrides device.type/replay_file)");
   net::StationControlOptions control_options;
   net::add_station_control_options(app, "hemm-operator", &control_options);
+  std::string device_type, bimanual_hands;
+  app.add_option("--device", device_type,
+                 "device (overrides device.type): sim-omni, replay, or sim-bimanual (the SIMULATED bimanual "
+                 "interface: two 7-DoF arms in MuJoCo with scripted hands, rendering local planes; no robot)")
+      ->check(CLI::IsMember({"sim-omni", "replay", "sim-bimanual"}));
+  app.add_option("--hands", bimanual_hands,
+                 "SIMULATED hand script for the sim-bimanual device (overrides device.bimanual.script): features "
+                 "(each feature in turn, 14 s), idle")
+      ->check(CLI::IsMember(op::bimanual_script_names()));
 #ifdef HEMM_WITH_VIEW
   view::ViewOptions view_opts;
   view::ViewOptionStrings view_strs;
@@ -234,12 +259,13 @@ int run(int argc, char** argv) {
 
   config::OperatorConfig cfg;
   if (!config_path.empty()) {
-    if (auto err = config::load_operator_config(config_path, &cfg)) {
+    if (auto err = config::load_text_config(config_path, &op::validate_operator_config_with_bimanual, &cfg)) {
       std::cerr << "hemm-operator: bad config: " << err->to_string() << "\n";
       spdlog::error("event=bad_config error=\"{}\"", err->to_string());
       return net::kExitUsage;
     }
   }
+  if (!device_type.empty()) cfg.mutable_device()->set_type(device_type);
   if (cfg.has_vps()) {
 #ifdef HEMM_OPERATOR_HAVE_VPS
     return run_vps(cfg, config_path, replay_file, duration_s, servo_log, station_json);
@@ -247,6 +273,28 @@ int run(int argc, char** argv) {
     std::cerr << "hemm-operator: bad config: vps: this build has no VPS component\n";
     return net::kExitUsage;
 #endif
+  }
+  if (replay_file.empty() && cfg.device().type() == "sim-bimanual") {
+    if (app.count("--script") > 0 || !goal_route.empty()) {
+      std::cerr << "hemm-operator: --script and --goal drive the sim-omni hand; the sim-bimanual device takes "
+                   "--hands\n";
+      return net::kExitUsage;
+    }
+#ifdef HEMM_WITH_VIEW
+    if (view_opts.enabled()) {
+      std::cerr << "hemm-operator: the live view shows the robot station's scene; not available with sim-bimanual\n";
+      return net::kExitUsage;
+    }
+#endif
+    if (const auto issues = op::validate_bimanual_config(cfg.device().bimanual()); !issues.empty()) {
+      std::cerr << "hemm-operator: bad config: " << issues.front().field << ": " << issues.front().message << "\n";
+      return net::kExitUsage;
+    }
+    return run_bimanual(cfg, bimanual_hands, duration_s, servo_log, station_json);
+  }
+  if (!bimanual_hands.empty()) {
+    std::cerr << "hemm-operator: --hands needs the sim-bimanual device\n";
+    return net::kExitUsage;
   }
   const std::string robot_address = robot.empty() ? cfg.net().robot_address() : robot;
   const auto key =

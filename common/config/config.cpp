@@ -209,8 +209,8 @@ std::vector<FieldIssue> validate_operator_config(const pb::Message& m) {
   check_port(c.net().local_stream_port(), true, "net.local_stream_port", out);
   if (!in_range(c.net().command_rate_hz(), 100, 1000)) out.push_back({"net.command_rate_hz", "must be 100..1000"});
   const std::string& type = c.device().type();
-  if (type != "sim-omni" && type != "replay")
-    out.push_back({"device.type", "must be \"sim-omni\" or \"replay\""});
+  if (type != "sim-omni" && type != "replay" && type != "sim-bimanual")
+    out.push_back({"device.type", "must be \"sim-omni\", \"replay\" or \"sim-bimanual\""});
   if (type == "replay" && c.device().replay_file().empty())
     out.push_back({"device.replay_file", "required when device.type is \"replay\""});
   if (!in_range(c.servo().rate_hz(), 100, 10000)) out.push_back({"servo.rate_hz", "must be 100..10000"});

@@ -132,4 +132,16 @@ std::string make_temp_dir() {
   return d ? std::string(d) : std::string("/tmp");
 }
 
+ProcessResult run_to_completion(std::vector<std::string> argv, const std::string& dir,
+                                std::chrono::milliseconds timeout) {
+  ProcessResult r;
+  {
+    ChildProcess p(std::move(argv), dir + "/stdout", dir + "/stderr");
+    r.rc = p.wait(timeout).value_or(-1);
+  }
+  r.out = read_file(dir + "/stdout");
+  r.err = read_file(dir + "/stderr");
+  return r;
+}
+
 }  // namespace hemm::test

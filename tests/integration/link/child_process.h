@@ -46,4 +46,13 @@ std::optional<double> json_number(const std::string& json, const std::string& ke
 // A fresh temporary directory for one test.
 std::string make_temp_dir();
 
+// Runs argv to completion (killed after `timeout`: rc -1) with stdout and
+// stderr through files in `dir`, and returns the exit code and both outputs.
+struct ProcessResult {
+  int rc = -1;
+  std::string out, err;
+};
+ProcessResult run_to_completion(std::vector<std::string> argv, const std::string& dir,
+                                std::chrono::milliseconds timeout);
+
 }  // namespace hemm::test

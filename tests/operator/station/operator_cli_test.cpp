@@ -18,27 +18,16 @@
 
 namespace {
 
-using hemm::test::ChildProcess;
 using hemm::test::read_file;
 
 const std::string kOperator = std::string(HEMM_BINARY_DIR) + "/bin/hemm-operator";
 
-struct RunResult {
-  int rc = -1;
-  std::string out, err;
-};
+using RunResult = hemm::test::ProcessResult;
 
 // Runs the binary with the given arguments, stdout/stderr into files in dir.
 RunResult run(const std::string& dir, std::vector<std::string> args) {
   args.insert(args.begin(), kOperator);
-  RunResult r;
-  {
-    ChildProcess p(args, dir + "/stdout", dir + "/stderr");
-    r.rc = p.wait(std::chrono::seconds(30)).value_or(-1);
-  }
-  r.out = read_file(dir + "/stdout");
-  r.err = read_file(dir + "/stderr");
-  return r;
+  return hemm::test::run_to_completion(std::move(args), dir, std::chrono::seconds(30));
 }
 
 // A loopback port nothing listens on (free a moment ago).

@@ -1,0 +1,113 @@
+#include "operator/device/bimanual/simulated_bimanual_device.h"
+
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+namespace hemm::device::bimanual {
+
+DeviceLimits bimanual_limits(const SimulationConfig& c) {
+  DeviceLimits d;
+  d.end_effectors = kArms;
+  for (int a = 0; a < kArms; ++a) {
+    const auto k = static_cast<std::size_t>(a);
+    const ArmControlParams& p = c.control[k];
+    const HandleSpec h = handle_spec(c.plant.handles[k]);
+    EndEffectorLimits& l = d.ee[k];
+    l.workspace_min_H = p.workspace_D.min_D;
+    l.workspace_max_H = p.workspace_D.max_D;
+    // The drives' torque limits are their continuous ratings: no separate
+    // thermal budget on top of the joint-torque saturation.
+    l.peak_force = p.peak_force;
+    l.max_continuous_force = p.peak_force;
+    // Stable walls with ~1-2 kg felt (feed-forward on) at 1 kHz; ASSUMED
+    // design values, not the real device's published numbers.
+    l.max_stiffness = 5000.0;
+    l.renders_torque = true;
+    l.peak_torque = p.peak_torque;
+    l.max_rotational_stiffness = 20.0;
+    l.peak_grip_force = h.kind == HandleKind::kGripForce ? h.grip_max_force : 0.0;
+    l.max_linear_speed = p.max_linear_speed;
+  }
+  return d;
+}
+
+SimulatedBimanualDevice::SimulatedBimanualDevice(const SimulationConfig& config,
+                                                 std::array<std::shared_ptr<const HumanScript>, kArms> hands)
+    : sim_(config),
+      hands_(std::move(hands)),
+      limits_(bimanual_limits(config)),
+      min_arm_arm_m_(std::numeric_limits<double>::infinity()),
+      min_arm_table_m_(std::numeric_limits<double>::infinity()) {
+  for (const auto& h : hands_) {
+    if (!h) throw std::invalid_argument("SimulatedBimanualDevice: null hand script");
+  }
+  if (const char* e = check_limits(limits_)) throw std::invalid_argument(std::string("SimulatedBimanualDevice: ") + e);
+}
+
+void SimulatedBimanualDevice::read(DeviceSample& out) noexcept {
+  out.end_effectors = kArms;
+  for (int a = 0; a < kArms; ++a) {
+    const auto k = static_cast<std::size_t>(a);
+    const ArmSide side = static_cast<ArmSide>(a);
+    const EndEffectorState& s = sim_.end_effector(side);
+    const ArmReading& r = sim_.reading(side);
+    EndEffectorSample& e = out.ee[k];
+    e.position_H = s.T_D_E.translation();
+    e.orientation_H = Eigen::Quaterniond(s.T_D_E.linear()).normalized();
+    e.velocity_H = s.velocity_D;
+    e.angular_velocity_H = s.angular_velocity_D;
+    e.enabled = r.powered;
+    HandleInputs& in = e.handle;
+    in = HandleInputs{};
+    const HandleKind kind = sim_.config().plant.handles[k];
+    in.buttons = r.buttons;
+    in.has_deadman = has_input(kind, HandleInput::kDeadman);
+    in.deadman = in.has_deadman && r.deadman_closed;
+    in.has_grip = has_input(kind, HandleInput::kGrip);
+    if (in.has_grip) {
+      in.grip_position = r.grip_position;
+      in.grip_velocity = r.grip_velocity;
+    }
+    in.has_joystick = has_input(kind, HandleInput::kJoystickAxes);
+    if (in.has_joystick) {
+      in.joystick = r.joystick;
+      in.switch_on = r.switch_on;
+    }
+    in.has_clutch = has_input(kind, HandleInput::kClutch);
+    in.attached = !in.has_clutch || r.attached;
+  }
+}
+
+void SimulatedBimanualDevice::write(const DeviceCommand& cmd_in) noexcept {
+  ++counters_.writes;
+  DeviceCommand cmd = cmd_in;
+  counters_.nonfinite_commands += static_cast<std::uint64_t>(zero_nonfinite_wrenches(cmd, kArms));
+  std::array<kinematics::Wrench6, kArms> w;
+  std::array<double, kArms> grip{};
+  for (int a = 0; a < kArms; ++a) {
+    const auto k = static_cast<std::size_t>(a);
+    EndEffectorCommand& c = cmd.ee[k];
+    const EndEffectorLimits& l = limits_.ee[k];
+    if (c.grip_force != 0.0 && l.peak_grip_force <= 0.0) ++counters_.missing_input_commands;
+    const EndEffectorCommand before = c;
+    clamp_to_peak(c, l);
+    if (before.force_H != c.force_H || before.torque_H != c.torque_H) ++counters_.limited_commands;
+    const bool enabled = sim_.reading(static_cast<ArmSide>(a)).powered;
+    if (!enabled && (c.force_H.squaredNorm() + c.torque_H.squaredNorm() + c.grip_force * c.grip_force > 0.0)) {
+      ++counters_.disabled_commands;
+      c = EndEffectorCommand{};
+    }
+    w[k] << c.force_H, c.torque_H;
+    grip[k] = c.grip_force;
+  }
+  // The hands move to where they want to be at the end of this period.
+  const double t = sim_.time_s() + sim_.config().plant.control_period_s;
+  sim_.step(w, grip, {hands_[0]->at(t), hands_[1]->at(t)});
+  const PlantTruth& truth = sim_.truth();
+  const CollisionResult& col = sim_.controller().collisions();
+  min_arm_arm_m_ = std::min({min_arm_arm_m_, truth.min_arm_arm_m, col.min_arm_arm_m});
+  min_arm_table_m_ = std::min({min_arm_table_m_, truth.min_arm_table_m, col.min_arm_table_m});
+}
+
+}  // namespace hemm::device::bimanual

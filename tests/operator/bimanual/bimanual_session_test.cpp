@@ -1,0 +1,91 @@
+// hemm-operator with the SIMULATED bimanual device, through the real binary
+// on this machine's clock: the 1 kHz servo loop holds its period (median,
+// misses) with two arms' controllers and the MuJoCo plant in every tick; a
+// bad device.bimanual block or --hands without the device is a usage error
+// (exit 2) with the field named.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cstdio>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "tests/integration/link/child_process.h"
+
+namespace {
+
+using hemm::test::json_number;
+using hemm::test::read_file;
+
+const std::string kOperator = std::string(HEMM_BINARY_DIR) + "/bin/hemm-operator";
+
+using RunResult = hemm::test::ProcessResult;
+
+// Runs the binary with the given arguments, stdout/stderr into files in dir.
+RunResult run(const std::string& dir, std::vector<std::string> args) {
+  args.insert(args.begin(), kOperator);
+  return hemm::test::run_to_completion(std::move(args), dir, std::chrono::seconds(40));
+}
+
+// A number inside the JSON object that follows "section".
+std::optional<double> in_section(const std::string& json, const std::string& section, const std::string& key) {
+  const auto at = json.find("\"" + section + "\"");
+  if (at == std::string::npos) return std::nullopt;
+  return json_number(json.substr(at), key);
+}
+
+}  // namespace
+
+TEST(BimanualSession, HoldsOneKilohertzWithTheDeviceInTheLoop) {
+  const std::string d = hemm::test::make_temp_dir();
+  const RunResult r = run(d, {"--device", "sim-bimanual", "--hands", "features", "--duration", "4", "--station-json",
+                        d + "/s.json", "--log", d + "/servo.csv", "--log-level", "warn"});
+  ASSERT_EQ(r.rc, 0) << r.err;
+  const std::string j = read_file(d + "/s.json");
+  const double ticks = json_number(j, "ticks").value_or(0);
+  const double misses = json_number(j, "misses").value_or(1e9);
+  const double median = in_section(j, "period_us", "median").value_or(0);
+  const double p99 = in_section(j, "period_us", "p99").value_or(0);
+  const double compute = in_section(j, "compute_us", "median").value_or(1e9);
+  std::printf("hemm-operator + sim-bimanual, 4 s: %.0f ticks, period median %.1f us p99 %.1f us, misses %.0f, "
+              "compute median %.1f us\n",
+              ticks, median, p99, misses, compute);
+  EXPECT_GT(ticks, 100);
+#ifndef HEMM_SANITIZE
+  // Wall clock, uninstrumented builds only (the sanitizers slow MuJoCo and
+  // the controllers several-fold).
+  EXPECT_GE(ticks, 3600);
+  EXPECT_NEAR(median, 1000.0, 20.0);
+  EXPECT_LT(misses, 0.05 * ticks);  // a shared, loaded machine: misses happen, few
+  EXPECT_LT(compute, 500.0);
+#endif
+  EXPECT_EQ(json_number(j, "nonfinite_commands").value_or(-1), 0);
+  EXPECT_EQ(json_number(j, "arm_arm_contact_steps").value_or(-1), 0);
+  // The log has both end-effectors.
+  const std::string header = read_file(d + "/servo.csv").substr(0, 4000);
+  EXPECT_NE(header.find("ee1_dev_x"), std::string::npos);
+}
+
+TEST(BimanualSession, BadConfigsAreUsageErrors) {
+  const std::string d = hemm::test::make_temp_dir();
+  std::ofstream(d + "/bad.pbtxt") << "device {\n  type: \"sim-bimanual\"\n  bimanual {\n    right { peak_force_n: 900 }\n  }\n}\n";
+  RunResult r = run(d, {"--config", d + "/bad.pbtxt", "--duration", "1"});
+  EXPECT_EQ(r.rc, 2);
+  EXPECT_NE(r.err.find("bad.pbtxt:4:13: device.bimanual.right.peak_force_n: must be in (0, 300] N"), std::string::npos)
+      << r.err;
+  std::ofstream(d + "/grip.pbtxt") << "device { type: \"sim-bimanual\" bimanual { left { grip_object_at_m: 0.01 } } }\n";
+  r = run(d, {"--config", d + "/grip.pbtxt", "--duration", "1"});
+  EXPECT_EQ(r.rc, 2);
+  EXPECT_NE(r.err.find("device.bimanual.left.grip_object_at_m: the magnetic_clutch handle has no grip"),
+            std::string::npos)
+      << r.err;
+  r = run(d, {"--device", "sim-omni", "--hands", "idle", "--duration", "1"});
+  EXPECT_EQ(r.rc, 2);
+  EXPECT_NE(r.err.find("--hands needs the sim-bimanual device"), std::string::npos) << r.err;
+  r = run(d, {"--device", "sim-bimanual", "--hands", "dance"});
+  EXPECT_EQ(r.rc, 2);
+  r = run(d, {"--device", "sim-bimanual", "--script", "idle", "--duration", "1"});
+  EXPECT_EQ(r.rc, 2);
+  EXPECT_NE(r.err.find("takes --hands"), std::string::npos) << r.err;
+}

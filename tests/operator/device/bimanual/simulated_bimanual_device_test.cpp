@@ -1,0 +1,137 @@
+// The SIMULATED bimanual interface behind the HapticDevice API: limits that
+// the servo loop accepts, read() reports what the simulation holds (poses in
+// H = D, handle inputs by handle), write() applies the device-layer contract
+// (non-finite -> zero and counted, peak clamp, a grip force on a handle
+// without a grip counted and ignored, nothing on a disabled end-effector),
+// the rendered wrench reaches the hand, and read/write allocate nothing.
+#include "operator/device/bimanual/simulated_bimanual_device.h"
+
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "tests/operator/servo/alloc_counter.h"
+
+namespace hb = hemm::device::bimanual;
+namespace hd = hemm::device;
+namespace hk = hemm::kinematics;
+using Eigen::Vector3d;
+
+namespace {
+
+// Holds the hand where it starts, with a dead-man pressed.
+std::array<std::shared_ptr<const hb::HumanScript>, 2> holding(const hb::SimulationConfig& c) {
+  hb::BimanualSimulation s(c);
+  const auto h = s.resting_targets();
+  return {std::make_shared<hb::HumanKeyScript>(std::vector<hb::HumanKey>{{0.0, h[0]}}),
+          std::make_shared<hb::HumanKeyScript>(std::vector<hb::HumanKey>{{0.0, h[1]}})};
+}
+
+}  // namespace
+
+TEST(SimulatedBimanualDevice, LimitsAndReadings) {
+  hb::SimulationConfig c;
+  c.plant.handles = {hb::HandleKind::kGripForce, hb::HandleKind::kJoystick};
+  hb::SimulatedBimanualDevice dev(c, holding(c));
+  const hd::DeviceLimits& l = dev.limits();
+  EXPECT_EQ(hd::check_limits(l), nullptr);
+  EXPECT_EQ(l.end_effectors, 2);
+  EXPECT_TRUE(l.ee[0].renders_torque);
+  EXPECT_GT(l.ee[0].peak_grip_force, 0.0);
+  EXPECT_EQ(l.ee[1].peak_grip_force, 0.0);
+  hd::DeviceSample s;
+  dev.read(s);
+  EXPECT_EQ(s.end_effectors, 2);
+  for (int a = 0; a < 2; ++a) {
+    const auto& e = s.ee[static_cast<size_t>(a)];
+    const Eigen::Isometry3d& T = dev.simulation().end_effector(static_cast<hb::ArmSide>(a)).T_D_E;
+    EXPECT_LT((e.position_H - T.translation()).norm(), 1e-12);
+    EXPECT_NEAR(std::abs(e.orientation_H.dot(Eigen::Quaterniond(T.linear()))), 1.0, 1e-12);
+    EXPECT_TRUE(e.enabled);
+    EXPECT_TRUE(l.ee[static_cast<size_t>(a)].contains(e.position_H));
+  }
+  // The right hand is the one at -y; grip handle inputs on the right,
+  // joystick (with dead-man) on the left.
+  EXPECT_LT(s.ee[0].position_H.y(), 0.0);
+  EXPECT_TRUE(s.ee[0].handle.has_grip);
+  EXPECT_FALSE(s.ee[0].handle.has_deadman || s.ee[0].handle.has_joystick || s.ee[0].handle.has_clutch);
+  EXPECT_TRUE(s.ee[1].handle.has_joystick && s.ee[1].handle.has_deadman && s.ee[1].handle.deadman);
+  EXPECT_FALSE(s.ee[1].handle.has_grip);
+}
+
+TEST(SimulatedBimanualDevice, WriteEnforcesTheContractAndTheWrenchReachesTheHand) {
+  hb::SimulationConfig c;
+  c.plant.handles = {hb::HandleKind::kJoystick, hb::HandleKind::kMagneticClutch};
+  hb::SimulatedBimanualDevice dev(c, holding(c));
+  hd::DeviceCommand cmd;
+  cmd.ee[0].force_H = Vector3d(0, 0, -12.0);  // pushes the right hand down
+  cmd.ee[1].force_H = Vector3d(NAN, 0, 0);
+  cmd.ee[0].grip_force = 3.0;  // the joystick handle has no grip
+  for (int k = 0; k < 1500; ++k) dev.write(cmd);
+  EXPECT_EQ(dev.counters().nonfinite_commands, 1500u);
+  EXPECT_EQ(dev.counters().missing_input_commands, 1500u);
+  EXPECT_TRUE(dev.simulation().output(hb::ArmSide::kLeft).w_env_applied_D.isZero(0.0));
+  // The right hand, pushed down by 12 N rendered, settles where its arm
+  // spring balances it: the grasp passes 12 N to the hand.
+  const hb::HandTruth& h = dev.simulation().truth().hands[0];
+  EXPECT_NEAR(h.grasp_force_D.z(), -12.0, 1.0);
+  // Peak clamp.
+  cmd.ee[0].force_H = Vector3d(0, 0, -1e4);
+  cmd.ee[1].force_H = Vector3d::Zero();
+  dev.write(cmd);
+  EXPECT_EQ(dev.counters().limited_commands, 1u);
+  EXPECT_NEAR(dev.simulation().output(hb::ArmSide::kRight).w_env_applied_D.head<3>().norm(), dev.limits().ee[0].peak_force,
+              1e-9);
+}
+
+TEST(SimulatedBimanualDevice, DisabledEndEffectorGetsNothing) {
+  // The left hand pulls its clutch off; from then its end-effector reads
+  // disabled and commands to it are dropped and counted.
+  hb::SimulationConfig c;
+  hb::BimanualSimulation probe(c);
+  auto h = probe.resting_targets();
+  auto pull = h[1];
+  pull.push_force_D = Vector3d(-250.0, 0, 0);
+  std::array<std::shared_ptr<const hb::HumanScript>, 2> hands = {
+      std::make_shared<hb::HumanKeyScript>(std::vector<hb::HumanKey>{{0.0, h[0]}}),
+      std::make_shared<hb::HumanKeyScript>(std::vector<hb::HumanKey>{{0.0, h[1]}, {0.3, pull}})};
+  hb::SimulatedBimanualDevice dev(c, hands);
+  hd::DeviceCommand cmd;
+  cmd.ee[1].force_H = Vector3d(0, 5, 0);
+  hd::DeviceSample s;
+  for (int k = 0; k < 1000; ++k) dev.write(cmd);
+  dev.read(s);
+  EXPECT_FALSE(s.ee[1].enabled);
+  EXPECT_TRUE(s.ee[1].handle.has_clutch);
+  EXPECT_FALSE(s.ee[1].handle.attached);
+  EXPECT_FALSE(s.ee[1].handle.deadman);
+  EXPECT_TRUE(s.ee[0].enabled);
+  EXPECT_GT(dev.counters().disabled_commands, 100u);
+  EXPECT_TRUE(dev.simulation().output(hb::ArmSide::kLeft).tau.isZero(0.0));
+}
+
+TEST(SimulatedBimanualDevice, ReadAndWriteAllocateNothing) {
+  hb::SimulationConfig c;
+  c.plant.handles = {hb::HandleKind::kGripForce, hb::HandleKind::kJoystick};
+  hb::SimulatedBimanualDevice dev(c, holding(c));
+  hd::DeviceSample s;
+  hd::DeviceCommand cmd;
+  cmd.ee[0].force_H = Vector3d(1, 2, 3);
+  cmd.ee[1].torque_H = Vector3d(0, 0, 0.2);
+  cmd.ee[0].grip_force = 1.0;
+  dev.read(s);
+  dev.write(cmd);
+  const auto before = hemm::test::counted_allocations();
+  hemm::test::count_allocations_on_this_thread(true);
+  for (int k = 0; k < 300; ++k) {
+    dev.read(s);
+    dev.write(cmd);
+  }
+  hemm::test::count_allocations_on_this_thread(false);
+  EXPECT_EQ(hemm::test::counted_allocations() - before, 0u);
+}
+
+TEST(SimulatedBimanualDevice, RejectsNullScripts) {
+  hb::SimulationConfig c;
+  EXPECT_THROW(hb::SimulatedBimanualDevice(c, {nullptr, nullptr}), std::invalid_argument);
+}
