@@ -14,37 +14,19 @@
 #include "config_robot.pb.h"
 #include "robot_side/control/arm_control.h"
 #include "robot_side/control/safety.h"
+#include "robot_side/sim/mujoco_ray_caster.h"
 
 namespace hemm::robot {
 namespace {
 
 constexpr double kDeg = std::numbers::pi / 180.0;
 constexpr size_t kMaxQueuedScans = 64;
-constexpr int kRobotGeomGroup = 3;  // robot.xml puts every robot geom here
 
 struct ModelDeleter {
   void operator()(mjModel* m) const { mj_deleteModel(m); }
 };
 struct DataDeleter {
   void operator()(mjData* d) const { mj_deleteData(d); }
-};
-
-class MujocoRayCaster final : public RayCaster {
- public:
-  MujocoRayCaster(const mjModel* m, const mjData* d) : m_(m), d_(d) {
-    for (int i = 0; i < mjNGROUP; ++i) groups_[static_cast<size_t>(i)] = i == kRobotGeomGroup ? 0 : 1;
-  }
-  double cast(const Eigen::Vector3d& o, const Eigen::Vector3d& dir) const override {
-    int geom = -1;
-    const mjtNum pnt[3] = {o.x(), o.y(), o.z()};
-    const mjtNum vec[3] = {dir.x(), dir.y(), dir.z()};
-    return mj_ray(m_, d_, pnt, vec, groups_.data(), 1, -1, &geom);
-  }
-
- private:
-  const mjModel* m_;
-  const mjData* d_;
-  std::array<mjtByte, mjNGROUP> groups_{};
 };
 
 Eigen::Isometry3d pose_from(const mjtNum* pos, const mjtNum* quat) {
