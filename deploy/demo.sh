@@ -6,7 +6,8 @@
 # driving at a wall in navigation mode (HEMM Fig. 8), probing the bin in
 # exploration mode (Fig. 9), and a closed-loop navigation to a goal at 300 ms
 # round trip; each compared with the scene's ground truth (hemm-truth) and
-# plotted to PNG in out/demo/<run>/.
+# plotted to PNG in out/demo/<run>/, with pictures of both stations' live
+# views.
 # Usage: deploy/demo.sh BUILD_DIR [seconds-per-phase]
 set -euo pipefail
 build="${1:?usage: deploy/demo.sh BUILD_DIR [seconds]}"
@@ -64,6 +65,29 @@ wait "$relay" 2>/dev/null || true
 echo "-- relay counters:"
 grep -v "^stats " "$out/relay.txt" || true
 
+# The live views: both stations write PNGs of their view every 2 s (and a
+# last one at exit) into out/demo/<run>/{operator,robot}_view/. They render
+# with OpenGL on an X display: without one, an Xvfb of our own; software
+# OpenGL (llvmpipe) with one thread, so the views do not starve the 1 kHz
+# servo and simulation on 2 cores.
+op_view=() robot_view=()
+if "$bin/hemm-operator" --help 2>/dev/null | grep -q -- --view-png; then
+  if [[ -z "${DISPLAY:-}" ]] && command -v Xvfb >/dev/null; then
+    rm -f "$out/xvfb.display"
+    Xvfb -displayfd 3 -screen 0 1024x768x24 -nolisten tcp 3>"$out/xvfb.display" 2>"$out/xvfb.log" &
+    pids+=("$!")
+    for _ in $(seq 50); do [[ -s "$out/xvfb.display" ]] && break; sleep 0.1; done
+    [[ -s "$out/xvfb.display" ]] && export DISPLAY=":$(head -n1 "$out/xvfb.display")"
+  fi
+  if [[ -n "${DISPLAY:-}" ]]; then
+    export LIBGL_ALWAYS_SOFTWARE=1 LP_NUM_THREADS=1
+    op_view=(--view-png VIEW_DIR/operator_view --view-interval 2)
+    robot_view=(--view-png VIEW_DIR/robot_view --view-interval 2)
+  else
+    echo "demo: no X display and no Xvfb: the runs leave no pictures of the live views"
+  fi
+fi
+
 # Haptic runs: a fresh robot for each, so it starts at the scene's start pose.
 # haptic_run NAME SCRIPT SECONDS [RTT_MS]: with RTT_MS the link goes through
 # hemm-relay (half the round trip each way, +-10 % jitter, 5 % loss). After
@@ -77,7 +101,7 @@ haptic_run() {
   mkdir -p "$dir"
   "$bin/hemm-robot" --config "$cfg/robot.pbtxt" --session-port 47100 --stream-port 47101 \
     --duration $((secs_run + 6)) --stats-json "$dir/robot.json" --log-level warn \
-    >"$dir/robot.txt" 2>"$dir/robot.log" &
+    "${robot_view[@]/VIEW_DIR/$dir}" >"$dir/robot.txt" 2>"$dir/robot.log" &
   local robot=$!
   pids+=("$robot")
   local port=47100 stream=47101 relay_pid=""
@@ -97,7 +121,7 @@ haptic_run() {
   set +e
   "$bin/hemm-operator" --config "$cfg/operator.pbtxt" --session-port "$port" --stream-port "$stream" \
     --script "$script" --log "$dir/servo.csv" --duration "$secs_run" --log-level warn \
-    --station-json "$dir/station.json" >"$dir/operator.txt" 2>"$dir/operator.log"
+    --station-json "$dir/station.json" "${op_view[@]/VIEW_DIR/$dir}" >"$dir/operator.txt" 2>"$dir/operator.log"
   local rc=$?
   set -e
   kill -INT "$robot" 2>/dev/null || true
@@ -122,4 +146,5 @@ haptic_run probe-cylinder probe-cylinder 19        # HEMM Fig. 9
 haptic_run nav-to-goal-300ms nav-to-goal 30 300    # closed-loop navigation at 300 ms round trip
 
 echo
-echo "demo: outputs in $out (PNG plots in $out/nav-to-wall, $out/probe-cylinder, $out/nav-to-goal-300ms)"
+echo "demo: outputs in $out (PNG plots in $out/nav-to-wall, $out/probe-cylinder, $out/nav-to-goal-300ms;"
+echo "      the live views' pictures in <run>/operator_view/ and <run>/robot_view/)"

@@ -26,6 +26,7 @@ packages=(
   libasio-dev libprotobuf-dev protobuf-compiler libeigen3-dev libpcl-dev libmujoco-dev
   libsodium-dev libassimp-dev libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev
   libspdlog-dev libfcl-dev python3-matplotlib
+  libglfw3-dev libpng-dev xvfb
 )
 missing=()
 for p in "${packages[@]}"; do

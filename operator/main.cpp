@@ -25,6 +25,10 @@
 #include "operator/client/operator_client.h"
 #include "operator/station/demo_scripts.h"
 #include "operator/station/operator_station.h"
+#ifdef HEMM_WITH_VIEW
+#include "common/view/view_options.h"
+#include "operator/view/live_view.h"
+#endif
 
 namespace {
 
@@ -95,6 +99,11 @@ int run(int argc, char** argv) {
   app.add_option("--log", servo_log,
                  "1 kHz servo CSV log (also FILE.world.csv per tick in W, FILE.map.csv: the final map)");
   app.add_option("--replay", replay_file, "replay this device trajectory CSV (overrides device.type/replay_file)");
+#ifdef HEMM_WITH_VIEW
+  view::ViewOptions view_opts;
+  view::ViewOptionStrings view_strs;
+  view::add_view_options(app, &view_opts, &view_strs);
+#endif
   // Hidden: lets tests speak a wrong protocol version.
   app.add_option("--test-protocol-version", test_version, "")->group("");
   try {
@@ -103,6 +112,12 @@ int run(int argc, char** argv) {
     const int rc = app.exit(e);
     return rc == 0 ? net::kExitOk : net::kExitUsage;
   }
+#ifdef HEMM_WITH_VIEW
+  if (auto e = view::finish_view_options(view_strs, &view_opts)) {
+    std::cerr << "hemm-operator: " << *e << "\n";
+    return net::kExitUsage;
+  }
+#endif
   std::vector<Eigen::Vector2d> goal_route;
   for (const std::string& g : goal_args) {
     const auto p = parse_goal(g);
@@ -202,6 +217,11 @@ int run(int argc, char** argv) {
     spdlog::error("event=station_failed error=\"{}\"", e.what());
     return net::kExitUsage;
   }
+#ifdef HEMM_WITH_VIEW
+  std::unique_ptr<op::OperatorLiveView> live_view;  // the view thread: started after the station
+  if (view_opts.enabled())
+    live_view = std::make_unique<op::OperatorLiveView>(view_opts, *station, op::client_view_links(client, io));
+#endif
   int exit_code = net::kExitOk;
   bool stopping = false;
   asio::steady_timer grace(io);
@@ -236,6 +256,9 @@ int run(int argc, char** argv) {
     for (const auto& w : rt.warnings) spdlog::warn("event=servo_realtime warning=\"{}\"", w);
     spdlog::info("event=station_started device={} script={} fifo={} memory_locked={}", so.device, so.script, rt.fifo,
                  rt.memory_locked);
+#ifdef HEMM_WITH_VIEW
+    if (live_view) live_view->start();
+#endif
   } catch (const std::exception& e) {
     std::cerr << "hemm-operator: " << e.what() << "\n";
     spdlog::error("event=station_failed error=\"{}\"", e.what());
@@ -269,6 +292,9 @@ int run(int argc, char** argv) {
   // beside it.
   io.run();
   station->stop();
+#ifdef HEMM_WITH_VIEW
+  if (live_view) live_view->stop();  // after a last picture of the final state
+#endif
   const op::OperatorStationSummary summary = station->summary();
   std::cout << op::to_string(summary);
   if (!station_json.empty() && !net::write_text_file(station_json, op::to_json(summary), &error)) {

@@ -16,6 +16,10 @@
 #include "config_robot.pb.h"
 #include "robot_side/server/robot_server.h"
 #include "robot_side/station/robot_station.h"
+#ifdef HEMM_WITH_VIEW
+#include "common/view/view_options.h"
+#include "robot_side/view/robot_view.h"
+#endif
 
 namespace {
 
@@ -56,12 +60,23 @@ int run(int argc, char** argv) {
   app.add_option("--scene", scene_path, "MJCF scene of the SIMULATED robot (overrides sim.scene)");
   app.add_flag("--no-realtime", no_realtime,
                "step the simulation as fast as possible instead of in real time (stamps are simulation time)");
+#ifdef HEMM_WITH_VIEW
+  view::ViewOptions view_opts;  // SIMULATION ONLY: the scene as simulated
+  view::ViewOptionStrings view_strs;
+  view::add_view_options(app, &view_opts, &view_strs);
+#endif
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     const int rc = app.exit(e);
     return rc == 0 ? net::kExitOk : net::kExitUsage;
   }
+#ifdef HEMM_WITH_VIEW
+  if (auto e = view::finish_view_options(view_strs, &view_opts)) {
+    std::cerr << "hemm-robot: " << *e << "\n";
+    return net::kExitUsage;
+  }
+#endif
   if (!net::setup_station_logging("robot", log_level)) {
     std::cerr << "hemm-robot: bad --log-level '" << log_level << "'\n";
     return net::kExitUsage;
@@ -108,6 +123,13 @@ int run(int argc, char** argv) {
     spdlog::info("event=sensor name=sonar enabled={} count={} rays_per_cone={} rate_hz={} range_m={}..{}",
                  station.sonar_enabled(), sp.count, sp.rays_per_cone, sp.rate_hz, sp.range_min, sp.range_max);
   }
+#ifdef HEMM_WITH_VIEW
+  std::unique_ptr<robot::RobotLiveView> live_view;
+  if (view_opts.enabled()) {
+    live_view = std::make_unique<robot::RobotLiveView>(view_opts, scene_path);
+    station.attach_view(live_view->feed());
+  }
+#endif
   std::string error;
   if (!server.start(&error)) {
     std::cerr << "hemm-robot: " << error << "\n";
@@ -119,6 +141,9 @@ int run(int argc, char** argv) {
     spdlog::error("event=start_failed error=\"{}\"", error);
     return net::kExitInternal;
   }
+#ifdef HEMM_WITH_VIEW
+  if (live_view) live_view->start();
+#endif
 
   bool stopping = false;
   asio::steady_timer grace(io);
@@ -160,6 +185,9 @@ int run(int argc, char** argv) {
   // own thread and reads server.link_up() / operator_in_control().
   io.run();
   station.stop();
+#ifdef HEMM_WITH_VIEW
+  if (live_view) live_view->stop();
+#endif
 
   const net::LinkStatistics st = server.statistics();
   const robot::RobotStationStatistics rs = station.statistics();

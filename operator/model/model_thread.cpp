@@ -119,6 +119,7 @@ void ModelThread::step(std::int64_t now_ns) {
   mapping::slide_window(p_.map, map_, now_ns, math::translation(snap->T_W_R));
   snap->map = mapping::build_snapshot(p_.map, map_);
   snap->segments = map_.segments.size();
+  if (observer_) observer_(*snap);
   channel_.publish(std::move(snap));  // also frees what the servo retired
   snapshots_.fetch_add(1);
   freed_.store(channel_.freed_by_collect());

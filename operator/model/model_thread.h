@@ -16,6 +16,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <string>
@@ -98,6 +99,11 @@ class ModelThread {
   // it directly while the thread is not running). Publishes a snapshot.
   void step(std::int64_t now_ns);
 
+  // Called on the model thread with every snapshot just before it is
+  // published (the live view copies what it draws). Set before start().
+  using SnapshotObserver = std::function<void(const OperatorModelSnapshot&)>;
+  void set_snapshot_observer(SnapshotObserver f) { observer_ = std::move(f); }
+
   void start();
   void stop();  // idempotent; joins
   // Model-thread side (or after stop()): the map and the last error.
@@ -125,6 +131,7 @@ class ModelThread {
   bool have_state_ = false;
   std::uint64_t version_ = 0;
   std::string last_error_;
+  SnapshotObserver observer_;
 
   std::atomic<std::uint64_t> scans_in_{0}, scans_rejected_{0}, scans_dropped_{0}, states_in_{0},
       states_rejected_{0}, commands_dropped_{0}, snapshots_{0}, freed_{0};

@@ -96,6 +96,13 @@ class OperatorStation {
   // After stop(): everything counted.
   OperatorStationSummary summary() const;
 
+  // The live view's taps (operator/view), before start(): the model
+  // thread's snapshots, the servo task's per-tick record and button presses.
+  void attach_view(ModelThread::SnapshotObserver on_snapshot, servo::LatestMailbox<StationLogRecord>* ticks,
+                   std::atomic<std::uint32_t>* presses);
+  // The servo loop's timing, readable from any thread while it runs.
+  const servo::TimingStats& servo_stats() const { return loop_->stats(); }
+
   // For tests: the newest snapshot handed to the servo (model thread state).
   ModelThread& model() { return *model_; }
   OperatorServoTask& task() { return *task_; }

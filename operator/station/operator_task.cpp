@@ -97,7 +97,9 @@ void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelS
   // Buttons: rising edges switch modes (not on the very first tick: a held
   // button at start-up is not a press).
   const std::uint32_t buttons = in.ee[0].handle.buttons;
-  const std::uint32_t rising = first_ ? 0u : (buttons & ~buttons_prev_);
+  const std::uint32_t pressed =
+      view_presses_ != nullptr ? view_presses_->exchange(0, std::memory_order_relaxed) : 0u;
+  const std::uint32_t rising = first_ ? 0u : ((buttons & ~buttons_prev_) | pressed);
   buttons_prev_ = buttons;
   if (!first_) {
     if (rising & device::kButton1) {
@@ -157,7 +159,7 @@ void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelS
     view_->valid = snap != nullptr && snap->have_state;
   }
 
-  if (log_ != nullptr) {
+  if (log_ != nullptr || view_ticks_ != nullptr) {
     StationLogRecord r;
     r.t_ns = in.t_ns;
     r.mode = out.mode;
@@ -187,7 +189,8 @@ void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelS
       r.truth[2] = st.T_W_R_truth.theta;
       r.has_truth = st.has_truth ? 1 : 0;
     }
-    log_->push(r);
+    if (log_ != nullptr) log_->push(r);
+    if (view_ticks_ != nullptr) view_ticks_->put(r);
   }
 }
 

@@ -32,6 +32,7 @@
 // base / arm command), a W-frame log record into an optional logger.
 #pragma once
 
+#include <atomic>
 #include <cstdint>
 
 #include "common/haptics/proxy/virtual_proxy.h"
@@ -144,6 +145,15 @@ class OperatorServoTask final : public servo::ServoTask {
   const OperatorTaskParams& params() const noexcept { return p_; }
   // The scaled map of a mode (B -> R).
   const math::ScaledMap& map_of(math::Mode m) const noexcept;
+  // For the live view (before the servo starts; both may be null): every
+  // tick's record (the one the world log gets) is put into `ticks`, and
+  // button bits set in `presses` (by the view's keys) are taken each tick as
+  // button presses. Both are lock-free: a copy and an atomic exchange.
+  void set_view_outputs(servo::LatestMailbox<StationLogRecord>* ticks,
+                        std::atomic<std::uint32_t>* presses) noexcept {
+    view_ticks_ = ticks;
+    view_presses_ = presses;
+  }
 
  private:
   void switch_to(math::Mode next, const Eigen::Vector3d& p_B) noexcept;
@@ -166,6 +176,8 @@ class OperatorServoTask final : public servo::ServoTask {
   servo::LatestMailbox<StationSetpoint> setpoints_;
   StationLogger* log_;
   OperatorView* view_;
+  servo::LatestMailbox<StationLogRecord>* view_ticks_ = nullptr;
+  std::atomic<std::uint32_t>* view_presses_ = nullptr;
 };
 
 }  // namespace hemm::op

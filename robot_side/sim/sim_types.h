@@ -81,4 +81,21 @@ struct RangeScanData {
   size_t size() const { return ranges.size(); }
 };
 
+// SIMULATION ONLY: what the robot station's live view draws (robot_side/view):
+// the MuJoCo state to pose its own copy of the scene, the true contacts, and
+// the newest scans with the true pose of their acquisition.
+struct SimContact {
+  Eigen::Vector3d pos_W = Eigen::Vector3d::Zero();
+  Eigen::Vector3d force_W = Eigen::Vector3d::Zero();  // on geom2 from geom1 (normal and friction)
+  int geom1 = -1, geom2 = -1;                         // MuJoCo geom ids of the scene
+};
+struct SimViewFrame {
+  int64_t t_ns = 0;              // simulation time
+  std::vector<double> qpos;      // the scene model's qpos
+  std::vector<SimContact> contacts;
+  std::vector<RangeScanData> scans;  // newest scan of each sensor
+  RobotStateSim state;
+  bool link_up = false, in_control = false;
+};
+
 }  // namespace hemm::robot

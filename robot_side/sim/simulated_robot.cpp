@@ -579,4 +579,24 @@ int SimulatedRobot::robot_contacts_sim(const std::string& world_geom) const {
   return n;
 }
 
+void SimulatedRobot::view_frame_sim(SimViewFrame* out) const {
+  if (!impl_ || out == nullptr) return;
+  const Impl& s = *impl_;
+  out->t_ns = time_ns();
+  out->qpos.assign(s.d->qpos, s.d->qpos + s.m->nq);
+  out->contacts.resize(static_cast<std::size_t>(s.d->ncon));
+  for (int i = 0; i < s.d->ncon; ++i) {
+    const mjContact& c = s.d->contact[i];
+    mjtNum f[6];
+    mj_contactForce(s.m.get(), s.d.get(), i, f);
+    // The contact frame's rows are its axes (normal first) in W.
+    const Eigen::Map<const Eigen::Matrix<mjtNum, 3, 3, Eigen::RowMajor>> frame(c.frame);
+    SimContact& o = out->contacts[static_cast<std::size_t>(i)];
+    o.pos_W = Eigen::Vector3d(c.pos[0], c.pos[1], c.pos[2]);
+    o.force_W = frame.transpose() * Eigen::Vector3d(f[0], f[1], f[2]);
+    o.geom1 = c.geom1;
+    o.geom2 = c.geom2;
+  }
+}
+
 }  // namespace hemm::robot

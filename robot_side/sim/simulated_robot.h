@@ -97,6 +97,9 @@ class SimulatedRobot {
   // Number of active contacts between robot geoms and the named world geom
   // (or any non-robot geom but the floor when the name is empty).
   int robot_contacts_sim(const std::string& world_geom = "") const;
+  // The MuJoCo state for a live view: time, qpos and every active contact
+  // with its force (scans and state are the caller's). Reuses out's storage.
+  void view_frame_sim(SimViewFrame* out) const;
 
  private:
   struct Impl;

@@ -315,6 +315,7 @@ void RobotStation::run() {
   uint64_t last_seq = 0;
   bool was_in_control = false;
   std::vector<Request> requests;
+  SimViewFrame view_frame;  // the live view's buffers (swapped with the feed's)
 
   while (!sh.stop.load(std::memory_order_acquire)) {
     if (o_.realtime) {
@@ -435,6 +436,13 @@ void RobotStation::run() {
         sh.latest = st;
       }
       sh.safety.store(st.safety);
+      if (view_ && view_->due(now)) {
+        robot_.view_frame_sim(&view_frame);
+        view_frame.state = st;
+        view_frame.link_up = link_up;
+        view_frame.in_control = in_control;
+        view_->publish(view_frame);
+      }
       if (st.safety & wire::SAFETY_COLLISION_GUARD) sh.guard_states.fetch_add(1, std::memory_order_relaxed);
       if (streaming) {
         wire::StreamMessage m;
@@ -452,6 +460,7 @@ void RobotStation::run() {
     }
 
     std::vector<RangeScanData> scans = robot_.take_scans();
+    if (view_) view_->publish_scans(scans);
     if (streaming) {
       for (const RangeScanData& scan : scans) {
         std::vector<wire::StreamMessage> msgs;

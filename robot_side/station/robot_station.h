@@ -38,6 +38,7 @@
 #include "robot_side/sim/sim_types.h"
 #include "robot_side/sim/simulated_robot.h"
 #include "robot_side/sim/wire_convert.h"
+#include "robot_side/view/sim_view_feed.h"
 
 namespace hemm::config {
 class RobotConfig;
@@ -106,6 +107,10 @@ class RobotStation {
   void stop();
   bool running() const { return thread_.joinable(); }
 
+  // SIMULATION ONLY: the live view's feed (robot_side/view), before start().
+  // The simulation thread fills it at the state publication point.
+  void attach_view(std::shared_ptr<SimViewFeed> feed) { view_ = std::move(feed); }
+
   RobotStationStatistics statistics() const;  // any thread
   RobotStateSim latest_state() const;         // any thread; updated at the state rate
 
@@ -128,6 +133,7 @@ class RobotStation {
   SimulatedRobot robot_;
   bool laser_on_ = false, sonar_on_ = false;
   std::shared_ptr<Shared> shared_;
+  std::shared_ptr<SimViewFeed> view_;
   std::thread thread_;
   bool attached_ = false;
 };

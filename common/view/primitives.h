@@ -1,0 +1,74 @@
+// What a live view draws beyond its MuJoCo model: a list of simple shapes in
+// W (boxes, spheres, cylinders, arrows, lines), overlay text and the camera,
+// built by plain code that needs no OpenGL (so it is unit-tested without a
+// display) and handed to MujocoWindow, which turns each shape into an mjvGeom.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <cstddef>
+#include <string>
+#include <vector>
+
+namespace hemm::view {
+
+struct Rgba {
+  float r = 1, g = 1, b = 1, a = 1;
+};
+
+enum class Shape { kBox, kSphere, kCylinder, kArrow, kLine };
+
+struct Primitive {
+  Shape shape = Shape::kBox;
+  // Box, sphere, cylinder: centre, orientation, MuJoCo's size (box: half
+  // extents; sphere: radius; cylinder: radius, half height).
+  Eigen::Vector3d pos = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d size = Eigen::Vector3d::Zero();
+  // Arrow and line: from pos to `to`; width in m (arrow) or pixels (line).
+  Eigen::Vector3d to = Eigen::Vector3d::Zero();
+  double width = 0.0;
+  Rgba rgba;
+};
+
+// MuJoCo's free camera: looks at `lookat` from `distance`, azimuth and
+// elevation in degrees (elevation -90: straight down, with +y up in the picture
+// when azimuth is 90).
+struct CameraSpec {
+  Eigen::Vector3d lookat = Eigen::Vector3d::Zero();
+  double distance = 5.0;
+  double azimuth = 90.0;
+  double elevation = -45.0;
+};
+
+struct Banner {
+  std::string text;
+  Rgba colour;
+};
+
+struct Overlay {
+  std::string left, right;      // two columns, top left
+  std::string bottom;           // one line, bottom left (key help)
+  std::vector<Banner> banners;  // top right, one under the other
+};
+
+class PrimitiveList {
+ public:
+  void clear() { items_.clear(); }
+  // A box with half extents `half`, turned by yaw (rad) about z.
+  void box(const Eigen::Vector3d& centre, double yaw, const Eigen::Vector3d& half, Rgba c);
+  void sphere(const Eigen::Vector3d& centre, double radius, Rgba c);
+  // A vertical cylinder standing on z = centre.z() - half_height.
+  void cylinder(const Eigen::Vector3d& centre, double radius, double half_height, Rgba c);
+  // Nothing for a zero-length arrow.
+  void arrow(const Eigen::Vector3d& from, const Eigen::Vector3d& to, double width, Rgba c);
+  void line(const Eigen::Vector3d& from, const Eigen::Vector3d& to, double width_px, Rgba c);
+  const std::vector<Primitive>& items() const { return items_; }
+  std::size_t size() const { return items_.size(); }
+
+ private:
+  void connector(Shape shape, const Eigen::Vector3d& from, const Eigen::Vector3d& to, double width, Rgba c);
+  std::vector<Primitive> items_;
+};
+
+}  // namespace hemm::view

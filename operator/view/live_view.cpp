@@ -1,0 +1,158 @@
+#include "operator/view/live_view.h"
+
+#include <mujoco/mujoco.h>
+#include <spdlog/spdlog.h>
+
+#include <chrono>
+#include <cinttypes>
+#include <cstring>
+#include <optional>
+#include <stdexcept>
+
+#include "common/view/mujoco_window.h"
+#include "common/view/png_sequence.h"
+#include "common/view/view_loop.h"
+#include "operator/device/haptic_device.h"
+#include "operator/view/operator_scene.h"
+
+namespace hemm::op {
+namespace {
+
+// The view's MuJoCo world: a floor with a 0.5 m grid and a light from above;
+// everything the station knows is drawn into it as primitives. The explicit
+// extent sets the clip planes (0.1 m .. 500 m) for a world with no bodies.
+constexpr const char* kWorldXml = R"(<mujoco model="hemm_operator_view">
+  <statistic extent="10" center="0 0 0"/>
+  <visual>
+    <global fovy="45"/>
+    <headlight ambient="0.45 0.45 0.45" diffuse="0.45 0.45 0.45" specular="0 0 0"/>
+  </visual>
+  <asset>
+    <texture name="grid" type="2d" builtin="checker" rgb1="0.24 0.24 0.26" rgb2="0.2 0.2 0.22"
+             width="64" height="64"/>
+    <material name="grid" texture="grid" texrepeat="1 1" texuniform="true" specular="0"/>
+  </asset>
+  <worldbody>
+    <light pos="0 0 10" dir="0 0 -1" directional="true" diffuse="0.3 0.3 0.3" specular="0 0 0" castshadow="false"/>
+    <geom name="floor" type="plane" size="0 0 0.05" material="grid"/>
+  </worldbody>
+</mujoco>
+)";
+
+view::MjModelPtr load_world() {
+  mjVFS vfs;
+  mj_defaultVFS(&vfs);
+  const int size = static_cast<int>(std::strlen(kWorldXml));
+  if (mj_makeEmptyFileVFS(&vfs, "operator_view.xml", size) != 0) throw std::runtime_error("MuJoCo VFS full");
+  const int i = mj_findFileVFS(&vfs, "operator_view.xml");
+  std::memcpy(vfs.filedata[i], kWorldXml, static_cast<std::size_t>(size));
+  char err[1000] = "";
+  mjModel* m = mj_loadXML("operator_view.xml", &vfs, err, sizeof err);
+  mj_deleteVFS(&vfs);
+  if (m == nullptr) throw std::runtime_error(std::string("view world: ") + err);
+  return view::MjModelPtr(m);
+}
+
+}  // namespace
+
+LiveViewLinks client_view_links(OperatorClient& client, asio::io_context& io) {
+  LiveViewLinks l;
+  l.link_stats = [&client] { return client.statistics(); };
+  l.estop = [&client, &io] {
+    asio::post(io, [&client] {
+      wire::SessionFrame f;
+      f.mutable_estop()->set_engaged(true);
+      f.mutable_estop()->set_reason("e-stop key of the operator's live view");
+      client.send_session_frame(f);
+      spdlog::warn("event=estop_requested source=view");
+    });
+  };
+  return l;
+}
+
+OperatorLiveView::OperatorLiveView(const view::ViewOptions& o, OperatorStation& station, LiveViewLinks links)
+    : o_(o), station_(station), links_(std::move(links)) {
+  if (!o_.enabled()) throw std::invalid_argument("OperatorLiveView: neither a window nor PNGs asked for");
+  station_.attach_view([this](const OperatorModelSnapshot& s) { feed_.on_snapshot(s); }, &feed_.ticks(),
+                       &feed_.presses());
+}
+
+OperatorLiveView::~OperatorLiveView() { stop(); }
+
+void OperatorLiveView::start() {
+  thread_.start([this](const std::atomic<bool>& stop) { run(stop); },
+                [](const std::string& e) { spdlog::error("event=view_failed error=\"{}\"", e); });
+}
+
+void OperatorLiveView::stop() { thread_.stop(); }
+
+LiveViewStats OperatorLiveView::stats() const {
+  LiveViewStats s;
+  s.frames = counters_.frames.load();
+  s.pngs = counters_.pngs.load();
+  s.model_copies = feed_.copies();
+  s.dropped_geoms = dropped_.load();
+  s.error = thread_.error();
+  return s;
+}
+
+void OperatorLiveView::run(const std::atomic<bool>& stop) {
+  view::MjModelPtr model = load_world();
+  view::MjDataPtr data = view::make_data(model.get());
+  const view::CameraSpec camera = view::orbit_camera(7.0, 90.0, -60.0);  // from the south, above
+  view::CameraMode cam_mode = view::initial_camera_mode(o_);
+
+  ViewModel vm;
+  StationLogRecord tick;
+  bool have_tick = false;
+  ServoHealthMeter meter;
+  ServoHealth health;
+  std::int64_t next_health = 0;
+  bool estop_requested = false;
+  view::PrimitiveList prims;
+  const OperatorSceneStyle style;
+
+  view::ViewLoopHooks hooks;
+  view::set_logging_hooks(o_, hooks);
+  hooks.on_key = [&](view::MujocoWindow&, int key) {
+    if (key == 'm') {
+      feed_.press(device::kButton1);
+    } else if (key == 'e') {
+      estop_requested = true;
+      if (links_.estop) links_.estop();
+    } else if (key == 'c') {
+      cam_mode = view::next_camera_mode(cam_mode);
+    }
+  };
+  hooks.draw = [&](view::MujocoWindow& win, std::int64_t now, view::Image* capture) {
+    feed_.take_model(vm);
+    while (feed_.take_tick(tick)) have_tick = true;
+    if (now >= next_health) {
+      health = meter.update(station_.servo_stats(), now);
+      next_health = now + 500'000'000;
+    }
+    if (have_tick) view::aim_camera(win, cam_mode, Eigen::Vector3d(tick.robot[0], tick.robot[1], 0.0));
+    build_operator_scene(vm, have_tick ? &tick : nullptr, style, prims);
+    const net::LinkStatistics link = links_.link_stats ? links_.link_stats() : net::LinkStatistics{};
+    OverlayInputs in;
+    in.model = &vm;
+    in.tick = have_tick ? &tick : nullptr;
+    in.link = links_.link_stats ? &link : nullptr;
+    in.servo = &health;
+    in.now_ns = now;
+    in.estop_requested = estop_requested;
+    dropped_.fetch_add(win.render(prims.items(), make_operator_overlay(in), capture), std::memory_order_relaxed);
+  };
+  hooks.text = [&](view::MujocoWindow& win, std::int64_t now) {
+    view::TextChunks t = view::camera_text(win.camera(), win.fovy_deg());
+    t.emplace_back("hemm:station", "operator");
+    t.emplace_back("hemm:frame_ns", std::to_string(now));
+    t.emplace_back("hemm:tick_ns", have_tick ? std::to_string(tick.t_ns) : "-1");
+    t.emplace_back("hemm:model_version", std::to_string(vm.version));
+    return t;
+  };
+  view::run_live_view(model.get(), data.get(), o_, "hemm operator station", camera, stop, hooks, counters_);
+  spdlog::info("event=view_stopped frames={} pngs={}", counters_.frames.load(), counters_.pngs.load());
+}
+
+}  // namespace hemm::op

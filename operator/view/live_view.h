@@ -1,0 +1,73 @@
+// The operator station's live view (hemm-operator --view / --view-png): its
+// own thread renders operator_scene.h's picture with MuJoCo in a GLFW window
+// at --view-fps, or offscreen every --view-interval for PNGs, from the
+// ViewFeed the station fills (view_feed.h: it never delays the servo thread).
+// The thread runs at a lowered CPU priority. Keys: m switches the mode (a
+// button-1 press), e requests the e-stop, c cycles the camera (follow the
+// robot / free / top-down over the robot); the mouse moves the camera as in
+// MuJoCo's viewer.
+//
+// If the view cannot start (no display, no OpenGL) it logs why and ends;
+// the station runs on without it.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+
+#include <asio.hpp>
+
+#include "common/net/link_stats.h"
+#include "common/view/view_loop.h"
+#include "common/view/view_options.h"
+#include "operator/station/operator_station.h"
+#include "operator/view/view_feed.h"
+
+namespace hemm::op {
+
+struct LiveViewLinks {
+  std::function<net::LinkStatistics()> link_stats;  // any thread (OperatorClient::statistics)
+  std::function<void()> estop;                      // the e-stop key; called on the view thread
+};
+
+// The links of a running hemm-operator: statistics from the client; the
+// e-stop key posts an EStop{engaged} session frame to the robot on the
+// network thread (io's). The robot engages it for any authenticated session.
+LiveViewLinks client_view_links(OperatorClient& client, asio::io_context& io);
+
+struct LiveViewStats {
+  std::uint64_t frames = 0;
+  std::uint64_t pngs = 0;
+  std::uint64_t model_copies = 0;
+  std::uint64_t dropped_geoms = 0;
+  std::string error;  // why the view stopped early, if it did
+};
+
+class OperatorLiveView {
+ public:
+  // Attaches the view's feed to the station: call before station.start().
+  OperatorLiveView(const view::ViewOptions& o, OperatorStation& station, LiveViewLinks links);
+  ~OperatorLiveView();
+  OperatorLiveView(const OperatorLiveView&) = delete;
+  OperatorLiveView& operator=(const OperatorLiveView&) = delete;
+
+  void start();
+  // Joins the thread, after a last picture (view_last.png) when writing PNGs.
+  void stop();
+  LiveViewStats stats() const;
+
+ private:
+  void run(const std::atomic<bool>& stop);
+
+  view::ViewOptions o_;
+  OperatorStation& station_;
+  LiveViewLinks links_;
+  ViewFeed feed_;
+  view::ViewLoopCounters counters_;
+  std::atomic<std::uint64_t> dropped_{0};
+  view::ViewThread thread_;  // last: joined first
+};
+
+}  // namespace hemm::op
