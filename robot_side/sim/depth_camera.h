@@ -41,8 +41,23 @@ struct SimDepthCameraParams {
   double edge_jump_fraction = 0.05;
   double rate_hz = 15.0;
   // Mount: sensor frame S (optical: z forward, x right, y down) in the frame
-  // it is attached to (the arm's wrist flange on the robot).
-  Eigen::Isometry3d T_mount_S = Eigen::Isometry3d::Identity();
+  // it is attached to. On the robot that is the end-effector frame E (x_E
+  // along the tool): the camera looks along the tool from 6 cm behind and
+  // 4 cm above the tip, so the tool's workspace ahead is in view (the tip
+  // itself is nearer than range_min). The wrist, not a mast, because the
+  // arm then aims the camera at tops and sides of what it explores (HEMM's
+  // robot carries its camera there) and the tool's own region of interest
+  // is always the best seen.
+  Eigen::Isometry3d T_mount_S = default_wrist_mount();
+
+  static Eigen::Isometry3d default_wrist_mount() {
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.linear().col(0) = Eigen::Vector3d(0, -1, 0);  // x_S: right of the tool
+    T.linear().col(1) = Eigen::Vector3d(0, 0, -1);  // y_S: down
+    T.linear().col(2) = Eigen::Vector3d(1, 0, 0);   // z_S: along the tool
+    T.translation() << -0.06, 0.0, 0.04;
+    return T;
+  }
 
   mapping::DepthIntrinsics intrinsics() const;
 };
