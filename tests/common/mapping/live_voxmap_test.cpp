@@ -36,6 +36,13 @@ hm::LiveVoxmapParams table_params() {
   return p;
 }
 
+// The region the tool explores (keeps the tests lean under the sanitizers).
+hm::LiveVoxmapParams tool_params(const Eigen::Vector2d& lo, const Eigen::Vector2d& hi) {
+  hm::LiveVoxmapParams p = table_params();
+  p.roi = Eigen::AlignedBox3d(Eigen::Vector3d(lo.x(), lo.y(), 0.6), Eigen::Vector3d(hi.x(), hi.y(), 0.85));
+  return p;
+}
+
 struct Tool {
   vps::PointShell ps;
   double R = 0.05;
@@ -69,7 +76,7 @@ int surface_voxels_in(const vps::Voxmap& vm, const Eigen::AlignedBox3d& box) {
 }  // namespace
 
 TEST(LiveVoxmap, SphereForceOnTheSeenTableMatchesTheExactPlane) {
-  hm::LiveVoxmap map(table_params());
+  hm::LiveVoxmap map(tool_params({0.7, -0.35}, {1.3, 0.35}));
   std::mt19937_64 rng(2024);
   ASSERT_TRUE(hemm::test::observe_table(TableScene{}, 9, rng, &map));
   vps::Voxmap vm;
@@ -101,7 +108,7 @@ TEST(LiveVoxmap, SphereForceOnTheSeenTableMatchesTheExactPlane) {
 }
 
 TEST(LiveVoxmap, FreeSpaceClearsABlockThatWasTakenAway) {
-  hm::LiveVoxmap map(table_params());
+  hm::LiveVoxmap map(tool_params({0.8, -0.2}, {1.2, 0.2}));
   std::mt19937_64 rng(7);
   TableScene scene;
   scene.block = true;
