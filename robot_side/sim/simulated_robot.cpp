@@ -14,37 +14,19 @@
 #include "config_robot.pb.h"
 #include "robot_side/control/arm_control.h"
 #include "robot_side/control/safety.h"
+#include "robot_side/sim/mujoco_ray_caster.h"
 
 namespace hemm::robot {
 namespace {
 
 constexpr double kDeg = std::numbers::pi / 180.0;
 constexpr size_t kMaxQueuedScans = 64;
-constexpr int kRobotGeomGroup = 3;  // robot.xml puts every robot geom here
 
 struct ModelDeleter {
   void operator()(mjModel* m) const { mj_deleteModel(m); }
 };
 struct DataDeleter {
   void operator()(mjData* d) const { mj_deleteData(d); }
-};
-
-class MujocoRayCaster final : public RayCaster {
- public:
-  MujocoRayCaster(const mjModel* m, const mjData* d) : m_(m), d_(d) {
-    for (int i = 0; i < mjNGROUP; ++i) groups_[static_cast<size_t>(i)] = i == kRobotGeomGroup ? 0 : 1;
-  }
-  double cast(const Eigen::Vector3d& o, const Eigen::Vector3d& dir) const override {
-    int geom = -1;
-    const mjtNum pnt[3] = {o.x(), o.y(), o.z()};
-    const mjtNum vec[3] = {dir.x(), dir.y(), dir.z()};
-    return mj_ray(m_, d_, pnt, vec, groups_.data(), 1, -1, &geom);
-  }
-
- private:
-  const mjModel* m_;
-  const mjData* d_;
-  std::array<mjtByte, mjNGROUP> groups_{};
 };
 
 Eigen::Isometry3d pose_from(const mjtNum* pos, const mjtNum* quat) {
@@ -123,6 +105,11 @@ struct SimulatedRobot::Impl {
   SimSonarParams sonar;
   bool laser_on = true, sonar_on = true;
   int laser_period = 33, sonar_period = 100;
+  SimDepthCameraParams depth;
+  bool depth_on = false;
+  int depth_period = 67;
+  uint32_t depth_id = 0;
+  std::deque<mapping::DepthImage> depth_images;
 
   // Clock.
   int64_t origin_ns = 0, dt_ns = 1'000'000;
@@ -244,6 +231,24 @@ struct SimulatedRobot::Impl {
     while (scans.size() > kMaxQueuedScans) scans.pop_front();
   }
 
+  // A wrist camera frame: cast from the true pose, reported with the pose
+  // the robot believes (odometry, planar: the base height is the mount's).
+  void take_depth_image() {
+    MujocoRayCaster caster(m.get(), d.get());
+    const Eigen::Isometry3d T_W_R = base_pose();
+    const Eigen::Isometry3d T_R_S = T_R_A * kinematics::forward_kinematics(arm, q()) * depth.T_mount_S;
+    Eigen::Isometry3d T_W_R_odom = Eigen::Isometry3d::Identity();
+    T_W_R_odom.translation() << odom.x, odom.y, T_W_R.translation().z();
+    T_W_R_odom.linear() = Eigen::AngleAxisd(odom.theta, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    mapping::DepthImage img = simulate_depth_image(depth, caster, T_W_R * T_R_S, rng);
+    img.stamp_ns = now();
+    img.cloud_id = depth_id++;
+    img.T_W_S = T_W_R_odom * T_R_S;
+    img.T_W_S_truth = T_W_R * T_R_S;
+    depth_images.push_back(std::move(img));
+    while (depth_images.size() > 4) depth_images.pop_front();
+  }
+
   // The guard's footprint grows with the arm when it reaches out. The
   // stored scans are brought into R at the present odometry pose: the
   // returns (obstacles) and what they show free.
@@ -336,6 +341,7 @@ struct SimulatedRobot::Impl {
     ++steps;
     if (laser_on && steps % laser_period == 0) take_scan(true);
     if (sonar_on && steps % sonar_period == 0) take_scan(false);
+    if (depth_on && steps % depth_period == 0) take_depth_image();
   }
 };
 
@@ -590,6 +596,29 @@ void SimulatedRobot::enable_sensors(bool laser, bool sonar) {
   if (!impl_) return;
   impl_->laser_on = laser;
   impl_->sonar_on = sonar;
+}
+
+std::optional<std::string> SimulatedRobot::enable_depth_camera(const SimDepthCameraParams& params) {
+  if (!impl_) return "depth camera: no scene loaded";
+  if (auto e = check_params(params)) return e;
+  if (!params.T_mount_S.matrix().allFinite()) return "depth camera: mount not finite";
+  impl_->depth = params;
+  impl_->depth_period =
+      std::max(1, static_cast<int>(std::lround(1.0 / (params.rate_hz * impl_->m->opt.timestep))));
+  impl_->depth_on = true;
+  return std::nullopt;
+}
+
+void SimulatedRobot::disable_depth_camera() {
+  if (impl_) impl_->depth_on = false;
+}
+
+std::vector<mapping::DepthImage> SimulatedRobot::take_depth_images() {
+  std::vector<mapping::DepthImage> out;
+  if (!impl_) return out;
+  for (auto& img : impl_->depth_images) out.push_back(std::move(img));
+  impl_->depth_images.clear();
+  return out;
 }
 
 void SimulatedRobot::set_base_pose_sim(const Pose2& p) {

@@ -28,6 +28,7 @@
 #include <vector>
 
 #include "robot_side/control/base_control.h"
+#include "robot_side/sim/depth_camera.h"
 #include "robot_side/sim/range_sensors.h"
 #include "robot_side/sim/sim_types.h"
 
@@ -92,6 +93,16 @@ class SimulatedRobot {
   const SimSonarParams& sonar_params() const;
   const SkidSteerGeometry& base_geometry() const;
   void enable_sensors(bool laser, bool sonar);  // benchmarks; default from config
+  // The SIMULATED depth camera on the arm's wrist (off until enabled): its
+  // frame S sits at params.T_mount_S in the end-effector frame E. Frames are
+  // cast at params.rate_hz; each carries the odometry pose T_W_S at
+  // acquisition (odometry x arm forward kinematics of the measured joints)
+  // and the true one. A reason if params are invalid (nothing changes then).
+  std::optional<std::string> enable_depth_camera(const SimDepthCameraParams& params);
+  void disable_depth_camera();
+  // Depth frames completed since the last call, oldest first (at most 4 kept:
+  // newest wins).
+  std::vector<mapping::DepthImage> take_depth_images();
 
   // ---- SIMULATION ONLY (tests, evaluation) ----
   // Teleports the base (zero velocity); odometry restarts at the same pose.

@@ -2,6 +2,8 @@
 
 #include <cmath>
 
+#include "common/mapping/depth_stream.h"
+
 namespace hemm::robot {
 namespace {
 constexpr uint32_t kMaxBeams = 100000;
@@ -14,18 +16,7 @@ void to_wire(const Pose2& p, proto::Pose2* out) {
   out->set_theta(p.theta);
 }
 
-void to_wire(const Eigen::Isometry3d& T, proto::Pose3* out) {
-  const Eigen::Quaterniond q(T.linear());
-  out->mutable_position()->set_x(T.translation().x());
-  out->mutable_position()->set_y(T.translation().y());
-  out->mutable_position()->set_z(T.translation().z());
-  auto* o = out->mutable_orientation();
-  const Eigen::Quaterniond n = q.normalized();
-  o->set_w(n.w());
-  o->set_x(n.x());
-  o->set_y(n.y());
-  o->set_z(n.z());
-}
+void to_wire(const Eigen::Isometry3d& T, proto::Pose3* out) { mapping::pose3_to_wire(T, out); }
 
 std::optional<std::string> from_wire(const proto::Pose2& p, Pose2* out) {
   if (!std::isfinite(p.x()) || !std::isfinite(p.y()) || !std::isfinite(p.theta())) return "pose2 not finite";
@@ -34,15 +25,7 @@ std::optional<std::string> from_wire(const proto::Pose2& p, Pose2* out) {
 }
 
 std::optional<std::string> from_wire(const proto::Pose3& p, Eigen::Isometry3d* out) {
-  if (!finite3(p.position())) return "pose3 position not finite";
-  const auto& o = p.orientation();
-  const Eigen::Quaterniond q(o.w(), o.x(), o.y(), o.z());
-  if (!q.coeffs().allFinite() || std::abs(q.norm() - 1.0) > 1e-6) return "pose3 quaternion not unit";
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.linear() = q.normalized().toRotationMatrix();
-  T.translation() << p.position().x(), p.position().y(), p.position().z();
-  *out = T;
-  return std::nullopt;
+  return mapping::pose3_from_wire(p, out);
 }
 
 void to_wire(const RobotStateSim& s, wire::RobotState* out) {

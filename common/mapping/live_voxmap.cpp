@@ -1,0 +1,425 @@
+#include "common/mapping/live_voxmap.h"
+
+#include <pcl/features/normal_3d.h>
+#include <pcl/filters/statistical_outlier_removal.h>
+#include <pcl/filters/voxel_grid.h>
+#include <pcl/point_cloud.h>
+#include <pcl/point_types.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <deque>
+#include <limits>
+#include <unordered_map>
+#include <vector>
+
+#include "common/haptics/vps/voxmap.h"
+#include "common/mapping/depth_stream.h"
+
+namespace hemm::mapping {
+namespace {
+
+constexpr int kKeyBits = 21;
+constexpr std::int64_t kKeyBias = std::int64_t{1} << (kKeyBits - 1);
+constexpr std::int64_t kKeyMask = (std::int64_t{1} << kKeyBits) - 1;
+
+std::uint64_t key_of(const Eigen::Vector3i& v) {
+  return (static_cast<std::uint64_t>((v.x() + kKeyBias) & kKeyMask) << (2 * kKeyBits)) |
+         (static_cast<std::uint64_t>((v.y() + kKeyBias) & kKeyMask) << kKeyBits) |
+         static_cast<std::uint64_t>((v.z() + kKeyBias) & kKeyMask);
+}
+Eigen::Vector3i index_of_key(std::uint64_t k) {
+  auto f = [](std::uint64_t b) { return static_cast<int>(static_cast<std::int64_t>(b & kKeyMask) - kKeyBias); };
+  return {f(k >> (2 * kKeyBits)), f(k >> kKeyBits), f(k)};
+}
+
+struct Cell {
+  float log_odds = 0.0f;
+  std::int32_t hits = 0;
+  Eigen::Vector3f sum_p = Eigen::Vector3f::Zero();     // W, metres
+  Eigen::Vector3f sum_view = Eigen::Vector3f::Zero();  // unit vectors from the hit toward the sensor
+};
+
+// Parameters t0 <= t1 in [0, 1] of the part of a -> b inside box; false if none.
+bool clip_segment(const Eigen::AlignedBox3d& box, const Eigen::Vector3d& a, const Eigen::Vector3d& b, double* t0,
+                  double* t1) {
+  double lo = 0.0, hi = 1.0;
+  const Eigen::Vector3d d = b - a;
+  for (int k = 0; k < 3; ++k) {
+    if (std::abs(d[k]) < 1e-15) {
+      if (a[k] < box.min()[k] || a[k] > box.max()[k]) return false;
+      continue;
+    }
+    double ta = (box.min()[k] - a[k]) / d[k], tb = (box.max()[k] - a[k]) / d[k];
+    if (ta > tb) std::swap(ta, tb);
+    lo = std::max(lo, ta);
+    hi = std::min(hi, tb);
+    if (lo > hi) return false;
+  }
+  *t0 = lo;
+  *t1 = hi;
+  return true;
+}
+
+}  // namespace
+
+struct LiveVoxmap::Impl {
+  LiveVoxmapParams p;
+  LiveVoxmapStats stats;
+  std::unordered_map<std::uint64_t, Cell> cells;
+
+  Eigen::Vector3i index(const Eigen::Vector3d& x) const {
+    return {static_cast<int>(std::floor(x.x() / p.voxel_size)), static_cast<int>(std::floor(x.y() / p.voxel_size)),
+            static_cast<int>(std::floor(x.z() / p.voxel_size))};
+  }
+
+  // Amanatides-Woo walk over the voxels of a -> b (clipped to the ROI),
+  // applying a miss to every stored cell on the way.
+  void clear(const Eigen::Vector3d& a0, const Eigen::Vector3d& b0) {
+    double t0 = 0, t1 = 0;
+    if (!clip_segment(p.roi, a0, b0, &t0, &t1)) return;
+    const Eigen::Vector3d a = a0 + t0 * (b0 - a0), b = a0 + t1 * (b0 - a0);
+    ++stats.rays_cleared;
+    const double s = p.voxel_size;
+    const Eigen::Vector3d d = b - a;
+    Eigen::Vector3i v = index(a);
+    const Eigen::Vector3i end = index(b);
+    std::array<int, 3> step{};
+    std::array<double, 3> tmax{}, tdelta{};
+    for (int k = 0; k < 3; ++k) {
+      if (d[k] > 0) {
+        step[k] = 1;
+        tmax[k] = ((v[k] + 1) * s - a[k]) / d[k];
+        tdelta[k] = s / d[k];
+      } else if (d[k] < 0) {
+        step[k] = -1;
+        tmax[k] = (v[k] * s - a[k]) / d[k];
+        tdelta[k] = -s / d[k];
+      } else {
+        tmax[k] = tdelta[k] = std::numeric_limits<double>::infinity();
+      }
+    }
+    const int max_steps = (end - v).cwiseAbs().sum() + 1;
+    for (int i = 0; i <= max_steps; ++i) {
+      auto it = cells.find(key_of(v));
+      if (it != cells.end()) {
+        ++stats.voxels_cleared;
+        it->second.log_odds += p.log_odds_miss;
+        if (it->second.log_odds < p.log_odds_min) {
+          cells.erase(it);
+          ++stats.cells_forgotten;
+        }
+      }
+      if (v == end) break;
+      const int k = static_cast<int>(std::min_element(tmax.begin(), tmax.end()) - tmax.begin());
+      if (tmax[static_cast<std::size_t>(k)] > 1.0) break;
+      v[k] += step[static_cast<std::size_t>(k)];
+      tmax[static_cast<std::size_t>(k)] += tdelta[static_cast<std::size_t>(k)];
+    }
+  }
+
+  void hit(const Eigen::Vector3d& x, const Eigen::Vector3d& o) {
+    const std::uint64_t key = key_of(index(x));
+    auto it = cells.find(key);
+    if (it == cells.end()) {
+      if (cells.size() >= p.max_cells) {
+        ++stats.cells_refused;
+        return;
+      }
+      it = cells.emplace(key, Cell{}).first;
+    }
+    Cell& c = it->second;
+    // A cell that was not occupied starts its surface estimate afresh (what
+    // was there before has been cleared away).
+    if (c.log_odds < p.occupied) {
+      c.hits = 0;
+      c.sum_p.setZero();
+      c.sum_view.setZero();
+    }
+    c.log_odds = std::min(p.log_odds_max, c.log_odds + p.log_odds_hit);
+    ++c.hits;
+    c.sum_p += x.cast<float>();
+    c.sum_view += (o - x).normalized().cast<float>();
+  }
+};
+
+std::optional<std::string> LiveVoxmap::check(const LiveVoxmapParams& p) {
+  if (!(p.voxel_size >= 0.001 && p.voxel_size <= 0.2)) return "live voxmap: voxel size not in [1 mm, 20 cm]";
+  if (p.roi.isEmpty() || !p.roi.min().allFinite() || !p.roi.max().allFinite())
+    return "live voxmap: region of interest empty or not finite";
+  const double lim = (kKeyBias - 64) * p.voxel_size;
+  if (p.roi.min().minCoeff() < -lim || p.roi.max().maxCoeff() > lim)
+    return "live voxmap: region of interest beyond the index range";
+  if (!(p.log_odds_hit > 0 && p.log_odds_miss < 0 && p.log_odds_min < 0 && p.log_odds_max > p.occupied &&
+        p.occupied > 0 && p.log_odds_hit >= p.occupied))
+    return "live voxmap: log-odds settings inconsistent";
+  if (!(p.downsample_leaf > 0 && p.downsample_leaf <= p.voxel_size)) return "live voxmap: leaf not in (0, voxel]";
+  if (p.outlier_neighbours < 0 || !(p.outlier_stddev > 0)) return "live voxmap: bad outlier settings";
+  if (!(p.clear_margin >= 0) || !(p.normal_radius >= p.voxel_size)) return "live voxmap: bad margin or normal radius";
+  if (p.layers < 1 || p.layers > 20) return "live voxmap: layers not in 1..20";
+  if (p.min_support < 1) return "live voxmap: min_support must be positive";
+  if (p.max_cells < 1) return "live voxmap: max_cells must be positive";
+  return std::nullopt;
+}
+
+LiveVoxmap::LiveVoxmap(const LiveVoxmapParams& params) : impl_(std::make_unique<Impl>()) { impl_->p = params; }
+LiveVoxmap::~LiveVoxmap() = default;
+LiveVoxmap::LiveVoxmap(LiveVoxmap&&) noexcept = default;
+LiveVoxmap& LiveVoxmap::operator=(LiveVoxmap&&) noexcept = default;
+
+void LiveVoxmap::integrate(const DepthChunkData& c) {
+  Impl& m = *impl_;
+  const LiveVoxmapParams& p = m.p;
+  ++m.stats.chunks;
+  const Eigen::Vector3d o = c.T_W_S.translation();
+  const Eigen::Matrix3d R = c.T_W_S.linear();
+  // Hits whose cell can be in the ROI; rays of everything else only clear.
+  const Eigen::AlignedBox3d grown(p.roi.min() - Eigen::Vector3d::Constant(p.voxel_size),
+                                  p.roi.max() + Eigen::Vector3d::Constant(p.voxel_size));
+  pcl::PointCloud<pcl::PointXYZ>::Ptr raw(new pcl::PointCloud<pcl::PointXYZ>);
+  std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>> free_segments;
+  for (int r = 0; r < c.row_count; ++r) {
+    for (int u = 0; u < c.K.width; ++u) {
+      const std::size_t k = static_cast<std::size_t>(r) * c.K.width + u;
+      const Eigen::Vector3d ray_W = R * pixel_ray_z1(c.K, u, c.first_row + r);
+      if (c.status[k] == DepthStatus::kNoReturn) {
+        free_segments.emplace_back(o, o + c.K.range_max * ray_W.normalized());
+      } else if (c.status[k] == DepthStatus::kValid) {
+        const Eigen::Vector3d x = o + static_cast<double>(c.depth[k]) * ray_W;
+        if (grown.contains(x)) {
+          raw->push_back(pcl::PointXYZ(static_cast<float>(x.x()), static_cast<float>(x.y()), static_cast<float>(x.z())));
+        } else {
+          const double len = (x - o).norm();
+          if (len > p.clear_margin) free_segments.emplace_back(o, o + (x - o) * ((len - p.clear_margin) / len));
+        }
+      }
+    }
+  }
+  m.stats.points_in_roi += raw->size();
+  pcl::PointCloud<pcl::PointXYZ>::Ptr kept(new pcl::PointCloud<pcl::PointXYZ>);
+  if (!raw->empty()) {
+    pcl::PointCloud<pcl::PointXYZ>::Ptr down(new pcl::PointCloud<pcl::PointXYZ>);
+    pcl::VoxelGrid<pcl::PointXYZ> grid;
+    grid.setInputCloud(raw);
+    const auto leaf = static_cast<float>(p.downsample_leaf);
+    grid.setLeafSize(leaf, leaf, leaf);
+    grid.filter(*down);
+    if (p.outlier_neighbours > 0 && down->size() > static_cast<std::size_t>(p.outlier_neighbours)) {
+      pcl::StatisticalOutlierRemoval<pcl::PointXYZ> sor;
+      sor.setInputCloud(down);
+      sor.setMeanK(p.outlier_neighbours);
+      sor.setStddevMulThresh(p.outlier_stddev);
+      sor.filter(*kept);
+    } else {
+      kept = down;
+    }
+  }
+  m.stats.points_kept += kept->size();
+  // Clear first, then add this chunk's hits: its own rays must not erase them.
+  for (const auto& [a, b] : free_segments) m.clear(a, b);
+  for (const auto& q : kept->points) {
+    const Eigen::Vector3d x(q.x, q.y, q.z);
+    const double len = (x - o).norm();
+    if (len > p.clear_margin) m.clear(o, o + (x - o) * ((len - p.clear_margin) / len));
+  }
+  for (const auto& q : kept->points) {
+    const Eigen::Vector3d x(q.x, q.y, q.z);
+    if (p.roi.contains(x)) m.hit(x, o);
+  }
+}
+
+void LiveVoxmap::set_roi(const Eigen::AlignedBox3d& roi_W) {
+  Impl& m = *impl_;
+  m.p.roi = roi_W;
+  for (auto it = m.cells.begin(); it != m.cells.end();) {
+    const Eigen::Vector3d centre = (index_of_key(it->first).cast<double>() + Eigen::Vector3d::Constant(0.5)) * m.p.voxel_size;
+    it = roi_W.contains(centre) ? std::next(it) : m.cells.erase(it);
+  }
+}
+
+std::optional<std::string> LiveVoxmap::snapshot(vps::Voxmap* out) const {
+  const Impl& m = *impl_;
+  const LiveVoxmapParams& p = m.p;
+  const double s = p.voxel_size;
+  const int L = p.layers;
+  // Occupied cells: index, mean point, hit count, viewing direction.
+  std::vector<Eigen::Vector3i> idx;
+  std::vector<Eigen::Vector3d> view, sum_p;
+  std::vector<double> hits;
+  pcl::PointCloud<pcl::PointXYZ>::Ptr means(new pcl::PointCloud<pcl::PointXYZ>);
+  for (const auto& [key, c] : m.cells) {
+    if (c.log_odds < p.occupied || c.hits < 1) continue;
+    idx.push_back(index_of_key(key));
+    const Eigen::Vector3f mean = c.sum_p / static_cast<float>(c.hits);
+    means->push_back(pcl::PointXYZ(mean.x(), mean.y(), mean.z()));
+    view.push_back(c.sum_view.cast<double>().normalized());
+    sum_p.push_back(c.sum_p.cast<double>());
+    hits.push_back(c.hits);
+  }
+  if (idx.empty()) return "live voxmap: nothing occupied yet";
+  // Normals of the surface through the cell means (PCL), toward the sensor,
+  // and the surface point of each cell: the hit-weighted centroid of its
+  // neighbourhood. A cell's own mean is biased where noise spreads a surface
+  // over two voxel layers (each layer keeps one tail of the noise); the
+  // neighbourhood holds both tails.
+  pcl::PointCloud<pcl::Normal> normals;
+  std::vector<Eigen::Vector3d> centroid(idx.size());
+  std::vector<int> support(idx.size(), 0);
+  {
+    pcl::search::KdTree<pcl::PointXYZ>::Ptr tree(new pcl::search::KdTree<pcl::PointXYZ>);
+    tree->setInputCloud(means);
+    pcl::NormalEstimation<pcl::PointXYZ, pcl::Normal> ne;
+    ne.setInputCloud(means);
+    ne.setSearchMethod(tree);
+    ne.setRadiusSearch(p.normal_radius);
+    ne.compute(normals);
+    std::vector<int> nb;
+    std::vector<float> d2;
+    for (std::size_t i = 0; i < idx.size(); ++i) {
+      Eigen::Vector3d sp = Eigen::Vector3d::Zero();
+      double n = 0.0;
+      tree->radiusSearch(means->points[i], p.normal_radius, nb, d2);
+      support[i] = static_cast<int>(nb.size());
+      for (int j : nb) {
+        sp += sum_p[static_cast<std::size_t>(j)];
+        n += hits[static_cast<std::size_t>(j)];
+      }
+      centroid[i] = n > 0 ? Eigen::Vector3d(sp / n) : Eigen::Vector3d(sum_p[i] / hits[i]);
+    }
+  }
+  Eigen::Vector3i lo = idx[0], hi = idx[0];
+  for (const auto& v : idx) {
+    lo = lo.cwiseMin(v);
+    hi = hi.cwiseMax(v);
+  }
+  const int pad = L + 2;
+  const Eigen::Vector3i org = lo - Eigen::Vector3i::Constant(pad);
+  vps::Voxmap vm;
+  vm.voxel_size = s;
+  vm.origin = org.cast<double>() * s;
+  for (int k = 0; k < 3; ++k) vm.block_dims[k] = (hi[k] - lo[k] + 1 + 2 * pad + vps::kBlockDim - 1) / vps::kBlockDim;
+  vm.signed_field = true;
+  vm.layers_out = vm.layers_in = L;
+  const std::size_t nblocks = static_cast<std::size_t>(vm.block_dims.x()) * vm.block_dims.y() * vm.block_dims.z();
+  if (nblocks > static_cast<std::size_t>(vps::kMaxBlocks)) return "live voxmap: snapshot grid too large";
+  vm.top.assign(nblocks, vps::kBlockEmpty);
+  std::vector<std::array<float, vps::kBlockVoxels>> best;  // |distance| to the nearest patch so far
+  std::vector<std::array<std::int8_t, vps::kBlockVoxels>> cheb;
+  const float far_out = vm.far_outside_sdf();
+  std::vector<std::uint8_t> has_surface;
+  for (std::size_t i = 0; i < idx.size(); ++i) {
+    // A surface needs support: a cell with fewer than min_support cells
+    // within the normal radius (itself included) is not rendered.
+    if (support[i] < p.min_support) continue;
+    const auto& pn = normals.points[i];
+    Eigen::Vector3d n(pn.normal_x, pn.normal_y, pn.normal_z);
+    if (!n.allFinite() || n.norm() < 0.5) continue;
+    if (n.dot(view[i]) < 0) n = -n;
+    const Eigen::Vector3d& c = centroid[i];
+    const Eigen::Vector3i base = idx[i] - org;
+    for (int dz = -L; dz <= L; ++dz) {
+      for (int dy = -L; dy <= L; ++dy) {
+        for (int dx = -L; dx <= L; ++dx) {
+          const Eigen::Vector3i v = base + Eigen::Vector3i(dx, dy, dz);
+          const Eigen::Vector3i b(v.x() >> vps::kBlockShift, v.y() >> vps::kBlockShift, v.z() >> vps::kBlockShift);
+          const std::size_t bl = vps::block_linear(vm, b);
+          std::int32_t& t = vm.top[bl];
+          if (t == vps::kBlockEmpty) {
+            t = static_cast<std::int32_t>(vm.blocks.size());
+            vps::VoxelBlock blk;
+            blk.sdf.fill(far_out);
+            blk.layer.fill(vps::kLayerFarOutside);
+            blk.flags.fill(0);
+            vm.blocks.push_back(blk);
+            best.emplace_back();
+            best.back().fill(std::numeric_limits<float>::infinity());
+            cheb.emplace_back();
+            cheb.back().fill(std::numeric_limits<std::int8_t>::max());
+            has_surface.push_back(0);
+          }
+          const auto bi = static_cast<std::size_t>(t);
+          const int vi = vps::voxel_in_block(v);
+          const Eigen::Vector3d x = vps::voxel_centre(vm, v);
+          const auto ch = static_cast<std::int8_t>(std::max({std::abs(dx), std::abs(dy), std::abs(dz)}));
+          if (ch == 0) has_surface[bi] = 1;
+          auto& cb = cheb[bi][static_cast<std::size_t>(vi)];
+          cb = std::min(cb, ch);
+          // Distance to the cell's patch, a disc of radius one voxel in its
+          // plane, signed by the side of that plane (behind a seen surface is
+          // inside: unseen is not free). Over a seen surface some disc lies
+          // right above or below x (exact plane distance); the rim keeps a
+          // cell from reaching as far as an endless plane. The nearest patch wins.
+          const double h = n.dot(x - c);
+          const double lateral = (x - c - h * n).norm();
+          const double sd = std::copysign(std::hypot(std::max(lateral - s, 0.0), h), h);
+          const auto dist = static_cast<float>(std::abs(sd));
+          if (dist < best[bi][static_cast<std::size_t>(vi)]) {
+            best[bi][static_cast<std::size_t>(vi)] = dist;
+            vm.blocks[bi].sdf[static_cast<std::size_t>(vi)] = static_cast<float>(sd);
+          }
+        }
+      }
+    }
+  }
+  for (std::size_t bi = 0; bi < vm.blocks.size(); ++bi) {
+    auto& blk = vm.blocks[bi];
+    for (std::size_t vi = 0; vi < static_cast<std::size_t>(vps::kBlockVoxels); ++vi) {
+      const std::int8_t ch = cheb[bi][vi];
+      if (ch == std::numeric_limits<std::int8_t>::max()) continue;
+      if (ch == 0) ++vm.surface_voxels;
+      blk.layer[vi] = static_cast<std::int8_t>(blk.sdf[vi] < 0.0f ? -ch : ch);
+    }
+  }
+  // Coarse block distance to the nearest block with surface voxels
+  // (Chebyshev, breadth first over the 26-neighbourhood), for culling.
+  vm.coarse.assign(nblocks, 255);
+  std::deque<std::size_t> queue;
+  for (std::size_t bl = 0; bl < nblocks; ++bl) {
+    const std::int32_t t = vm.top[bl];
+    if (t >= 0 && has_surface[static_cast<std::size_t>(t)] != 0) {
+      vm.coarse[bl] = 0;
+      queue.push_back(bl);
+    }
+  }
+  const Eigen::Vector3i bd = vm.block_dims;
+  while (!queue.empty()) {
+    const std::size_t bl = queue.front();
+    queue.pop_front();
+    const int bx = static_cast<int>(bl % static_cast<std::size_t>(bd.x()));
+    const int by = static_cast<int>((bl / static_cast<std::size_t>(bd.x())) % static_cast<std::size_t>(bd.y()));
+    const int bz = static_cast<int>(bl / (static_cast<std::size_t>(bd.x()) * static_cast<std::size_t>(bd.y())));
+    const int next = vm.coarse[bl] + 1;
+    if (next > 255) continue;
+    for (int dz = -1; dz <= 1; ++dz) {
+      for (int dy = -1; dy <= 1; ++dy) {
+        for (int dx = -1; dx <= 1; ++dx) {
+          const Eigen::Vector3i b(bx + dx, by + dy, bz + dz);
+          if ((b.array() < 0).any() || (b.array() >= bd.array()).any()) continue;
+          const std::size_t nb = vps::block_linear(vm, b);
+          if (vm.coarse[nb] <= next) continue;
+          vm.coarse[nb] = static_cast<std::uint8_t>(next);
+          queue.push_back(nb);
+        }
+      }
+    }
+  }
+  *out = std::move(vm);
+  return std::nullopt;
+}
+
+std::size_t LiveVoxmap::cells() const { return impl_->cells.size(); }
+std::size_t LiveVoxmap::occupied_cells() const {
+  std::size_t n = 0;
+  for (const auto& [k, c] : impl_->cells) n += c.log_odds >= impl_->p.occupied ? 1 : 0;
+  return n;
+}
+std::size_t LiveVoxmap::memory_bytes() const {
+  const auto& c = impl_->cells;
+  // A node holds the value and a next pointer; the bucket array one pointer per bucket.
+  return c.size() * (sizeof(std::pair<const std::uint64_t, Cell>) + sizeof(void*)) + c.bucket_count() * sizeof(void*);
+}
+const LiveVoxmapStats& LiveVoxmap::stats() const { return impl_->stats; }
+const LiveVoxmapParams& LiveVoxmap::params() const { return impl_->p; }
+
+}  // namespace hemm::mapping

@@ -1,0 +1,103 @@
+// A voxmap built live from depth clouds, in the world frame W: the third
+// local model of the design (both papers together). Pure computation over
+// explicit state; the operator's model thread owns one and publishes its
+// snapshots to the servo thread like the 2D map.
+//
+// Per chunk: pixels -> points in W (each chunk's own sensor pose at
+// acquisition), clipped to the region of interest; PCL voxel-grid
+// down-sampling and statistical outlier removal; free space cleared along
+// every ray (up to a margin before its hit, and along no-return rays to
+// range_max); hits raise an occupancy log-odds and accumulate the cell's mean
+// point and viewing direction. Only cells that were hit are stored (a hash
+// map), so memory grows with the seen surface inside the region of interest,
+// not with its volume.
+//
+// Snapshot: a signed vps::Voxmap (frame W) of the occupied cells: surface
+// normals by PCL from the cells' mean points, oriented toward where they were
+// seen from; every voxel within `layers` of a surface voxel gets the signed
+// distance to the nearest cell's patch (a one-voxel disc in the local plane
+// through its neighbourhood's centroid: exact for planes, so the continuous
+// VPS contact renders a plane without voxel steps). Cells with too little
+// support around them (stray returns) are not rendered. Space behind a
+// seen surface is inside (unseen is not free); beyond the layers it is far
+// outside, so the model is meant for penetrations below layers * voxel_size.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+
+namespace hemm::vps {
+struct Voxmap;
+}
+
+namespace hemm::mapping {
+
+struct DepthChunkData;
+
+struct LiveVoxmapParams {
+  double voxel_size = 0.01;  // m: the tool's 5 cm scale needs ~1 cm; finer costs memory as 1/s^2
+  Eigen::AlignedBox3d roi = Eigen::AlignedBox3d(Eigen::Vector3d(-1, -1, -0.1), Eigen::Vector3d(1, 1, 1.5));  // W
+  // Occupancy in log-odds: one hit makes a cell occupied, two misses clear
+  // a single hit; the clamp at log_odds_max lets a well-seen surface that
+  // is taken away become free after 4 misses (a third of a second at 15 Hz)
+  // and be forgotten after 10.
+  float log_odds_hit = 0.85f;
+  float log_odds_miss = -0.4f;
+  float log_odds_min = -2.0f;  // a cell below this is forgotten
+  float log_odds_max = 2.0f;
+  float occupied = 0.5f;
+  double downsample_leaf = 0.005;  // m, PCL VoxelGrid leaf (<= voxel_size / 2 keeps the cell means)
+  int outlier_neighbours = 8;      // PCL StatisticalOutlierRemoval mean_k (0 disables)
+  double outlier_stddev = 2.5;     // ... its std-dev multiplier
+  // Rays stop clearing this far before their hit: a grazing ray crosses the
+  // surface's own voxels before it ends (one voxel plus the noise).
+  double clear_margin = 0.015;
+  double normal_radius = 0.025;    // m, PCL normal estimation radius over cell means
+  int min_support = 4;             // occupied cells within normal_radius for a cell to be rendered
+  int layers = 4;                  // distance layers in the snapshot, each side
+  std::size_t max_cells = 4'000'000;
+};
+
+struct LiveVoxmapStats {
+  std::uint64_t chunks = 0;
+  std::uint64_t points_in_roi = 0;     // valid pixels whose point lies in the ROI
+  std::uint64_t points_kept = 0;       // after down-sampling and outlier removal
+  std::uint64_t rays_cleared = 0;
+  std::uint64_t voxels_cleared = 0;    // miss updates applied to stored cells
+  std::uint64_t cells_forgotten = 0;
+  std::uint64_t cells_refused = 0;     // hits dropped because max_cells was reached
+};
+
+class LiveVoxmap {
+ public:
+  // A reason if params are unusable (sizes, ROI, log-odds signs); nothing else.
+  static std::optional<std::string> check(const LiveVoxmapParams& params);
+  explicit LiveVoxmap(const LiveVoxmapParams& params);  // params must pass check()
+  ~LiveVoxmap();
+  LiveVoxmap(LiveVoxmap&&) noexcept;
+  LiveVoxmap& operator=(LiveVoxmap&&) noexcept;
+
+  // One validated chunk (decode_depth_chunk), placed by its own T_W_S.
+  void integrate(const DepthChunkData& chunk);
+  // Moves the region of interest; cells outside it are dropped.
+  void set_roi(const Eigen::AlignedBox3d& roi_W);
+  // The signed voxmap of the occupied cells (frame W). Fails if nothing is
+  // occupied; *out is untouched then.
+  std::optional<std::string> snapshot(vps::Voxmap* out) const;
+
+  std::size_t cells() const;
+  std::size_t occupied_cells() const;
+  std::size_t memory_bytes() const;  // cell storage, including the hash map's buckets and nodes
+  const LiveVoxmapStats& stats() const;
+  const LiveVoxmapParams& params() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace hemm::mapping

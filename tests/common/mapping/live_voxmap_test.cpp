@@ -1,0 +1,177 @@
+// The live voxmap from SIMULATED depth clouds of a closed-form scene (floor,
+// a table box, optionally a block on it), sent through the wire encoding:
+// the VPS force of a sphere tool against the snapshot is checked against the
+// exact force of the true plane (K times the volume of the sphere's cap below
+// it, since the integral of p n over the cap is the cap's volume), free space
+// clears a block that was taken away, and the region of interest bounds what
+// is stored.
+#include "common/mapping/live_voxmap.h"
+
+#include <cmath>
+#include <cstdio>
+#include <numbers>
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "common/haptics/vps/contact.h"
+#include "common/haptics/vps/pointshell.h"
+#include "common/haptics/vps/voxmap.h"
+#include "common/mapping/depth_stream.h"
+#include "common/mesh/primitives.h"
+#include "tests/common/mapping/depth_scene.h"
+
+namespace hm = hemm::mapping;
+namespace vps = hemm::vps;
+
+namespace {
+
+using hemm::test::kTableTop;
+using hemm::test::TableScene;
+
+hm::LiveVoxmapParams table_params() {
+  hm::LiveVoxmapParams p;
+  p.voxel_size = 0.01;
+  p.roi = Eigen::AlignedBox3d(Eigen::Vector3d(0.5, -0.6, 0.55), Eigen::Vector3d(1.5, 0.6, 0.95));
+  return p;
+}
+
+// The region the tool explores (keeps the tests lean under the sanitizers).
+hm::LiveVoxmapParams tool_params(const Eigen::Vector2d& lo, const Eigen::Vector2d& hi) {
+  hm::LiveVoxmapParams p = table_params();
+  p.roi = Eigen::AlignedBox3d(Eigen::Vector3d(lo.x(), lo.y(), 0.6), Eigen::Vector3d(hi.x(), hi.y(), 0.85));
+  return p;
+}
+
+struct Tool {
+  vps::PointShell ps;
+  double R = 0.05;
+  Tool() {
+    vps::PointShellParams pp;
+    pp.voxel_size = 0.003;
+    EXPECT_FALSE(vps::build_pointshell(hemm::mesh::make_icosphere(R, 4), pp, Eigen::Vector3d::Zero(), &ps));
+  }
+  vps::PairResult at(const vps::Voxmap& vm, const Eigen::Vector3d& centre) const {
+    vps::PairResult r;
+    const Eigen::Isometry3d T_W_P{Eigen::Translation3d(centre)};
+    vps::evaluate_pair(vm, Eigen::Isometry3d::Identity(), Eigen::Vector3d::Zero(), ps, T_W_P, vps::ContactParams{},
+                       &r);
+    return r;
+  }
+};
+
+int surface_voxels_in(const vps::Voxmap& vm, const Eigen::AlignedBox3d& box) {
+  int n = 0;
+  for (int z = 0; z < vm.dims().z(); ++z) {
+    for (int y = 0; y < vm.dims().y(); ++y) {
+      for (int x = 0; x < vm.dims().x(); ++x) {
+        const Eigen::Vector3i v(x, y, z);
+        if (box.contains(vps::voxel_centre(vm, v)) && vps::sample_voxel(vm, v).layer == 0) ++n;
+      }
+    }
+  }
+  return n;
+}
+
+}  // namespace
+
+TEST(LiveVoxmap, SphereForceOnTheSeenTableMatchesTheExactPlane) {
+  hm::LiveVoxmap map(tool_params({0.7, -0.35}, {1.3, 0.35}));
+  std::mt19937_64 rng(2024);
+  ASSERT_TRUE(hemm::test::observe_table(TableScene{}, 9, rng, &map));
+  vps::Voxmap vm;
+  ASSERT_FALSE(map.snapshot(&vm));
+  EXPECT_TRUE(vm.signed_field);
+  const Tool tool;
+  const double K = vps::ContactParams{}.stiffness;
+  // Places on the top the camera saw from all three viewpoints, and depths
+  // from light touch to the 2 cm the device's stiffness allows.
+  for (const Eigen::Vector2d& xy : {Eigen::Vector2d(1.0, 0.0), Eigen::Vector2d(0.83, 0.21), Eigen::Vector2d(1.17, -0.26)}) {
+    for (const double d : {0.004, 0.01, 0.02}) {
+      const Eigen::Vector3d c(xy.x(), xy.y(), kTableTop + tool.R - d);
+      const vps::PairResult r = tool.at(vm, c);
+      const Eigen::Vector3d F = r.on_shell.force;
+      std::printf("xy %5.2f %5.2f d %5.3f  F %8.2f ref %8.2f  err %+6.2f %%  angle %.2f deg\n", xy.x(), xy.y(), d, F.z(),
+                  hemm::test::cap_force(K, tool.R, d), 100 * (F.z() / hemm::test::cap_force(K, tool.R, d) - 1),
+                  std::acos(std::clamp(F.normalized().z(), -1.0, 1.0)) * 180 / std::numbers::pi);
+      // The map's geometric error, stated as an equivalent depth error: the
+      // force lies between the exact forces 1.5 mm shallower and deeper.
+      const double tol = 0.0015;
+      EXPECT_GT(F.z(), hemm::test::cap_force(K, tool.R, d - tol)) << xy.transpose() << " d " << d;
+      EXPECT_LT(F.z(), hemm::test::cap_force(K, tool.R, d + tol)) << xy.transpose() << " d " << d;
+      EXPECT_LT(std::acos(std::clamp(F.normalized().z(), -1.0, 1.0)), 3.0 * std::numbers::pi / 180.0) << xy.transpose();
+      EXPECT_LT(r.on_shell.torque.norm(), 0.03 * tool.R * F.norm());  // through the centre
+    }
+    // 5 mm above the table: free.
+    EXPECT_EQ(tool.at(vm, {xy.x(), xy.y(), kTableTop + tool.R + 0.005}).contacts, 0);
+  }
+}
+
+TEST(LiveVoxmap, FreeSpaceClearsABlockThatWasTakenAway) {
+  hm::LiveVoxmap map(tool_params({0.8, -0.2}, {1.2, 0.2}));
+  std::mt19937_64 rng(7);
+  TableScene scene;
+  scene.block = true;
+  ASSERT_TRUE(hemm::test::observe_table(scene, 6, rng, &map));
+  vps::Voxmap vm;
+  ASSERT_FALSE(map.snapshot(&vm));
+  const Tool tool;
+  const Eigen::Vector3d on_block(1.0, 0.0, kTableTop + 0.1 + tool.R - 0.005);
+  EXPECT_GT(tool.at(vm, on_block).on_shell.force.z(), 0.5 * hemm::test::cap_force(1e7, tool.R, 0.005));
+  // The block's volume above the table's noise band.
+  const Eigen::AlignedBox3d block(Eigen::Vector3d(0.93, -0.07, kTableTop + 0.02), Eigen::Vector3d(1.07, 0.07, 0.82));
+  EXPECT_GT(surface_voxels_in(vm, block), 100);
+  scene.block = false;
+  ASSERT_TRUE(hemm::test::observe_table(scene, 12, rng, &map));
+  ASSERT_FALSE(map.snapshot(&vm));
+  EXPECT_EQ(tool.at(vm, on_block).contacts, 0);
+  EXPECT_GT(map.stats().cells_forgotten, 0u);
+  EXPECT_EQ(surface_voxels_in(vm, block), 0);
+  // Where the block stood, the table top is felt again.
+  const Eigen::Vector3d on_table(1.0, 0.0, kTableTop + tool.R - 0.01);
+  EXPECT_NEAR(tool.at(vm, on_table).on_shell.force.z(), hemm::test::cap_force(1e7, tool.R, 0.01), 0.3 * hemm::test::cap_force(1e7, tool.R, 0.01));
+}
+
+TEST(LiveVoxmap, RegionOfInterestBoundsWhatIsStored) {
+  auto p = table_params();
+  hm::LiveVoxmap map(p);
+  std::mt19937_64 rng(3);
+  ASSERT_TRUE(hemm::test::observe_table(TableScene{}, 3, rng, &map));
+  vps::Voxmap vm;
+  ASSERT_FALSE(map.snapshot(&vm));
+  // Nothing outside the ROI: the floor (z = 0) is never stored.
+  const Eigen::Vector3d hi = vm.origin + vm.dims().cast<double>() * vm.voxel_size;
+  const double margin = (p.layers + 2 + 8) * p.voxel_size;
+  EXPECT_GT(vm.origin.z(), p.roi.min().z() - margin);
+  EXPECT_LT(hi.z(), p.roi.max().z() + margin);
+  // The table top inside the ROI is 1 m x 1 m: at most ~1 cell per cm^2 and a
+  // few rows more for noise.
+  const std::size_t cells = map.cells();
+  EXPECT_GT(cells, 3000u);
+  EXPECT_LT(cells, 2 * 10000u);
+  // Shrinking the ROI drops cells outside it.
+  map.set_roi(Eigen::AlignedBox3d(Eigen::Vector3d(0.9, -0.1, 0.6), Eigen::Vector3d(1.1, 0.1, 0.8)));
+  EXPECT_LT(map.cells(), 600u);
+  EXPECT_GT(map.cells(), 200u);
+}
+
+TEST(LiveVoxmap, ParamsAreCheckedAndAnEmptyMapHasNoSnapshot) {
+  EXPECT_FALSE(hm::LiveVoxmap::check(table_params()));
+  auto p = table_params();
+  p.voxel_size = 0;
+  EXPECT_TRUE(hm::LiveVoxmap::check(p));
+  p = table_params();
+  p.roi = Eigen::AlignedBox3d();
+  EXPECT_TRUE(hm::LiveVoxmap::check(p));
+  p = table_params();
+  p.log_odds_miss = 0.3f;
+  EXPECT_TRUE(hm::LiveVoxmap::check(p));
+  p = table_params();
+  p.roi.max().x() = 1e9;
+  EXPECT_TRUE(hm::LiveVoxmap::check(p));
+  hm::LiveVoxmap map(table_params());
+  vps::Voxmap vm;
+  vm.voxel_size = 42;
+  EXPECT_TRUE(map.snapshot(&vm));
+  EXPECT_EQ(vm.voxel_size, 42);
+}
