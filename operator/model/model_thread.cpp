@@ -59,10 +59,23 @@ ModelStats ModelThread::stats() const {
 
 void ModelThread::step(std::int64_t now_ns) {
   const std::int64_t offset = offset_ns_.load();
+  const std::int64_t delay = delay_ns_.load();  // one value for the whole step
+  if (step_tap_) {
+    tapped_.now_ns = now_ns;
+    tapped_.offset_ns = offset;
+    tapped_.delay_ns = delay;
+    tapped_.commands.clear();
+    tapped_.state.reset();
+    tapped_.scans.clear();
+  }
   SentCommand c;
-  while (commands_.try_pop(c)) history_.push(c);
+  while (commands_.try_pop(c)) {
+    history_.push(c);
+    if (step_tap_) tapped_.commands.push_back(c);
+  }
   wire::RobotState ws;
   if (state_box_.take(ws)) {
+    if (step_tap_) tapped_.state = ws;
     RobotStateSample s;
     if (auto e = state_from_wire(ws, offset, &s)) {
       states_rejected_.fetch_add(1);
@@ -77,6 +90,7 @@ void ModelThread::step(std::int64_t now_ns) {
   mapping::RangeScan2D scan;
   localizer_.begin_step();
   while (scans_.try_pop(m)) {
+    if (step_tap_) tapped_.scans.push_back(m);
     std::optional<std::string> e = scan_from_wire(*m, offset, &scan);
     m.reset();  // the ring slot keeps a copy of the pointer until overwritten; drop ours now
     if (!e) {
@@ -100,12 +114,11 @@ void ModelThread::step(std::int64_t now_ns) {
   snap->have_state = have_state_;
   if (have_state_) {
     PredictionInput in{math::compose(shown_, state_.T_W_R_odom), state_.stamp_local_ns, state_.v, state_.omega};
-    snap->T_W_R = predict_pose(in, history_, delay_ns_.load(), now_ns, p_.max_prediction_s);
+    snap->T_W_R = predict_pose(in, history_, delay, now_ns, p_.max_prediction_s);
     snap->state = state_;
     // The motion acting now: the newest command that reached the robot.
     snap->v = state_.v;
     snap->omega = state_.omega;
-    const std::int64_t delay = delay_ns_.load();
     for (std::size_t i = history_.size(); i-- > 0;) {
       if (history_[i].t_ns + delay <= now_ns) {
         if (history_[i].t_ns + delay > state_.stamp_local_ns) {
@@ -120,6 +133,10 @@ void ModelThread::step(std::int64_t now_ns) {
   snap->map = mapping::build_snapshot(p_.map, map_);
   snap->segments = map_.segments.size();
   if (observer_) observer_(*snap);
+  if (step_tap_) {
+    step_tap_(tapped_, *snap);
+    tapped_.scans.clear();  // the scans' memory is not kept here
+  }
   channel_.publish(std::move(snap));  // also frees what the servo retired
   snapshots_.fetch_add(1);
   freed_.store(channel_.freed_by_collect());
