@@ -4,7 +4,7 @@
 //  - the local map: each piece of the model snapshot's 2D map extruded to a
 //    wall of wall_height, standing behind its surface (the face the normal
 //    points out of is where the map has it), laser pieces orange, sonar
-//    pieces (arcs, bridges) purple;
+//    pieces (arcs, bridges) purple, shadow edges (unseen, held solid) grey;
 //  - the robot at the pose the servo task rendered with (predicted, solid
 //    blue box of the base's footprint) and at the last received pose
 //    (odometry of the newest RobotState: a cyan outline);
@@ -30,6 +30,8 @@ namespace hemm::op {
 namespace view_colours {
 inline constexpr view::Rgba kMapLaser{0.95f, 0.45f, 0.05f, 1.0f};
 inline constexpr view::Rgba kMapSonar{0.60f, 0.25f, 0.85f, 1.0f};
+// Shadow edges: unseen space the proxy treats as solid, not a seen surface.
+inline constexpr view::Rgba kMapShadow{0.55f, 0.55f, 0.60f, 0.45f};
 inline constexpr view::Rgba kRobot{0.10f, 0.30f, 0.95f, 1.0f};
 inline constexpr view::Rgba kRobotReceived{0.20f, 0.90f, 0.95f, 1.0f};
 inline constexpr view::Rgba kProxy{0.10f, 0.85f, 0.15f, 1.0f};

@@ -292,7 +292,14 @@ TEST(LatencySuite, NavigationToAGoalAndProbingThroughTheRelayAt0To1000msRoundTri
   for (const char* b : {"hemm-robot", "hemm-operator", "hemm-relay", "hemm-truth"})
     if (!built(b)) GTEST_SKIP() << b << " is not built in " << kBin;
   std::vector<RunResult> runs;
-  for (double rtt : {0.0, 100.0, 300.0, 1000.0}) {
+#ifdef HEMM_SANITIZE
+  // Under the sanitizers the suite looks for memory errors, not latency
+  // figures: the extremes of the round trip exercise every code path.
+  const std::vector<double> nav_rtts{0.0, 1000.0}, probe_rtts{300.0};
+#else
+  const std::vector<double> nav_rtts{0.0, 100.0, 300.0, 1000.0}, probe_rtts{0.0, 300.0};
+#endif
+  for (double rtt : nav_rtts) {
     RunResult r = run("nav-to-goal", rtt, "nav-to-goal", 25.0);
     if (r.ok) {
       SCOPED_TRACE("nav-to-goal rtt " + std::to_string(rtt));
@@ -304,7 +311,7 @@ TEST(LatencySuite, NavigationToAGoalAndProbingThroughTheRelayAt0To1000msRoundTri
     }
     runs.push_back(std::move(r));
   }
-  for (double rtt : {0.0, 300.0}) {
+  for (double rtt : probe_rtts) {
     RunResult r = run("probe-cylinder", rtt, "probe-cylinder", 18.0);
     if (r.ok) {
       SCOPED_TRACE("probe-cylinder rtt " + std::to_string(rtt));
