@@ -143,7 +143,8 @@ void OperatorLiveView::run(const std::atomic<bool>& stop) {
     in.tick = have_tick ? &tick : nullptr;
     in.link = links_.link_stats ? &link : nullptr;
     in.servo = servo_stats_ != nullptr ? &health : nullptr;
-    in.now_ns = now;
+    // Ages against the clock the stamps come from: a replay's is the recorded ticks'.
+    in.now_ns = servo_stats_ == nullptr && have_tick ? tick.t_ns : now;
     in.estop_requested = estop_requested;
     dropped_.fetch_add(win.render(prims.items(), make_operator_overlay(in), capture), std::memory_order_relaxed);
   };

@@ -50,7 +50,7 @@ class OperatorLiveView {
   // Attaches the view's feed to the station: call before station.start().
   OperatorLiveView(const view::ViewOptions& o, OperatorStation& station, LiveViewLinks links);
   // Without a station (a replayed session): the caller fills feed(); no
-  // servo loop's health is shown.
+  // servo loop's health is shown, and ages are taken at the newest tick's time.
   OperatorLiveView(const view::ViewOptions& o, LiveViewLinks links);
   ~OperatorLiveView();
   OperatorLiveView(const OperatorLiveView&) = delete;
