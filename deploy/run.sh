@@ -49,12 +49,15 @@ fi
 launcher=()
 command -v ccache >/dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_C_COMPILER_LAUNCHER=ccache)
 
+# Warnings are errors in these builds (CI and development); a plain CMake
+# build leaves HEMM_WERROR off.
 configure_release() {
-  cmake -S "$root" -B "$builds/release" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo "${launcher[@]}" "$@" >/dev/null
+  cmake -S "$root" -B "$builds/release" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DHEMM_WERROR=ON \
+    "${launcher[@]}" "$@" >/dev/null
 }
 configure_asan() {
   CC=clang CXX=clang++ cmake -S "$root" -B "$builds/asan" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
-    -DHEMM_SANITIZE=ON -DHEMM_FUZZ=ON -DHEMM_BENCH=OFF "${launcher[@]}" "$@" >/dev/null
+    -DHEMM_WERROR=ON -DHEMM_SANITIZE=ON -DHEMM_FUZZ=ON -DHEMM_BENCH=OFF "${launcher[@]}" "$@" >/dev/null
 }
 build() {
   local dir="$1"

@@ -3,7 +3,10 @@
 // the haptic device (SIMULATED Omni with a scripted hand, or a replayed
 // trajectory) in the 1 kHz servo loop against the local model built from the
 // robot's scans, streams commands, and prints link and station statistics at
-// exit.
+// exit. The e-stop: both device buttons together, a key on the terminal
+// (space or e engages, R releases) when stdin is one, or
+// `hemm-operator estop --control-socket PATH` against a running station
+// started with --control-socket PATH.
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
 
@@ -22,6 +25,7 @@
 #include "common/net/crypto.h"
 #include "common/net/exit_codes.h"
 #include "common/net/station_cli.h"
+#include "common/net/station_control.h"
 #include "config_operator.pb.h"
 #include <google/protobuf/text_format.h>
 
@@ -167,6 +171,8 @@ int run(int argc, char** argv) {
       ->check(CLI::NonNegativeNumber);
   app.add_option("--replay-json", replay_json,
                  "with --replay of a recording: write the replay's result (ticks, force error, times) as JSON here");
+  net::StationControlOptions control_options;
+  net::add_station_control_options(app, "hemm-operator", &control_options);
 #ifdef HEMM_WITH_VIEW
   view::ViewOptions view_opts;
   view::ViewOptionStrings view_strs;
@@ -180,6 +186,7 @@ int run(int argc, char** argv) {
     const int rc = app.exit(e);
     return rc == 0 ? net::kExitOk : net::kExitUsage;
   }
+  if (!control_options.command.empty()) return net::run_control_command("hemm-operator", control_options);
 #ifdef HEMM_WITH_VIEW
   if (auto e = view::finish_view_options(view_strs, &view_opts)) {
     std::cerr << "hemm-operator: " << *e << "\n";
@@ -247,13 +254,15 @@ int run(int argc, char** argv) {
       return net::kExitUsage;
     }
   }
-  const auto key = net::load_station_key("hemm-operator", key_path, config_path, cfg.link().key_file());
+  const std::string robot_address = robot.empty() ? cfg.net().robot_address() : robot;
+  const auto key =
+      net::load_station_key("hemm-operator", key_path, config_path, cfg.link().key_file(), robot_address);
   if (!key) return net::kExitKey;
 
   op::OperatorClientOptions o;
   const auto& link = cfg.link();
   net::apply_link_config(link, *key, &o);
-  o.robot_address = robot.empty() ? cfg.net().robot_address() : robot;
+  o.robot_address = robot_address;
   o.session_port =
       static_cast<uint16_t>(session_port >= 0 ? session_port : static_cast<int>(cfg.net().session_port()));
   o.stream_port = static_cast<uint16_t>(stream_port >= 0 ? stream_port : static_cast<int>(cfg.net().stream_port()));
@@ -263,6 +272,7 @@ int run(int argc, char** argv) {
   if (test_version != 0) o.protocol_version = test_version;
   o.connect_timeout_ms = link.connect_timeout_ms();
   o.reconnect_for_ms = link.reconnect_for_ms();
+  o.connect_for_ms = link.connect_for_ms();
 
   op::OperatorStationOptions so;
   so.device = replay_file.empty() ? cfg.device().type() : "replay";
@@ -325,7 +335,7 @@ int run(int argc, char** argv) {
 #ifdef HEMM_WITH_VIEW
   std::unique_ptr<op::OperatorLiveView> live_view;  // the view thread: started after the station
   if (view_opts.enabled())
-    live_view = std::make_unique<op::OperatorLiveView>(view_opts, *station, op::client_view_links(client, io));
+    live_view = std::make_unique<op::OperatorLiveView>(view_opts, *station, op::station_view_links(client, *station, io));
 #endif
   int exit_code = net::kExitOk;
   bool stopping = false;
@@ -338,6 +348,11 @@ int run(int argc, char** argv) {
     if (stopping) return;
     stopping = true;
     spdlog::info("event=shutdown reason=\"{}\"", why);
+    if (!client.ever_opened()) {
+      // The run ended without ever reaching the robot: that is a failure.
+      exit_code = net::kExitPeerLost;
+      std::cerr << "hemm-operator: " << why << " before a session was opened (exit code " << exit_code << ")\n";
+    }
     client.stop(why);
     leave_soon();
   };
@@ -370,6 +385,38 @@ int run(int argc, char** argv) {
     client.stop("station failed");
     return net::kExitUsage;
   }
+  // The e-stop from outside the device: a control socket, terminal keys.
+  auto estop = [&](bool engaged, const std::string& via, net::ControlServer::Respond respond) {
+    station->request_estop(engaged, via, [respond, via](const std::string& reply) {
+      spdlog::warn("event=estop_reply via={} reply=\"{}\"", via, net::printable_text(reply));
+      if (respond) respond(reply);
+    });
+  };
+  std::unique_ptr<net::ControlServer> control;
+  if (!control_options.socket.empty()) {
+    control = std::make_unique<net::ControlServer>(
+        io, control_options.socket, [&](const std::string& cmd, net::ControlServer::Respond respond) {
+          if (cmd == "estop" || cmd == "release") {
+            estop(cmd == "estop", "control socket", respond);
+          } else if (cmd == "status") {
+            respond(station->status_line());
+          } else {
+            respond("error unknown command (estop, release, status)");
+          }
+        });
+    if (!control->start(&error)) {
+      std::cerr << "hemm-operator: " << error << "\n";
+      spdlog::error("event=start_failed error=\"{}\"", error);
+      station->stop();
+      client.stop("bad control socket");
+      return net::kExitUsage;
+    }
+  }
+  net::TerminalKeys keys(io, STDIN_FILENO, [&](char k) {
+    if (k == ' ' || k == 'e' || k == 'E') estop(true, "terminal key", nullptr);
+    if (k == 'R') estop(false, "terminal key", nullptr);
+  });
+  net::start_estop_keys(keys, control_options);
   asio::signal_set signals(io, SIGINT, SIGTERM);
   signals.async_wait([&](const asio::error_code& ec, int sig) {
     if (!ec) shutdown(sig == SIGINT ? "SIGINT" : "SIGTERM");
@@ -396,6 +443,8 @@ int run(int argc, char** argv) {
   // This thread is the network thread; the servo and model threads run
   // beside it.
   io.run();
+  keys.stop();
+  if (control) control->stop();
   station->stop();
   if (recorder) {
     recorder->stop();

@@ -2,7 +2,11 @@
 // 1 kHz, real time) behind the link: listens for an operator, authenticates
 // it, streams robot state and range scans, applies the controlling operator's
 // commands, mode changes and e-stop, stops the robot when the link is lost,
-// and prints link and robot statistics at exit.
+// and prints link and robot statistics at exit. The robot's own (local)
+// e-stop: a key on the terminal (space or e engages, R releases) when stdin
+// is one, or `hemm-robot estop|release --control-socket PATH` against a
+// running station started with --control-socket PATH; only the robot
+// station releases it.
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
 
@@ -13,6 +17,7 @@
 #include "common/net/crypto.h"
 #include "common/net/exit_codes.h"
 #include "common/net/station_cli.h"
+#include "common/net/station_control.h"
 #include "config_robot.pb.h"
 #include "robot_side/server/robot_server.h"
 #include "robot_side/station/robot_station.h"
@@ -31,7 +36,9 @@ std::string with_robot_json(std::string link_json, const robot::RobotStationStat
   if (close == std::string::npos) return link_json;
   std::string out = link_json.substr(0, close);
   while (!out.empty() && (out.back() == '\n' || out.back() == ' ')) out.pop_back();
-  return out + ",\n  \"robot\": " + robot::to_json(rs, "  ") + "\n}\n";
+  std::string robot = robot::to_json(rs);
+  while (!robot.empty() && robot.back() == '\n') robot.pop_back();
+  return out + ",\n  \"robot\": " + robot + "\n}\n";
 }
 
 int run(int argc, char** argv) {
@@ -60,6 +67,8 @@ int run(int argc, char** argv) {
   app.add_option("--scene", scene_path, "MJCF scene of the SIMULATED robot (overrides sim.scene)");
   app.add_flag("--no-realtime", no_realtime,
                "step the simulation as fast as possible instead of in real time (stamps are simulation time)");
+  net::StationControlOptions control_options;
+  net::add_station_control_options(app, "hemm-robot", &control_options);
 #ifdef HEMM_WITH_VIEW
   view::ViewOptions view_opts;  // SIMULATION ONLY: the scene as simulated
   view::ViewOptionStrings view_strs;
@@ -71,6 +80,7 @@ int run(int argc, char** argv) {
     const int rc = app.exit(e);
     return rc == 0 ? net::kExitOk : net::kExitUsage;
   }
+  if (!control_options.command.empty()) return net::run_control_command("hemm-robot", control_options);
 #ifdef HEMM_WITH_VIEW
   if (auto e = view::finish_view_options(view_strs, &view_opts)) {
     std::cerr << "hemm-robot: " << *e << "\n";
@@ -90,12 +100,14 @@ int run(int argc, char** argv) {
       return net::kExitUsage;
     }
   }
-  const auto key = net::load_station_key("hemm-robot", key_path, config_path, cfg.link().key_file());
+  const std::string listen_address = listen.empty() ? cfg.net().listen_address() : listen;
+  const auto key =
+      net::load_station_key("hemm-robot", key_path, config_path, cfg.link().key_file(), listen_address);
   if (!key) return net::kExitKey;
 
   robot::RobotServerOptions o;
   net::apply_link_config(cfg.link(), *key, &o);
-  o.listen_address = listen.empty() ? cfg.net().listen_address() : listen;
+  o.listen_address = listen_address;
   o.session_port = static_cast<uint16_t>(session_port >= 0 ? session_port : static_cast<int>(cfg.net().session_port()));
   o.stream_port = static_cast<uint16_t>(stream_port >= 0 ? stream_port : static_cast<int>(cfg.net().stream_port()));
 
@@ -157,6 +169,37 @@ int run(int argc, char** argv) {
     grace.expires_after(std::chrono::milliseconds(200));
     grace.async_wait([&](const asio::error_code&) { io.stop(); });
   };
+  // The robot's own e-stop: a control socket, terminal keys.
+  std::unique_ptr<net::ControlServer> control;
+  if (!control_options.socket.empty()) {
+    control = std::make_unique<net::ControlServer>(
+        io, control_options.socket, [&](const std::string& cmd, net::ControlServer::Respond respond) {
+          if (cmd == "estop" || cmd == "release") {
+            station.local_estop(cmd == "estop", "control socket");
+            respond(cmd == "estop" ? "ok e-stop engaged at the robot" : "ok e-stop at the robot released");
+          } else if (cmd == "status") {
+            const robot::RobotStationStatistics rs = station.statistics();
+            respond(std::string("ok estop=") + (rs.estop ? "engaged" : "released") +
+                    " local=" + (rs.estop_local ? "engaged" : "released") + " link=" +
+                    (server.link_up() ? "up" : "down") + " operator=" +
+                    (server.operator_in_control() ? "in_control" : "none"));
+          } else {
+            respond("error unknown command (estop, release, status)");
+          }
+        });
+    if (!control->start(&error)) {
+      std::cerr << "hemm-robot: " << error << "\n";
+      spdlog::error("event=start_failed error=\"{}\"", error);
+      station.stop();
+      server.stop("bad control socket");
+      return net::kExitUsage;
+    }
+  }
+  net::TerminalKeys keys(io, STDIN_FILENO, [&](char k) {
+    if (k == ' ' || k == 'e' || k == 'E') station.local_estop(true, "terminal key");
+    if (k == 'R') station.local_estop(false, "terminal key");
+  });
+  net::start_estop_keys(keys, control_options);
   asio::signal_set signals(io, SIGINT, SIGTERM);
   signals.async_wait([&](const asio::error_code& ec, int sig) {
     if (!ec) shutdown(sig == SIGINT ? "SIGINT" : "SIGTERM");
@@ -184,6 +227,8 @@ int run(int argc, char** argv) {
   // This thread is the network thread; the simulation runs on the station's
   // own thread and reads server.link_up() / operator_in_control().
   io.run();
+  keys.stop();
+  if (control) control->stop();
   station.stop();
 #ifdef HEMM_WITH_VIEW
   if (live_view) live_view->stop();

@@ -3,11 +3,13 @@
 #include <google/protobuf/descriptor.h>
 #include <google/protobuf/io/tokenizer.h>
 #include <google/protobuf/text_format.h>
+#include <google/protobuf/util/json_util.h>
 
 #include <filesystem>
 #include <fstream>
 #include <memory>
 #include <sstream>
+#include <stdexcept>
 
 #include "config_operator.pb.h"
 #include "config_robot.pb.h"
@@ -82,6 +84,9 @@ void check_link(const LinkConfig& link, const std::string& prefix, std::vector<F
   if (!in_range(link.max_frame_bytes(), 1024, 64u << 20))
     out.push_back({prefix + "max_frame_bytes", "must be 1024..67108864"});
   if (!in_range(link.replay_window(), 64, 65536)) out.push_back({prefix + "replay_window", "must be 64..65536"});
+  if (!in_range(link.stale_margin_ms(), 10, 10000)) out.push_back({prefix + "stale_margin_ms", "must be 10..10000"});
+  if (link.rtt_ms() > 60000) out.push_back({prefix + "rtt_ms", "must be 0..60000"});
+  if (link.connect_for_ms() > 3600000) out.push_back({prefix + "connect_for_ms", "must be 0..3600000"});
 }
 
 void check_port(uint32_t port, bool zero_ok, const std::string& field, std::vector<FieldIssue>& out) {
@@ -225,6 +230,17 @@ std::string resolve_relative_to(const std::string& config_path, const std::strin
   std::filesystem::path p(path);
   if (p.is_absolute()) return path;
   return (std::filesystem::path(config_path).parent_path() / p).lexically_normal().string();
+}
+
+std::string to_json(const google::protobuf::Message& report) {
+  google::protobuf::util::JsonPrintOptions o;
+  o.add_whitespace = true;
+  o.always_print_primitive_fields = true;
+  o.preserve_proto_field_names = true;
+  std::string out;
+  if (const auto st = google::protobuf::util::MessageToJsonString(report, &out, o); !st.ok())
+    throw std::runtime_error("cannot print " + report.GetTypeName() + " as JSON: " + st.ToString());
+  return out;  // add_whitespace ends it with a newline
 }
 
 }  // namespace hemm::config

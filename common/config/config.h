@@ -53,6 +53,11 @@ std::vector<FieldIssue> validate_operator_config(const google::protobuf::Message
 std::optional<ConfigError> load_robot_config(const std::string& path, RobotConfig* out);
 std::optional<ConfigError> load_operator_config(const std::string& path, OperatorConfig* out);
 
+// A run report (proto/report.proto) as JSON, printed by protobuf: the proto
+// field names, every field (zeros too), indented, ending in a newline.
+// Throws std::runtime_error if protobuf cannot print it.
+std::string to_json(const google::protobuf::Message& report);
+
 // Resolves `path` relative to the directory of `config_path` (absolute paths
 // are returned unchanged; an empty path stays empty).
 std::string resolve_relative_to(const std::string& config_path, const std::string& path);

@@ -51,4 +51,19 @@ bool ClockOffsetEstimator::add(int64_t t1, int64_t t2, int64_t t3, int64_t t4) {
   return true;
 }
 
+MessageAge judge_message_age(const ClockEstimate& e, int64_t peer_stamp_ns, int64_t local_arrival_ns,
+                             int64_t margin_ns) {
+  MessageAge a;
+  constexpr int64_t kLimit = int64_t{1} << 61;  // hostile stamps: keep the differences exact
+  if (!e.valid || e.offset_ns > kLimit || e.offset_ns < -kLimit || peer_stamp_ns > kLimit || peer_stamp_ns < -kLimit || local_arrival_ns > kLimit ||
+      local_arrival_ns < -kLimit) {
+    return a;
+  }
+  a.known = true;
+  a.age_ns = local_arrival_ns - (peer_stamp_ns - e.offset_ns);
+  a.excess_ns = std::max<int64_t>(0, a.age_ns - e.rtt_min_ns / 2);
+  a.stale = a.age_ns > e.rtt_median_ns + margin_ns || a.age_ns < -margin_ns;
+  return a;
+}
+
 }  // namespace hemm::net

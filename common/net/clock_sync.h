@@ -64,4 +64,19 @@ class ClockOffsetEstimator {
   ClockEstimate est_;
 };
 
+// How old a message stamped on the peer's clock is when it arrives, judged
+// with the link's clock estimate. Mapped with the midpoint offset, a message
+// that took the least delay in its direction appears rtt_min / 2 old whatever
+// the asymmetry of the path (the offset error and the one-way delay cancel),
+// so `excess` is exactly how much longer than the fastest message this one
+// took: the time something on the path held it.
+struct MessageAge {
+  bool known = false;     // false: no clock estimate yet
+  int64_t age_ns = 0;     // arrival minus the stamp mapped to our clock
+  int64_t excess_ns = 0;  // age - rtt_min / 2, at least 0
+  bool stale = true;      // unknown, older than rtt_median + margin, or from the future by more than the margin
+};
+MessageAge judge_message_age(const ClockEstimate& e, int64_t peer_stamp_ns, int64_t local_arrival_ns,
+                             int64_t margin_ns);
+
 }  // namespace hemm::net

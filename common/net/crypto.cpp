@@ -1,8 +1,11 @@
 #include "common/net/crypto.h"
 
 #include <sodium.h>
+#include <sys/stat.h>
 
+#include <bitset>
 #include <cctype>
+#include <cstdio>
 #include <fstream>
 #include <sstream>
 
@@ -16,40 +19,97 @@ bool crypto_init() {
 }
 
 std::optional<Key> parse_key_hex(const std::string& text, std::string* error) {
-  std::string hex;
-  for (char c : text) {
-    if (std::isspace(static_cast<unsigned char>(c))) continue;
-    if (!std::isxdigit(static_cast<unsigned char>(c))) {
-      if (error) *error = "key contains a non-hexadecimal character";
-      return std::nullopt;
-    }
-    hex.push_back(c);
-  }
-  if (hex.size() != 2 * kKeyBytes) {
-    if (error) *error = "key must be 64 hexadecimal characters (32 bytes), got " + std::to_string(hex.size());
+  crypto_init();
+  const auto fail = [&](std::string why) -> std::optional<Key> {
+    if (error) *error = std::move(why);
     return std::nullopt;
+  };
+  size_t digits = 0;
+  for (size_t i = 0; i < text.size(); ++i) {
+    const auto c = static_cast<unsigned char>(text[i]);
+    if (std::isspace(c)) continue;
+    if (!std::isxdigit(c)) return fail("key contains a non-hexadecimal character at offset " + std::to_string(i));
+    ++digits;
   }
+  if (digits != 2 * kKeyBytes) {
+    return fail("key must be 64 hexadecimal characters (32 bytes), got " + std::to_string(digits));
+  }
+  // Whitespace may separate bytes, not split one: sodium_hex2bin stops there.
   Key k{};
-  for (size_t i = 0; i < kKeyBytes; ++i) {
-    k[i] = static_cast<uint8_t>(std::stoul(hex.substr(2 * i, 2), nullptr, 16));
+  size_t len = 0;
+  const char* end = nullptr;
+  const int rc = sodium_hex2bin(k.data(), k.size(), text.data(), text.size(), " \t\r\n", &len, &end);
+  if (rc != 0 || len != kKeyBytes) {
+    sodium_memzero(k.data(), k.size());
+    return fail("key has whitespace inside a byte (hex digits must come in pairs)");
+  }
+  for (; end != text.data() + text.size(); ++end) {
+    if (!std::isspace(static_cast<unsigned char>(*end))) {
+      sodium_memzero(k.data(), k.size());
+      return fail("key has whitespace inside a byte (hex digits must come in pairs)");
+    }
   }
   return k;
 }
 
-std::optional<Key> load_key_file(const std::string& path, std::string* error) {
+std::optional<std::string> weak_key_reason(const Key& k) {
+  std::bitset<256> values, steps;
+  for (size_t i = 0; i < k.size(); ++i) {
+    values.set(k[i]);
+    if (i + 1 < k.size()) steps.set(static_cast<uint8_t>(k[i + 1] - k[i]));
+  }
+  if (values.count() < 16) {
+    return "key is weak: " + std::to_string(values.count()) +
+           " distinct byte values (at least 16 required; all-zero and repeated bytes are refused)";
+  }
+  if (steps.count() < 16) {
+    return "key is weak: a counting or stepping pattern (" + std::to_string(steps.count()) +
+           " distinct differences between neighbouring bytes, at least 16 required)";
+  }
+  for (size_t p = 1; p <= 16; ++p) {
+    bool periodic = true;
+    for (size_t i = 0; i + p < k.size() && periodic; ++i) periodic = k[i] == k[i + p];
+    if (periodic) return "key is weak: it repeats a pattern of " + std::to_string(p) + " bytes";
+  }
+  return std::nullopt;
+}
+
+bool is_demo_key(const Key& k) {
+  // deploy/configs/demo.key (a test checks that the file still holds it).
+  static constexpr Key kDemo = {0x29, 0xfe, 0x59, 0x89, 0x4f, 0x88, 0x8f, 0xab, 0x6e, 0x4d, 0xba,
+                                0x65, 0xea, 0xb3, 0xcf, 0x72, 0x98, 0x9c, 0x48, 0x47, 0x82, 0x47,
+                                0x56, 0xf7, 0xf3, 0x03, 0x37, 0x7e, 0x50, 0x4d, 0x9f, 0x11};
+  return equal_constant_time(k, kDemo);
+}
+
+std::optional<Key> load_key_file(const std::string& path, std::string* error, KeyFileInfo* info) {
   std::ifstream in(path);
   if (!in) {
     if (error) *error = path + ": cannot open key file";
     return std::nullopt;
   }
+  struct stat st {};
+  if (::stat(path.c_str(), &st) == 0 && info) {
+    info->mode = static_cast<unsigned>(st.st_mode & 07777);
+    info->readable_by_others = (st.st_mode & 077) != 0;
+  }
   std::stringstream ss;
   ss << in.rdbuf();
-  if (ss.str().size() > 4096) {
+  std::string text = ss.str();
+  if (text.size() > 4096) {
     if (error) *error = path + ": key file too large";
     return std::nullopt;
   }
   std::string why;
-  auto k = parse_key_hex(ss.str(), &why);
+  auto k = parse_key_hex(text, &why);
+  sodium_memzero(text.data(), text.size());
+  if (k) {
+    if (auto weak = weak_key_reason(*k)) {
+      why = *weak + "; make one with: head -c 32 /dev/urandom | od -An -tx1 | tr -d ' \\n' > FILE";
+      sodium_memzero(k->data(), k->size());
+      k.reset();
+    }
+  }
   if (!k && error) *error = path + ": " + why;
   return k;
 }
@@ -88,15 +148,33 @@ bool equal_constant_time(std::span<const uint8_t> a, std::span<const uint8_t> b)
   return sodium_memcmp(a.data(), b.data(), a.size()) == 0;
 }
 
-Tag auth_tag(const Key& key, std::span<const uint8_t> a, std::span<const uint8_t> b) {
+namespace {
+std::array<uint8_t, crypto_aead_chacha20poly1305_IETF_NPUBBYTES> aead_nonce(uint64_t counter) {
+  std::array<uint8_t, crypto_aead_chacha20poly1305_IETF_NPUBBYTES> n{};
+  static_assert(crypto_aead_chacha20poly1305_IETF_NPUBBYTES == 12);
+  static_assert(crypto_aead_chacha20poly1305_IETF_ABYTES == kTagBytes);
+  static_assert(crypto_aead_chacha20poly1305_IETF_KEYBYTES == kKeyBytes);
+  put_u64(n.data() + 4, counter);
+  return n;
+}
+}  // namespace
+
+void aead_seal(const Key& key, uint64_t counter, std::span<const uint8_t> ad, std::span<const uint8_t> plain,
+               uint8_t* out) {
   crypto_init();
-  crypto_generichash_state st;
-  crypto_generichash_init(&st, key.data(), key.size(), kTagBytes);
-  crypto_generichash_update(&st, a.data(), a.size());
-  if (!b.empty()) crypto_generichash_update(&st, b.data(), b.size());
-  Tag out{};
-  crypto_generichash_final(&st, out.data(), out.size());
-  return out;
+  const auto n = aead_nonce(counter);
+  crypto_aead_chacha20poly1305_ietf_encrypt_detached(out, out + plain.size(), nullptr, plain.data(), plain.size(),
+                                                     ad.data(), ad.size(), nullptr, n.data(), key.data());
+}
+
+bool aead_open(const Key& key, uint64_t counter, std::span<const uint8_t> ad, std::span<const uint8_t> sealed,
+               uint8_t* out) {
+  if (sealed.size() < kTagBytes) return false;
+  crypto_init();
+  const auto n = aead_nonce(counter);
+  const size_t len = sealed.size() - kTagBytes;
+  return crypto_aead_chacha20poly1305_ietf_decrypt_detached(out, nullptr, sealed.data(), len, sealed.data() + len,
+                                                            ad.data(), ad.size(), n.data(), key.data()) == 0;
 }
 
 SessionKeys derive_session_keys(const Key& psk, const Nonce& client_nonce, const Nonce& server_nonce,

@@ -17,10 +17,7 @@ bool encode_datagram(const Key& key, const DatagramHeader& h, std::span<const ui
   put_u64(p + 4, h.session_id);
   put_u64(p + 12, h.seq);
   put_u64(p + 20, static_cast<uint64_t>(h.send_time_ns));
-  std::copy(payload.begin(), payload.end(), p + kDatagramHeaderBytes);
-  const size_t body = kDatagramHeaderBytes + payload.size();
-  const Tag t = auth_tag(key, std::span<const uint8_t>(p, body));
-  std::copy(t.begin(), t.end(), p + body);
+  aead_seal(key, h.seq, std::span<const uint8_t>(p, kDatagramHeaderBytes), payload, p + kDatagramHeaderBytes);
   return true;
 }
 
@@ -47,16 +44,17 @@ DatagramError parse_datagram_header(std::span<const uint8_t> b, DatagramHeader* 
 }
 
 DatagramError decode_datagram(std::span<const uint8_t> b, uint64_t expected_session, const Key& key,
-                              DatagramHeader* h, std::span<const uint8_t>* payload) {
+                              DatagramHeader* h, std::vector<uint8_t>* payload) {
   DatagramHeader tmp;
   const DatagramError e = parse_datagram_header(b, &tmp);
   if (e != DatagramError::kOk) return e;
   if (tmp.session_id != expected_session || expected_session == 0) return DatagramError::kUnknownSession;
-  const size_t body = b.size() - kTagBytes;
-  const Tag t = auth_tag(key, b.first(body));
-  if (!equal_constant_time(t, b.last(kTagBytes))) return DatagramError::kBadTag;
+  // Open into a buffer of the right size without touching *payload on failure.
+  uint8_t plain[kMaxDatagramPayloadBytes];
+  const auto sealed = b.subspan(kDatagramHeaderBytes);
+  if (!aead_open(key, tmp.seq, b.first(kDatagramHeaderBytes), sealed, plain)) return DatagramError::kBadTag;
   *h = tmp;
-  *payload = b.subspan(kDatagramHeaderBytes, body - kDatagramHeaderBytes);
+  payload->assign(plain, plain + (sealed.size() - kTagBytes));
   return DatagramError::kOk;
 }
 

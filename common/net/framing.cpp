@@ -46,23 +46,21 @@ FrameDecoder::Status FrameDecoder::next(std::vector<uint8_t>* payload) {
 }
 
 std::vector<uint8_t> FrameSealer::seal(std::span<const uint8_t> payload) {
-  uint8_t ctr[8];
-  put_u64(ctr, counter_);
-  const Tag t = auth_tag(key_, ctr, payload);
-  std::vector<uint8_t> out(payload.begin(), payload.end());
-  out.insert(out.end(), t.begin(), t.end());
+  std::vector<uint8_t> out(payload.size() + kTagBytes);
+  uint8_t len[kFrameHeaderBytes];
+  put_u32(len, static_cast<uint32_t>(out.size()));
+  aead_seal(key_, counter_, len, payload, out.data());
   ++counter_;
   return out;
 }
 
 bool FrameOpener::open(std::span<const uint8_t> sealed, std::vector<uint8_t>* inner) {
   if (sealed.size() < kTagBytes) return false;
-  const auto body = sealed.first(sealed.size() - kTagBytes);
-  uint8_t ctr[8];
-  put_u64(ctr, counter_);
-  const Tag t = auth_tag(key_, ctr, body);
-  if (!equal_constant_time(t, sealed.last(kTagBytes))) return false;
-  inner->assign(body.begin(), body.end());
+  uint8_t len[kFrameHeaderBytes];
+  put_u32(len, static_cast<uint32_t>(sealed.size()));
+  std::vector<uint8_t> plain(sealed.size() - kTagBytes);
+  if (!aead_open(key_, counter_, len, sealed, plain.data())) return false;
+  inner->swap(plain);
   ++counter_;
   return true;
 }

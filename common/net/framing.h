@@ -3,12 +3,12 @@
 // configured maximum are errors; after an error the byte stream cannot be
 // resynchronised, so the decoder stays failed and the connection must close.
 //
-// After the handshake every frame payload is  SessionFrame bytes || tag(16),
-//   tag = BLAKE2b-128 keyed with the direction's tcp key over
-//         counter(8, BE) || SessionFrame bytes,
-// where counter is implicit: 0 for the first authenticated frame in that
-// direction, +1 per frame. A dropped, reordered, replayed or injected frame
-// therefore fails its tag.
+// After the handshake every frame payload is  ciphertext || tag(16): the
+// SessionFrame bytes sealed with ChaCha20-Poly1305-IETF (crypto.h), key =
+// the direction's tcp key, nonce = 0(4) || counter(8, BE), associated data =
+// the frame's 4-byte length header. The counter is implicit: 0 for the first
+// sealed frame in that direction, +1 per frame. A dropped, reordered,
+// replayed, truncated or injected frame therefore fails to open.
 #pragma once
 
 #include <cstddef>
@@ -53,11 +53,11 @@ class FrameDecoder {
   std::string error_;
 };
 
-// Seals outgoing frame payloads of one direction (tag + implicit counter).
+// Seals outgoing frame payloads of one direction (AEAD, implicit counter).
 class FrameSealer {
  public:
   explicit FrameSealer(const Key& key) : key_(key) {}
-  // payload || tag(counter, payload); advances the counter.
+  // ciphertext || tag; advances the counter.
   std::vector<uint8_t> seal(std::span<const uint8_t> payload);
   uint64_t counter() const { return counter_; }
 
@@ -72,7 +72,7 @@ class FrameSealer {
 class FrameOpener {
  public:
   explicit FrameOpener(const Key& key) : key_(key) {}
-  // On success writes the inner bytes to *inner and returns true.
+  // On success writes the plaintext to *inner and returns true.
   bool open(std::span<const uint8_t> sealed, std::vector<uint8_t>* inner);
   uint64_t counter() const { return counter_; }
 

@@ -1,6 +1,7 @@
 #include "common/net/handshake.h"
 
 #include "common/net/bytes.h"
+#include "common/net/log_guard.h"
 
 namespace hemm::net {
 namespace {
@@ -115,7 +116,7 @@ HandshakeStep ClientHandshake::on_frame(std::span<const uint8_t> payload) {
       wire::SessionFrame f;
       if (!parse_session_frame(payload, &f)) return fail(wire::ERROR_MALFORMED, "malformed frame, expected Challenge", true);
       if (f.has_error()) {
-        return fail(f.error().code(), "robot refused: " + truncate_text(f.error().reason(), kMaxReasonBytes), false, true);
+        return fail(f.error().code(), "robot refused: " + log_safe(f.error().reason(), kMaxReasonBytes), false, true);
       }
       if (!f.has_challenge()) return fail(wire::ERROR_MALFORMED, "expected Challenge", true);
       const auto& c = f.challenge();
@@ -151,7 +152,7 @@ HandshakeStep ClientHandshake::on_frame(std::span<const uint8_t> payload) {
       wire::SessionFrame f;
       if (open_session_frame(*secrets_.rx, payload, &f)) {
         if (f.has_error()) {
-          return fail(f.error().code(), "robot refused: " + truncate_text(f.error().reason(), kMaxReasonBytes), false,
+          return fail(f.error().code(), "robot refused: " + log_safe(f.error().reason(), kMaxReasonBytes), false,
                       true);
         }
         if (!f.has_welcome() || f.welcome().session_id() != secrets_.session_id) {
@@ -166,7 +167,7 @@ HandshakeStep ClientHandshake::on_frame(std::span<const uint8_t> payload) {
       // A robot that rejected our proof answers in clear (it has no keys).
       if (parse_session_frame(payload, &f) && f.has_error()) {
         return fail(f.error().code(),
-                    "robot refused (unauthenticated): " + truncate_text(f.error().reason(), kMaxReasonBytes), false,
+                    "robot refused (unauthenticated): " + log_safe(f.error().reason(), kMaxReasonBytes), false,
                     true);
       }
       return fail(wire::ERROR_AUTH_FAILED, "Welcome failed authentication", false);
@@ -193,7 +194,7 @@ HandshakeStep ServerHandshake::on_frame(std::span<const uint8_t> payload) {
       wire::SessionFrame f;
       if (!parse_session_frame(payload, &f)) return fail(wire::ERROR_MALFORMED, "malformed frame, expected Hello", true);
       if (f.has_error()) {
-        return fail(f.error().code(), "operator reported: " + truncate_text(f.error().reason(), kMaxReasonBytes),
+        return fail(f.error().code(), "operator reported: " + log_safe(f.error().reason(), kMaxReasonBytes),
                     false, true);
       }
       if (!f.has_hello()) return fail(wire::ERROR_MALFORMED, "expected Hello", true);
@@ -233,7 +234,7 @@ HandshakeStep ServerHandshake::on_frame(std::span<const uint8_t> payload) {
       wire::SessionFrame f;
       if (!parse_session_frame(payload, &f)) return fail(wire::ERROR_MALFORMED, "malformed frame, expected Proof", true);
       if (f.has_error()) {
-        return fail(f.error().code(), "operator reported: " + truncate_text(f.error().reason(), kMaxReasonBytes),
+        return fail(f.error().code(), "operator reported: " + log_safe(f.error().reason(), kMaxReasonBytes),
                     false, true);
       }
       if (!f.has_proof()) return fail(wire::ERROR_MALFORMED, "expected Proof", true);

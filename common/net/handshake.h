@@ -55,7 +55,7 @@ struct HandshakeStep {
   Kind kind = Kind::kContinue;
   std::vector<uint8_t> reply;  // a frame payload, possibly empty
   wire::ErrorCode error = wire::ERROR_UNSPECIFIED;
-  std::string reason;
+  std::string reason;             // peer-supplied parts made log-safe (log_guard.h)
   bool reported_by_peer = false;  // the failure came in an Error frame from the peer
 };
 

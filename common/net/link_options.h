@@ -21,6 +21,8 @@ struct LinkOptions {
   uint32_t handshake_timeout_ms = 3000;
   uint32_t max_frame_bytes = 1 << 20;
   uint32_t replay_window = 1024;
+  uint32_t stale_margin_ms = 200;   // robot: commands older than rtt + this are refused
+  uint32_t rtt_ms = 0;              // expected round trip, 0: unknown
 };
 
 }  // namespace hemm::net

@@ -19,6 +19,8 @@ void fields(const LinkStatistics& s, F&& emit) {
   emit("sessions_opened", std::to_string(s.sessions_opened));
   emit("sessions_refused", std::to_string(s.sessions_refused));
   emit("handshakes_failed", std::to_string(s.handshakes_failed));
+  emit("handshakes_evicted", std::to_string(s.handshakes_evicted));
+  emit("accept_errors", std::to_string(s.accept_errors));
   emit("link_lost_events", std::to_string(s.link_lost_events));
   emit("link_restored_events", std::to_string(s.link_restored_events));
   emit("since_last_rx_ms", std::to_string(s.since_last_rx_ms));
@@ -46,6 +48,12 @@ void fields(const LinkStatistics& s, F&& emit) {
   emit("rejected_bad_tag", std::to_string(c.rejected_bad_tag));
   emit("rejected_replay", std::to_string(c.rejected_replay));
   emit("rejected_bad_payload", std::to_string(c.rejected_bad_payload));
+  const PathCounters& pc = s.path;
+  emit("path_challenges_sent", std::to_string(pc.challenges_sent));
+  emit("paths_validated", std::to_string(pc.validated));
+  emit("path_copies_ignored", std::to_string(pc.ignored));
+  emit("path_challenges_rate_limited", std::to_string(pc.rate_limited));
+  emit("path_responses_unmatched", std::to_string(pc.responses_unmatched));
 }
 
 }  // namespace
@@ -70,7 +78,8 @@ std::string to_summary(const LinkStatistics& s) {
   os << "link statistics (" << s.role << ")\n";
   os << "  session open " << (s.session_open ? "yes" : "no") << ", link " << (s.link_up ? "up" : "down")
      << ", sessions " << s.sessions_opened << ", refused " << s.sessions_refused << ", handshakes failed "
-     << s.handshakes_failed << ", link lost " << s.link_lost_events << "x, restored " << s.link_restored_events
+     << s.handshakes_failed << ", evicted " << s.handshakes_evicted << ", accept errors " << s.accept_errors
+     << ", link lost " << s.link_lost_events << "x, restored " << s.link_restored_events
      << "x\n";
   os << "  rtt ms: last " << ms(s.clock.rtt_last_ns) << ", min " << ms(s.clock.rtt_min_ns) << ", median "
      << ms(s.clock.rtt_median_ns) << "; clock offset ms " << ms(s.clock.offset_ns) << " (" << s.clock.samples
@@ -83,6 +92,10 @@ std::string to_summary(const LinkStatistics& s) {
   os << "  rejected: size " << c.rejected_bad_size << ", magic " << c.rejected_bad_magic << ", version "
      << c.rejected_bad_version << ", unknown session " << c.rejected_unknown_session << ", tag "
      << c.rejected_bad_tag << ", replay " << c.rejected_replay << ", payload " << c.rejected_bad_payload << "\n";
+  const PathCounters& pc = s.path;
+  os << "  paths: " << pc.validated << " validated, " << pc.challenges_sent << " challenges ("
+     << pc.rate_limited << " rate-limited), " << pc.ignored << " datagrams from other addresses ignored, "
+     << pc.responses_unmatched << " unmatched responses\n";
   return os.str();
 }
 

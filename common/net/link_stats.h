@@ -6,6 +6,7 @@
 #include <string>
 
 #include "common/net/clock_sync.h"
+#include "common/net/path_validation.h"
 #include "common/net/stream_receiver.h"
 
 namespace hemm::net {
@@ -17,6 +18,8 @@ struct LinkStatistics {
   uint64_t sessions_opened = 0;
   uint64_t sessions_refused = 0;  // robot: refused (control taken); operator: 0
   uint64_t handshakes_failed = 0;
+  uint64_t handshakes_evicted = 0;  // robot: pending handshakes closed to make room (per-source limits)
+  uint64_t accept_errors = 0;       // robot: failed accepts (backed off)
   uint64_t link_lost_events = 0;
   uint64_t link_restored_events = 0;
   int64_t since_last_rx_ms = -1;  // -1: nothing received yet
@@ -26,6 +29,7 @@ struct LinkStatistics {
   uint64_t pongs_received = 0;
   ClockEstimate clock;            // operator: robot clock minus ours; robot: operator's minus ours
   StreamCounters rx;
+  PathCounters path;              // robot: path validation of the operator's address
 };
 
 std::string to_json(const LinkStatistics& s);

@@ -13,7 +13,8 @@ int64_t steady_now_ns() {
 SessionConnection::SessionConnection(asio::ip::tcp::socket socket, size_t max_frame_bytes)
     : socket_(std::move(socket)),
       max_frame_bytes_(max_frame_bytes),
-      decoder_(std::min(max_frame_bytes, kMaxHandshakeFrameBytes)) {
+      decoder_(std::min(max_frame_bytes, kMaxHandshakeFrameBytes)),
+      max_queued_bytes_(std::max<size_t>(size_t{1} << 20, 4 * (max_frame_bytes + kTagBytes + kFrameHeaderBytes))) {
   asio::error_code ec;
   auto ep = socket_.remote_endpoint(ec);
   peer_ = ec ? std::string("?") : ep.address().to_string() + ":" + std::to_string(ep.port());
@@ -76,6 +77,11 @@ void SessionConnection::send_raw(std::vector<uint8_t> payload) {
   if (closed_) return;
   std::vector<uint8_t> frame;
   encode_frame(payload, &frame);
+  if (queued_bytes_ + frame.size() > max_queued_bytes_) {
+    fail("write queue full (" + std::to_string(queued_bytes_) + " bytes): the peer is not reading");
+    return;
+  }
+  queued_bytes_ += frame.size();
   wq_.push_back(std::move(frame));
   if (!writing_) write_next();
 }
@@ -100,6 +106,7 @@ void SessionConnection::write_next() {
       fail("write error: " + ec.message());
       return;
     }
+    queued_bytes_ -= wq_.front().size();
     wq_.pop_front();
     write_next();
   });
@@ -118,6 +125,7 @@ void SessionConnection::close() {
   socket_.shutdown(asio::ip::tcp::socket::shutdown_both, ec);
   socket_.close(ec);
   wq_.clear();
+  queued_bytes_ = 0;
 }
 
 void SessionConnection::fail(const std::string& reason) {

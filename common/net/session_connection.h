@@ -1,6 +1,14 @@
 // One TCP session connection over Asio: length-prefixed frames (framing.h)
 // in both directions, sealed with the session keys once secure() is called.
 // All methods and callbacks run on the io_context's (network) thread.
+//
+// The write queue is bounded (max_queued_bytes(): four largest frames, at
+// least 1 MiB): a peer that stops reading cannot make us buffer without end.
+// A frame that does not fit fails the connection ("write queue full": the
+// close handler runs, as for a read error), because a session peer that does
+// not read is broken or hostile; dropping frames instead would silently lose
+// acks and e-stop reports. The robot then ends the session (and stops); the
+// operator re-opens it.
 #pragma once
 
 #include <asio.hpp>
@@ -46,6 +54,8 @@ class SessionConnection : public std::enable_shared_from_this<SessionConnection>
   // Closes at once; no callback.
   void close();
   bool is_open() const { return socket_.is_open() && !closed_; }
+  size_t queued_bytes() const { return queued_bytes_; }
+  size_t max_queued_bytes() const { return max_queued_bytes_; }
 
   std::string peer() const { return peer_; }
 
@@ -59,6 +69,8 @@ class SessionConnection : public std::enable_shared_from_this<SessionConnection>
   FrameDecoder decoder_;
   std::array<uint8_t, 16384> rbuf_{};
   std::deque<std::vector<uint8_t>> wq_;
+  size_t queued_bytes_ = 0;
+  size_t max_queued_bytes_;
   bool writing_ = false;
   bool close_when_drained_ = false;
   bool closed_ = false;

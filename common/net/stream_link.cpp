@@ -5,10 +5,35 @@
 #include "common/net/session_connection.h"
 
 namespace hemm::net {
+namespace {
+
+PathAddress to_path_address(const asio::ip::udp::endpoint& ep) {
+  PathAddress a;
+  const asio::ip::address ip = ep.address();
+  const asio::ip::address_v6 v6 =
+      ip.is_v4() ? asio::ip::make_address_v6(asio::ip::v4_mapped, ip.to_v4()) : ip.to_v6();
+  a.ip = v6.to_bytes();
+  a.port = ep.port();
+  return a;
+}
+
+asio::ip::udp::endpoint to_endpoint(const PathAddress& a) {
+  const asio::ip::address_v6 v6(a.ip);
+  if (v6.is_v4_mapped()) return {asio::ip::make_address_v4(asio::ip::v4_mapped, v6), a.port};
+  return {v6, a.port};
+}
+
+}  // namespace
 
 StreamLink::StreamLink(asio::io_context& io, StreamLinkParams p)
     : p_(std::move(p)), socket_(io), timer_(io), rx_(p_.replay_window) {
   stats_.role = p_.role;
+  // A validated path that has been silent for half the link timeout (and a
+  // few heartbeats) may have moved: only then is another address challenged.
+  paths_.params().quiet_ns =
+      int64_t{std::max<uint32_t>(p_.link_timeout_ms / 2, 2 * p_.heartbeat_period_ms)} * 1'000'000;
+  if (p_.expected_rtt_ms > 0) paths_.params().first_retry_ns = int64_t{2 * p_.expected_rtt_ms} * 1'000'000;
+  txbuf_.reserve(kMaxDatagramBytes);
 }
 
 StreamLink::~StreamLink() { stop(); }
@@ -40,6 +65,7 @@ void StreamLink::open_session(uint64_t session_id, const Key& tx_key, const Key&
   tx_key_ = tx_key;
   next_seq_ = 1;
   peer_ = peer;
+  paths_.reset();
   rx_.open(session_id, rx_key);
   last_rx_ns_ = steady_now_ns();
   ever_up_ = false;
@@ -63,6 +89,7 @@ void StreamLink::close_session() {
   session_id_ = 0;
   rx_.close();
   peer_.reset();
+  paths_.reset();
   session_open_.store(false, std::memory_order_release);
   set_link(false, steady_now_ns());
   std::lock_guard<std::mutex> lk(mu_);
@@ -78,7 +105,12 @@ void StreamLink::stop() {
 }
 
 bool StreamLink::send(const wire::StreamMessage& m) {
-  if (session_id_ == 0 || !peer_ || stopped_) return false;
+  if (!peer_) return false;
+  return send_to(m, *peer_);
+}
+
+bool StreamLink::send_to(const wire::StreamMessage& m, const asio::ip::udp::endpoint& to) {
+  if (session_id_ == 0 || stopped_) return false;
   payload_.clear();
   if (!m.SerializeToString(&payload_)) return false;
   DatagramHeader h;
@@ -91,10 +123,11 @@ bool StreamLink::send(const wire::StreamMessage& m) {
     spdlog::warn("event=send_too_large role={} bytes={} max={}", p_.role, payload_.size(), kMaxDatagramPayloadBytes);
     return false;
   }
+  // The sequence number is the AEAD nonce: it is used up whatever happens next.
   ++next_seq_;
   asio::error_code ec;
   // Non-blocking send of a datagram never blocks for long; a full buffer is a drop.
-  socket_.send_to(asio::buffer(txbuf_), *peer_, 0, ec);
+  socket_.send_to(asio::buffer(txbuf_), to, 0, ec);
   std::lock_guard<std::mutex> lk(mu_);
   if (ec) {
     ++stats_.send_errors;
@@ -121,18 +154,32 @@ void StreamLink::handle(std::span<const uint8_t> d, const asio::ip::udp::endpoin
   DatagramHeader h;
   wire::StreamMessage m;
   const auto v = rx_.receive(d, &h, &m);
-  if (v == StreamReceiver::Verdict::kRejected) {
+  // Rejections are counted; the log line (and its strings) only when asked for.
+  if (v == StreamReceiver::Verdict::kRejected && spdlog::should_log(spdlog::level::debug)) {
     spdlog::debug("event=datagram_rejected role={} from={}:{} why=\"{}\"", p_.role, from.address().to_string(),
                   from.port(), rx_.last_error());
   }
-  if (v == StreamReceiver::Verdict::kDeliver || v == StreamReceiver::Verdict::kLate) {
-    // Authenticated: the peer is alive, and this is where it is.
-    last_rx_ns_ = now;
-    if (p_.learn_peer_from_source && (!peer_ || *peer_ != from)) {
-      spdlog::info("event=peer_endpoint role={} endpoint={}:{}", p_.role, from.address().to_string(), from.port());
-      peer_ = from;
+  const bool authentic = v == StreamReceiver::Verdict::kDeliver || v == StreamReceiver::Verdict::kLate ||
+                         v == StreamReceiver::Verdict::kDuplicate;
+  if (authentic && p_.learn_peer_from_source) {
+    if (auto token = paths_.on_datagram(to_path_address(from), now)) {
+      wire::StreamMessage c;
+      c.mutable_path_challenge()->set_token(token->data(), token->size());
+      send_to(c, from);
+      if (spdlog::should_log(spdlog::level::debug)) {
+        spdlog::debug("event=path_challenge role={} to={}:{}", p_.role, from.address().to_string(), from.port());
+      }
     }
-    if (!link_up()) set_link(true, now);
+  }
+  // Path probes prove nothing about the streams: a challenge arrives before
+  // the robot sends anything else, and must not bring the link up.
+  const bool probe = v == StreamReceiver::Verdict::kDeliver && (m.body_case() == wire::StreamMessage::kPathChallenge ||
+                                                               m.body_case() == wire::StreamMessage::kPathResponse);
+  if ((v == StreamReceiver::Verdict::kDeliver || v == StreamReceiver::Verdict::kLate) && !probe) {
+    // Authenticated and fresh: the peer is alive.
+    last_rx_ns_ = now;
+    // The robot's link is up only once it knows where to send (a validated path).
+    if (!link_up() && peer_) set_link(true, now);
   }
   if (v == StreamReceiver::Verdict::kDeliver) {
     switch (m.body_case()) {
@@ -155,12 +202,43 @@ void StreamLink::handle(std::span<const uint8_t> d, const asio::ip::udp::endpoin
         }
         break;
       }
+      case wire::StreamMessage::kPathChallenge:
+      case wire::StreamMessage::kPathResponse: on_path_message(m, from, now); break;
       default: break;
     }
     const auto i = static_cast<size_t>(m.body_case());
     if (i < handlers_.size() && handlers_[i]) handlers_[i](h, now, m);
   }
   sync_stats();
+}
+
+void StreamLink::on_path_message(const wire::StreamMessage& m, const asio::ip::udp::endpoint& from, int64_t now) {
+  if (m.has_path_challenge()) {
+    // A station with a fixed peer answers; the robot never answers challenges.
+    if (p_.learn_peer_from_source || !peer_) return;
+    // Only challenges that come from where we send: otherwise whoever sees the
+    // robot's challenge to *its* address could forward it here, have us
+    // answer, and so get its address validated.
+    if (from != *peer_) {
+      ++challenges_ignored_;
+      return;
+    }
+    wire::StreamMessage r;
+    r.mutable_path_response()->set_token(m.path_challenge().token());
+    send(r);
+    return;
+  }
+  if (!p_.learn_peer_from_source) return;
+  const std::string& t = m.path_response().token();
+  const auto peer = paths_.on_response(std::span(reinterpret_cast<const uint8_t*>(t.data()), t.size()), now);
+  if (!peer) return;
+  const asio::ip::udp::endpoint ep = to_endpoint(*peer);
+  if (peer_ != ep) {
+    spdlog::info("event=peer_endpoint role={} endpoint={}:{} validated=true response_from={}:{}", p_.role,
+                 ep.address().to_string(), ep.port(), from.address().to_string(), from.port());
+  }
+  peer_ = ep;
+  if (!link_up() && now - last_rx_ns_ <= int64_t{p_.link_timeout_ms} * 1000000) set_link(true, now);
 }
 
 void StreamLink::set_link(bool up, int64_t now) {
@@ -202,6 +280,11 @@ void StreamLink::tick() {
         ++stats_.pings_sent;
       }
     }
+    // Re-challenge a path no sooner than two round trips once one is measured.
+    const ClockEstimate& ce = clock_.estimate();
+    if (ce.valid) {
+      paths_.params().first_retry_ns = std::max<int64_t>(2 * ce.rtt_median_ns, 200'000'000);
+    }
   }
   sync_stats();
   const uint32_t step = std::max<uint32_t>(1, std::min({p_.heartbeat_period_ms, p_.ping_period_ms > 0 ? p_.ping_period_ms : 1000u,
@@ -215,6 +298,8 @@ void StreamLink::tick() {
 void StreamLink::sync_stats() {
   std::lock_guard<std::mutex> lk(mu_);
   stats_.rx = rx_.counters();
+  stats_.path = paths_.counters();
+  stats_.path.ignored += challenges_ignored_;
   stats_.since_last_rx_ms = ever_up_ ? (steady_now_ns() - last_rx_ns_) / 1000000 : -1;
 }
 

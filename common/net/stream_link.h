@@ -1,9 +1,11 @@
-// The stream channel of one station over Asio: a UDP socket, the
-// authenticated datagram codec, the replay window and counters
-// (StreamReceiver), heartbeats, ping/pong with the clock-offset estimator,
-// and link-loss detection. All methods except statistics(), link_up() and
-// session_open() must be called on the io_context's (network) thread; those
-// three are safe from any thread.
+// The stream channel of one station over Asio: a UDP socket, the sealed
+// datagram codec, the replay window and counters (StreamReceiver),
+// heartbeats, ping/pong with the clock-offset estimator, link-loss
+// detection, and path validation (path_validation.h): the robot sends to an
+// operator address only after a PathChallenge sent there was answered; the
+// operator answers every PathChallenge it receives. All methods except
+// statistics(), link_up() and session_open() must be called on the
+// io_context's (network) thread; those three are safe from any thread.
 //
 // Other StreamMessage kinds are added by registering a handler with on();
 // a handler can publish into a NewestMailbox (mailbox.h) for another thread.
@@ -19,6 +21,7 @@
 
 #include "common/net/clock_sync.h"
 #include "common/net/link_stats.h"
+#include "common/net/path_validation.h"
 #include "common/net/stream_receiver.h"
 
 namespace hemm::net {
@@ -29,9 +32,13 @@ struct StreamLinkParams {
   uint32_t ping_period_ms = 50;
   uint32_t link_timeout_ms = 500;
   uint32_t replay_window = 1024;
-  // Robot: the peer's endpoint is the source of the newest authenticated
-  // datagram (so a relay can sit in between). Operator: fixed endpoint.
+  // Robot: the peer's endpoint is learned from authenticated datagrams and
+  // validated by a path challenge (so a relay can sit in between, and a copy
+  // sent from elsewhere diverts nothing). Operator: fixed endpoint.
   bool learn_peer_from_source = false;
+  // Expected round trip (0: unknown): the first path-challenge retry waits
+  // 2 round trips (250 ms while unknown); the measured one replaces it.
+  uint32_t expected_rtt_ms = 0;
 };
 
 class StreamLink {
@@ -63,6 +70,8 @@ class StreamLink {
   bool link_up() const { return link_up_.load(std::memory_order_acquire); }
   bool session_open() const { return session_open_.load(std::memory_order_acquire); }
   LinkStatistics statistics() const;
+  // The clock-offset / round-trip estimate (network thread only; no lock).
+  const ClockEstimate& clock() const { return clock_.estimate(); }
   // Lets the owner fold its own session counters into the snapshot.
   template <class F>
   void update_stats(F&& f) {
@@ -72,7 +81,9 @@ class StreamLink {
 
  private:
   void receive();
+  bool send_to(const wire::StreamMessage& m, const asio::ip::udp::endpoint& to);
   void handle(std::span<const uint8_t> d, const asio::ip::udp::endpoint& from, int64_t now);
+  void on_path_message(const wire::StreamMessage& m, const asio::ip::udp::endpoint& from, int64_t now);
   void tick();
   void set_link(bool up, int64_t now);
   void sync_stats();
@@ -86,6 +97,8 @@ class StreamLink {
 
   StreamReceiver rx_;
   ClockOffsetEstimator clock_;
+  PathValidator paths_;
+  uint64_t challenges_ignored_ = 0;  // operator: challenges not from its peer
   uint64_t session_id_ = 0;
   Key tx_key_{};
   uint64_t next_seq_ = 1;

@@ -2,6 +2,10 @@
 
 namespace hemm::net {
 
+StreamReceiver::StreamReceiver(uint32_t replay_window) : window_size_(replay_window), window_(replay_window) {
+  plain_.reserve(kMaxDatagramPayloadBytes);  // decode_datagram never allocates after this
+}
+
 void StreamReceiver::open(uint64_t session_id, const Key& rx_key) {
   session_id_ = session_id;
   key_ = rx_key;
@@ -13,8 +17,7 @@ StreamReceiver::Verdict StreamReceiver::receive(std::span<const uint8_t> d, Data
                                                 wire::StreamMessage* msg) {
   ++c_.received;
   DatagramHeader hd;
-  std::span<const uint8_t> payload;
-  const DatagramError e = decode_datagram(d, session_id_, key_, &hd, &payload);
+  const DatagramError e = decode_datagram(d, session_id_, key_, &hd, &plain_);
   last_error_ = to_string(e);
   switch (e) {
     case DatagramError::kOk: break;
@@ -47,7 +50,7 @@ StreamReceiver::Verdict StreamReceiver::receive(std::span<const uint8_t> d, Data
     if (c_.lost > 0) --c_.lost;
   }
   wire::StreamMessage m;
-  if (!m.ParseFromArray(payload.data(), static_cast<int>(payload.size())) ||
+  if (!m.ParseFromArray(plain_.data(), static_cast<int>(plain_.size())) ||
       m.body_case() == wire::StreamMessage::BODY_NOT_SET || static_cast<size_t>(m.body_case()) >= kKinds) {
     ++c_.rejected_bad_payload;
     last_error_ = "bad payload";

@@ -16,6 +16,7 @@
 #include <array>
 #include <cstdint>
 #include <span>
+#include <vector>
 
 #include "common/net/crypto.h"
 #include "common/net/datagram.h"
@@ -54,7 +55,7 @@ class StreamReceiver {
     kRejected,  // see counters / last_error()
   };
 
-  explicit StreamReceiver(uint32_t replay_window = 1024) : window_size_(replay_window), window_(replay_window) {}
+  explicit StreamReceiver(uint32_t replay_window = 1024);
 
   // Starts accepting a session (resets the replay window and per-kind state;
   // counters are cumulative over sessions).
@@ -78,6 +79,7 @@ class StreamReceiver {
   std::array<uint64_t, kKinds> newest_by_kind_{};
   StreamCounters c_;
   const char* last_error_ = "";
+  std::vector<uint8_t> plain_;  // the opened payload of the datagram being received
 };
 
 }  // namespace hemm::net

@@ -2,7 +2,10 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <cinttypes>
+
+#include "common/net/log_guard.h"
 
 namespace hemm::op {
 namespace {
@@ -13,13 +16,8 @@ std::string hex_id(uint64_t v) {
   return b;
 }
 
-std::string printable(const std::string& s) {
-  std::string out;
-  for (char c : net::truncate_text(s, net::kMaxReasonBytes)) out.push_back((c >= 0x20 && c <= 0x7e && c != '"') ? c : '_');
-  return out;
-}
-
-constexpr int kRetryDelayMs = 200;
+constexpr int64_t kFirstRetryDelayMs = 200;
+constexpr int64_t kMaxRetryDelayMs = 5000;
 
 }  // namespace
 
@@ -37,7 +35,7 @@ OperatorClient::OperatorClient(asio::io_context& io, OperatorClientOptions o)
     : io_(io),
       o_(std::move(o)),
       streams_(io, net::StreamLinkParams{"operator", o_.heartbeat_period_ms, o_.ping_period_ms, o_.link_timeout_ms,
-                                         o_.replay_window, /*learn_peer_from_source=*/false}),
+                                         o_.replay_window, /*learn_peer_from_source=*/false, o_.rtt_ms}),
       timer_(io) {}
 
 OperatorClient::~OperatorClient() {
@@ -91,23 +89,33 @@ void OperatorClient::stop(const std::string& reason) {
   streams_.stop();
 }
 
+int64_t OperatorClient::step_timeout_ms() const {
+  const int64_t rtt = std::max<int64_t>(o_.rtt_ms, measured_rtt_ms_);
+  return (int64_t{o_.handshake_timeout_ms} + rtt) << std::min<uint32_t>(step_timeouts_, 2);
+}
+
+void OperatorClient::arm_step_timer(uint64_t attempt) {
+  timer_.expires_after(std::chrono::milliseconds(step_timeout_ms()));
+  timer_.async_wait([this, attempt](const asio::error_code& tec) {
+    if (tec || attempt != attempt_ || stopped_ || open_) return;
+    if (conn_) conn_->close();
+    conn_.reset();
+    retry_or_fail(net::kExitPeerLost, "handshake timed out", /*timed_out=*/true);
+  });
+}
+
 void OperatorClient::connect() {
   if (stopped_) return;
   const uint64_t attempt = ++attempt_;
   auto sock = std::make_shared<asio::ip::tcp::socket>(io_);
   connecting_ = sock;
   const asio::ip::tcp::endpoint ep(robot_addr_, o_.session_port);
-  timer_.expires_after(std::chrono::milliseconds(o_.connect_timeout_ms));
+  timer_.expires_after(std::chrono::milliseconds(int64_t{o_.connect_timeout_ms} + o_.rtt_ms));
   timer_.async_wait([this, attempt](const asio::error_code& ec) {
     if (ec || attempt != attempt_ || stopped_) return;
     if (connecting_) {
       asio::error_code ignore;
       connecting_->close(ignore);  // completes the connect with operation_aborted
-    }
-    if (conn_ && !open_) {
-      conn_->close();
-      conn_.reset();
-      retry_or_fail(net::kExitPeerLost, "handshake timed out");
     }
   });
   sock->async_connect(ep, [this, attempt, sock](const asio::error_code& ec) {
@@ -118,14 +126,8 @@ void OperatorClient::connect() {
                                             std::to_string(o_.session_port) + ": " + ec.message());
       return;
     }
-    // Handshake within handshake_timeout_ms of the connection.
-    timer_.expires_after(std::chrono::milliseconds(o_.handshake_timeout_ms));
-    timer_.async_wait([this, attempt](const asio::error_code& tec) {
-      if (tec || attempt != attempt_ || stopped_ || open_) return;
-      if (conn_) conn_->close();
-      conn_.reset();
-      retry_or_fail(net::kExitPeerLost, "handshake timed out");
-    });
+    // The Challenge must come within one step of the Hello.
+    arm_step_timer(attempt);
     conn_ = std::make_shared<net::SessionConnection>(std::move(*sock), o_.max_frame_bytes);
     net::ClientHandshake::Params hp;
     hp.psk = o_.psk;
@@ -144,25 +146,30 @@ void OperatorClient::connect() {
                      retry_or_fail(net::kExitPeerLost, "connection closed during handshake: " + reason);
                    }
                  });
-    spdlog::info("event=connected robot={}:{}", o_.robot_address, o_.session_port);
+    spdlog::info("event=connected robot={}:{} step_timeout_ms={}", o_.robot_address, o_.session_port,
+                 step_timeout_ms());
+    hello_sent_ns_ = net::steady_now_ns();
     conn_->send_raw(hs_->start());
   });
 }
 
-void OperatorClient::retry_or_fail(int code, const std::string& reason) {
+void OperatorClient::retry_or_fail(int code, const std::string& reason, bool timed_out) {
   if (stopped_) return;
   const int64_t now = net::steady_now_ns();
-  // First contact: try for connect_timeout_ms. After a session: for reconnect_for_ms.
-  const int64_t budget_ms = ever_open_ ? o_.reconnect_for_ms : o_.connect_timeout_ms;
+  // First contact: try for connect_for_ms. After a session: for reconnect_for_ms.
+  const int64_t budget_ms = ever_open_ ? o_.reconnect_for_ms : o_.connect_for_ms;
   const bool refusal = code == net::kExitAuth || code == net::kExitVersion ||
                        (code == net::kExitRefused && !ever_open_);
   if (refusal || now - trying_since_ns_ >= budget_ms * int64_t{1000000}) {
     fatal(code, reason);
     return;
   }
-  spdlog::info("event=retry reason=\"{}\"", printable(reason));
+  step_timeouts_ = timed_out ? step_timeouts_ + 1 : 0;
+  const int64_t delay_ms = std::min(kMaxRetryDelayMs, kFirstRetryDelayMs << std::min<uint32_t>(failures_, 5));
+  ++failures_;
+  spdlog::info("event=retry reason=\"{}\" retry_in_ms={} attempt={}", net::log_safe(reason), delay_ms, failures_);
   ++attempt_;  // invalidates the old attempt's timers
-  timer_.expires_after(std::chrono::milliseconds(kRetryDelayMs));
+  timer_.expires_after(std::chrono::milliseconds(delay_ms));
   timer_.async_wait([this](const asio::error_code& ec) {
     if (!ec) connect();
   });
@@ -173,9 +180,12 @@ void OperatorClient::on_handshake_frame(uint64_t attempt, std::span<const uint8_
   const net::HandshakeStep step = hs_->on_frame(payload);
   switch (step.kind) {
     case net::HandshakeStep::Kind::kContinue:
-      // After the Proof the robot's frames are sealed; the handshake opens
-      // them itself (and also reads a refusal sent in clear).
+      // The Challenge came: that took one round trip. After the Proof the
+      // robot's frames are sealed; the handshake opens them itself (and
+      // also reads a refusal sent in clear).
+      measured_rtt_ms_ = (net::steady_now_ns() - hello_sent_ns_) / 1'000'000;
       if (!step.reply.empty()) conn_->send_raw(step.reply);
+      arm_step_timer(attempt);  // the Welcome within one step of the Proof
       return;
     case net::HandshakeStep::Kind::kOpen: on_open(); return;
     case net::HandshakeStep::Kind::kAuthenticated: return;  // server-only
@@ -185,7 +195,7 @@ void OperatorClient::on_handshake_frame(uint64_t attempt, std::span<const uint8_
       conn_.reset();
       const int code = exit_code_for(step.error);
       spdlog::error("event=handshake_failed code={} reason=\"{}\"", wire::ErrorCode_Name(step.error),
-                    printable(step.reason));
+                    net::log_safe(step.reason));
       streams_.update_stats([](net::LinkStatistics& s) { ++s.handshakes_failed; });
       retry_or_fail(code, step.reason);
       return;
@@ -195,6 +205,8 @@ void OperatorClient::on_handshake_frame(uint64_t attempt, std::span<const uint8_
 
 void OperatorClient::on_open() {
   timer_.cancel();
+  failures_ = 0;
+  step_timeouts_ = 0;
   const wire::Welcome w = hs_->welcome();
   net::SessionSecrets secrets = hs_->take_secrets();
   hs_.reset();
@@ -221,12 +233,12 @@ void OperatorClient::on_session_frame_in(const wire::SessionFrame& f) {
   if (!open_) return;
   switch (f.body_case()) {
     case wire::SessionFrame::kBye:
-      spdlog::warn("event=peer_bye reason=\"{}\"", printable(f.bye().reason()));
+      spdlog::warn("event=peer_bye reason=\"{}\"", net::log_safe(f.bye().reason()));
       session_lost("robot said bye");
       return;
     case wire::SessionFrame::kError:
       spdlog::error("event=peer_error code={} reason=\"{}\"", wire::ErrorCode_Name(f.error().code()),
-                    printable(f.error().reason()));
+                    net::log_safe(f.error().reason()));
       session_lost("robot reported an error");
       return;
     default: break;
@@ -246,7 +258,7 @@ void OperatorClient::session_lost(const std::string& reason) {
   if (conn_) conn_->close();
   conn_.reset();
   streams_.close_session();
-  spdlog::warn("event=session_lost reason=\"{}\" reconnect_for_ms={}", printable(reason), o_.reconnect_for_ms);
+  spdlog::warn("event=session_lost reason=\"{}\" reconnect_for_ms={}", net::log_safe(reason), o_.reconnect_for_ms);
   if (o_.reconnect_for_ms == 0) {
     fatal(net::kExitPeerLost, "session lost: " + reason);
     return;
@@ -258,9 +270,9 @@ void OperatorClient::session_lost(const std::string& reason) {
 
 void OperatorClient::fatal(int code, const std::string& reason) {
   if (stopped_) return;
-  spdlog::error("event=giving_up exit_code={} reason=\"{}\"", code, printable(reason));
+  spdlog::error("event=giving_up exit_code={} reason=\"{}\"", code, net::log_safe(reason));
   stop(reason);
-  if (on_fatal_) on_fatal_(code, reason);
+  if (on_fatal_) on_fatal_(code, net::log_safe(reason));  // the reason may quote the robot
 }
 
 }  // namespace hemm::op

@@ -1,6 +1,14 @@
 // The operator station's side of the link: connects to the robot's session
 // port, runs the client handshake, opens the UDP stream link, and re-opens
 // the session for up to reconnect_for_ms when the TCP connection drops.
+//
+// Time-outs follow the round trip: a TCP connect attempt has
+// connect_timeout_ms + rtt_ms, each handshake step (Challenge, Welcome)
+// handshake_timeout_ms + the round trip (the configured rtt_ms, or, once a
+// Challenge came back, the measured Hello-to-Challenge time if longer),
+// doubled after each step that timed out (up to 4x). Failed attempts are
+// retried after 200 ms, doubling up to 5 s, for connect_for_ms on first
+// contact and reconnect_for_ms after a lost session.
 // Runs on one io_context (the network thread); link_up(), has_control() and
 // statistics() may be called from other threads.
 //
@@ -31,8 +39,9 @@ struct OperatorClientOptions : net::LinkOptions {
   std::string bind_address = "0.0.0.0";
   uint16_t local_stream_port = 0;
   bool want_control = true;
-  uint32_t connect_timeout_ms = 3000;
-  uint32_t reconnect_for_ms = 30000;
+  uint32_t connect_timeout_ms = 3000;  // one TCP connect attempt
+  uint32_t connect_for_ms = 30000;     // first contact: keep trying this long
+  uint32_t reconnect_for_ms = 30000;   // after a session was lost
 };
 
 class OperatorClient {
@@ -52,6 +61,8 @@ class OperatorClient {
   bool session_open() const { return streams_.session_open(); }
   bool link_up() const { return streams_.link_up(); }
   bool has_control() const { return has_control_.load(std::memory_order_acquire); }
+  // A session was open at some point (network thread).
+  bool ever_opened() const { return ever_open_; }
   net::LinkStatistics statistics() const { return streams_.statistics(); }
 
   net::StreamLink& streams() { return streams_; }
@@ -60,7 +71,9 @@ class OperatorClient {
 
  private:
   void connect();
-  void retry_or_fail(int code, const std::string& reason);
+  void arm_step_timer(uint64_t attempt);
+  int64_t step_timeout_ms() const;
+  void retry_or_fail(int code, const std::string& reason, bool timed_out = false);
   void on_handshake_frame(uint64_t attempt, std::span<const uint8_t> payload);
   void on_open();
   void on_session_frame_in(const wire::SessionFrame& f);
@@ -81,6 +94,10 @@ class OperatorClient {
   bool ever_open_ = false;
   bool open_ = false;
   int64_t trying_since_ns_ = 0;
+  int64_t hello_sent_ns_ = 0;
+  int64_t measured_rtt_ms_ = 0;  // Hello -> Challenge of the latest attempt that got one
+  uint32_t failures_ = 0;        // consecutive failed attempts (retry back-off)
+  uint32_t step_timeouts_ = 0;   // consecutive attempts that ended in a step time-out
   std::atomic<bool> has_control_{false};
   std::map<wire::SessionFrame::BodyCase, SessionHandler> handlers_;
   bool stopped_ = false;

@@ -26,6 +26,8 @@ ModelThread::ModelThread(servo::ModelChannel& channel, const ModelThreadParams& 
       !std::isfinite(p.correction_blend_speed) || !std::isfinite(p.correction_blend_turn_rate))
     throw std::invalid_argument("ModelThread: correction blend rates must be finite and > 0");
   if (!(p.rate_hz > 0.0 && p.rate_hz <= 1000.0)) throw std::invalid_argument("ModelThread: rate_hz outside (0, 1000]");
+  if (!(p.fresh_s >= 0.0 && p.fade_s > 0.0 && p.fade_s < 60.0 && p.fresh_s < 60.0))
+    throw std::invalid_argument("ModelThread: need fresh_s >= 0 and fade_s > 0 (both under a minute)");
 }
 
 ModelThread::~ModelThread() { stop(); }
@@ -54,7 +56,51 @@ ModelStats ModelThread::stats() const {
   std::lock_guard<std::mutex> lock(stats_mutex_);  // never taken by the servo thread
   s.registration = reg_stats_;
   s.correction_shown = shown_stats_;
+  s.resyncs = resyncs_.load();
+  s.old_epoch_dropped = old_epoch_dropped_.load();
   return s;
+}
+
+void ModelThread::retire(std::uint64_t epoch) {
+  std::rotate(retired_epochs_.rbegin(), retired_epochs_.rbegin() + 1, retired_epochs_.rend());
+  retired_epochs_[0] = epoch;
+}
+
+ModelThread::Route ModelThread::route(std::uint64_t epoch, std::int64_t now_ns) {
+  if (epoch == 0 || (epoch == epoch_ && !resyncing_)) return Route::kCurrent;  // 0: a robot without epochs
+  if (epoch_ == 0) {
+    epoch_ = epoch;
+    return Route::kCurrent;
+  }
+  if (std::find(retired_epochs_.begin(), retired_epochs_.end(), epoch) != retired_epochs_.end() ||
+      (resyncing_ && epoch == epoch_)) {
+    old_epoch_dropped_.fetch_add(1, std::memory_order_relaxed);
+    return Route::kDrop;  // a robot that has restarted since
+  }
+  if (resyncing_ && epoch == next_epoch_) return Route::kNext;
+  // A robot we have not seen: it restarted (again, if a resync was under way).
+  if (resyncing_) retire(next_epoch_);
+  resyncing_ = true;
+  next_epoch_ = epoch;
+  resync_end_ns_ = now_ns + static_cast<std::int64_t>(p_.fade_s * 1e9);
+  next_map_ = mapping::LocalMap{};
+  next_have_state_ = next_have_data_ = false;
+  frozen_pose_ = last_pose_;
+  history_.clear();  // the commands the old robot was given
+  return Route::kNext;
+}
+
+void ModelThread::take_state(const RobotStateSample& s, bool next) {
+  RobotStateSample& st = next ? next_state_ : state_;
+  bool& have = next ? next_have_state_ : have_state_;
+  if (have && s.stamp_local_ns < st.stamp_local_ns) return;  // older than what we have
+  st = s;
+  have = true;
+  std::int64_t& data = next ? next_data_stamp_ns_ : data_stamp_ns_;
+  bool& have_data = next ? next_have_data_ : have_data_;
+  data = have_data ? std::max(data, s.stamp_local_ns) : s.stamp_local_ns;
+  have_data = true;
+  states_in_.fetch_add(1);
 }
 
 void ModelThread::step(std::int64_t now_ns) {
@@ -80,10 +126,8 @@ void ModelThread::step(std::int64_t now_ns) {
     if (auto e = state_from_wire(ws, offset, &s)) {
       states_rejected_.fetch_add(1);
       last_error_ = *e;
-    } else if (!have_state_ || s.stamp_local_ns >= state_.stamp_local_ns) {
-      state_ = s;
-      have_state_ = true;
-      states_in_.fetch_add(1);
+    } else if (const Route r = route(ws.frame_epoch(), now_ns); r != Route::kDrop) {
+      take_state(s, r == Route::kNext);
     }
   }
   std::shared_ptr<const wire::RangeScan> m;
@@ -92,19 +136,44 @@ void ModelThread::step(std::int64_t now_ns) {
   while (scans_.try_pop(m)) {
     if (step_tap_) tapped_.scans.push_back(m);
     std::optional<std::string> e = scan_from_wire(*m, offset, &scan);
+    const std::uint64_t epoch = m->frame_epoch();
     m.reset();  // the ring slot keeps a copy of the pointer until overwritten; drop ours now
+    const Route r = e ? Route::kCurrent : route(epoch, now_ns);
+    if (r == Route::kDrop) continue;
+    const bool next = r == Route::kNext;
     if (!e) {
-      // Placed by the corrected odometry, registered against the map.
-      localizer_.place(scan, map_);
-      std::string err = mapping::add_scan(p_.map, map_, scan);
+      // Placed by the corrected odometry, registered against the map. A
+      // restarted robot's scans (next) are in its new odometry frame and its
+      // map starts empty: placed by its odometry alone.
+      if (!next) localizer_.place(scan, map_);
+      std::string err = mapping::add_scan(p_.map, next ? next_map_ : map_, scan);
       if (!err.empty()) e = std::move(err);
     }
     if (e) {
       scans_rejected_.fetch_add(1);
       last_error_ = *e;
-    } else {
-      scans_in_.fetch_add(1);
+      continue;
     }
+    scans_in_.fetch_add(1);
+    std::int64_t& data = next ? next_data_stamp_ns_ : data_stamp_ns_;
+    bool& have_data = next ? next_have_data_ : have_data_;
+    data = have_data ? std::max(data, scan.stamp_ns) : scan.stamp_ns;
+    have_data = true;
+  }
+  if (resyncing_ && now_ns >= resync_end_ns_) {
+    // The old robot's force has faded: the new robot's map and state take over.
+    map_ = std::move(next_map_);
+    next_map_ = mapping::LocalMap{};
+    state_ = next_state_;
+    have_state_ = next_have_state_;
+    data_stamp_ns_ = next_data_stamp_ns_;
+    have_data_ = next_have_data_;
+    localizer_.restart();  // a new odometry frame: no correction yet
+    shown_ = math::Pose2{};
+    retire(epoch_);
+    epoch_ = next_epoch_;
+    resyncing_ = false;
+    resyncs_.fetch_add(1);
   }
 
   blend_correction(now_ns);
@@ -112,7 +181,11 @@ void ModelThread::step(std::int64_t now_ns) {
   snap->stamp_ns = now_ns;
   snap->version = ++version_;
   snap->have_state = have_state_;
-  if (have_state_) {
+  const std::int64_t delay = delay_ns_.load();
+  if (resyncing_) {
+    snap->T_W_R = frozen_pose_;  // v = omega = 0: held where the old robot was last seen
+    snap->state = state_;
+  } else if (have_state_) {
     PredictionInput in{math::compose(shown_, state_.T_W_R_odom), state_.stamp_local_ns, state_.v, state_.omega};
     snap->T_W_R = predict_pose(in, history_, delay, now_ns, p_.max_prediction_s);
     snap->state = state_;
@@ -129,6 +202,15 @@ void ModelThread::step(std::int64_t now_ns) {
       }
     }
   }
+  last_pose_ = snap->T_W_R;
+  snap->have_data = have_data_;
+  snap->data_stamp_ns = data_stamp_ns_;
+  const double stale_after_s =
+      std::min(static_cast<double>(delay) * 1e-9 + p_.fresh_s, std::max(0.0, p_.map.window_age_s - p_.fade_s));
+  snap->stale_after_ns = static_cast<std::int64_t>(stale_after_s * 1e9);
+  snap->fade_ns = std::max<std::int64_t>(1, static_cast<std::int64_t>(p_.fade_s * 1e9));
+  snap->resyncing = resyncing_;
+  snap->resyncs = resyncs_.load();
   mapping::slide_window(p_.map, map_, now_ns, math::translation(snap->T_W_R));
   snap->map = mapping::build_snapshot(p_.map, map_);
   snap->segments = map_.segments.size();

@@ -12,8 +12,26 @@
 // converts and validates scans (a bad scan is counted and changes nothing),
 // predicts the robot's present pose, slides the map window around it, and
 // publishes a snapshot.
+//
+// Staleness. The model's age is how old its newest robot data is: now minus
+// the newest RobotState or scan stamp (mapped into our clock). Normal data
+// arrives a one-way delay (RTT / 2) after it was taken, so the model counts
+// as fresh while its age is at most stale_after = RTT / 2 + fresh_s; beyond
+// that it is going stale and the servo task fades its force to zero over
+// fade_s (OperatorServoTask). stale_after is capped at the map's window age
+// minus fade_s, so the force is gone before the map's segments age out.
+//
+// Robot restarts. The robot stamps its states and scans with its frame
+// epoch (random per start of its odometry frame W). An epoch the model has
+// not seen means the robot restarted and W with it: the model resynchronises.
+// For fade_s it keeps publishing the old map with the pose frozen and
+// `resyncing` set (the servo fades the force out and holds the robot) while
+// the new epoch's data builds a fresh map; then it swaps in the fresh map and
+// the new robot's state, drops the command history, and counts a resync
+// (the task and the operator's hand restart from the robot's state).
 #pragma once
 
+#include <array>
 #include <atomic>
 #include <cstdint>
 #include <functional>
@@ -45,6 +63,14 @@ struct OperatorModelSnapshot final : servo::ModelSnapshot {
   bool have_state = false;    // false: no RobotState yet, T_W_R is the origin
   RobotStateSample state;     // the newest state, as received
   std::size_t segments = 0;   // map segments (before splitting into pieces)
+  // Staleness (see the file comment): the newest robot data's stamp (local
+  // clock; have_data false: none yet) and the thresholds for this snapshot.
+  bool have_data = false;
+  std::int64_t data_stamp_ns = 0;
+  std::int64_t stale_after_ns = 0;
+  std::int64_t fade_ns = 1;
+  bool resyncing = false;       // a robot restart is being taken in: the map and pose are the old robot's
+  std::uint64_t resyncs = 0;    // robot restarts taken in so far
 };
 
 struct ModelThreadParams {
@@ -65,6 +91,8 @@ struct ModelThreadParams {
   // the robot 2 cm nearer the wall than it was shown (the Fig. 8 run).
   double correction_blend_speed = 0.2;       // m/s
   double correction_blend_turn_rate = 0.3;   // rad/s
+  double fresh_s = 0.25;   // model age beyond the one-way delay that still counts as fresh
+  double fade_s = 1.0;     // a going-stale model's force fades to zero over this
 };
 
 struct ModelStats {
@@ -78,6 +106,8 @@ struct ModelStats {
   std::uint64_t freed = 0;
   LocalizerStats registration;   // scan registration: counts, last fit, the correction
   math::Pose2 correction_shown;  // the blended correction the published pose uses
+  std::uint64_t resyncs = 0;          // robot restarts (new frame epochs) taken in
+  std::uint64_t old_epoch_dropped = 0;  // states and scans of a robot that restarted
 };
 
 class ModelThread {
@@ -134,6 +164,12 @@ class ModelThread {
   servo::LatestMailbox<wire::RobotState> state_box_;
   std::atomic<std::int64_t> offset_ns_{0}, delay_ns_{0};
 
+  // Which robot (frame epoch) an input belongs to; routes it (resync).
+  enum class Route { kCurrent, kNext, kDrop };
+  Route route(std::uint64_t epoch, std::int64_t now_ns);
+  void take_state(const RobotStateSample& s, bool next);
+  void retire(std::uint64_t epoch);
+
   // model-thread state
   mapping::LocalMap map_;
   Localizer localizer_;
@@ -142,6 +178,21 @@ class ModelThread {
   CommandHistory history_;
   RobotStateSample state_;
   bool have_state_ = false;
+  std::int64_t data_stamp_ns_ = 0;
+  bool have_data_ = false;
+  std::uint64_t epoch_ = 0;  // 0: none seen yet
+  // During a resync: the new robot's data, swapped in at resync_end_ns_.
+  bool resyncing_ = false;
+  std::uint64_t next_epoch_ = 0;
+  std::int64_t resync_end_ns_ = 0;
+  mapping::LocalMap next_map_;
+  RobotStateSample next_state_;
+  bool next_have_state_ = false;
+  std::int64_t next_data_stamp_ns_ = 0;
+  bool next_have_data_ = false;
+  math::Pose2 frozen_pose_;          // the pose published while resyncing
+  math::Pose2 last_pose_;            // the last pose published
+  std::array<std::uint64_t, 4> retired_epochs_{};  // robots that restarted: their data is dropped
   std::uint64_t version_ = 0;
   std::string last_error_;
   SnapshotObserver observer_;
@@ -149,7 +200,7 @@ class ModelThread {
   StepInputs tapped_;  // reused
 
   std::atomic<std::uint64_t> scans_in_{0}, scans_rejected_{0}, scans_dropped_{0}, states_in_{0},
-      states_rejected_{0}, commands_dropped_{0}, snapshots_{0}, freed_{0};
+      states_rejected_{0}, commands_dropped_{0}, snapshots_{0}, freed_{0}, resyncs_{0}, old_epoch_dropped_{0};
   // Registration figures for stats() (read from other threads).
   mutable std::mutex stats_mutex_;
   LocalizerStats reg_stats_;

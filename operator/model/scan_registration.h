@@ -107,6 +107,12 @@ class Localizer {
   RegistrationResult place(mapping::RangeScan2D& scan, const mapping::LocalMap& map);
   // New model step: the map has changed, rebuild the target when next needed.
   void begin_step() { target_valid_ = false; }
+  // The robot restarted: a new odometry frame and a new map. The correction
+  // starts again from identity; the counts carry on.
+  void restart() {
+    stats_.correction = math::Pose2{};
+    target_valid_ = false;
+  }
   math::Pose2 correct(const math::Pose2& T_W_R_odom) const { return math::compose(stats_.correction, T_W_R_odom); }
   const LocalizerStats& stats() const { return stats_; }
   const RegistrationParams& params() const { return p_; }

@@ -275,6 +275,8 @@ std::optional<std::string> check_header(const rec::Header& h) {
   if (h.end_effectors() < 1 || h.end_effectors() > device::kMaxEndEffectors)
     return "header: end_effectors " + std::to_string(h.end_effectors()) + " outside 1.." +
            std::to_string(device::kMaxEndEffectors);
+  if (h.initial_mode() > static_cast<std::uint32_t>(math::Mode::kManipulation))
+    return "header: initial_mode " + std::to_string(h.initial_mode()) + " is not a mode";
   if (h.servo_period_ns() < 100'000 || h.servo_period_ns() > 1'000'000'000)
     return "header: servo_period_ns " + std::to_string(h.servo_period_ns()) + " outside [100 us, 1 s]";
   return std::nullopt;

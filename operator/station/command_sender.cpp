@@ -44,6 +44,17 @@ void CommandSender::arm() {
   });
 }
 
+std::uint64_t CommandSender::send_estop(bool engaged, const std::string& reason) {
+  if (!send_session_ || (link_up_ && !link_up_())) return 0;
+  wire::SessionFrame f;
+  f.mutable_estop()->set_engaged(engaged);
+  f.mutable_estop()->set_reason(reason);
+  f.mutable_estop()->set_request_id(++request_id_);
+  send_session_(f);
+  ++stats_.estops_sent;
+  return request_id_;
+}
+
 void CommandSender::send_once() {
   StationSetpoint sp;
   if (setpoints_.take(sp)) {
@@ -52,12 +63,17 @@ void CommandSender::send_once() {
   }
   const std::int64_t now = clock_();
   if (!have_) return;  // the servo has not run yet: nothing to say
+  if (latest_.estop_presses > estop_presses_seen_) {
+    estop_presses_seen_ = latest_.estop_presses;
+    estop_pending_ = true;
+  }
   if (link_up_ && !link_up_()) {
-    // Nothing to send on; a re-opened link hears the mode again.
+    // Nothing to send on; a re-opened link hears the mode (and a pending e-stop) again.
     ++stats_.link_down;
     sent_mode_ = wire::MODE_UNSPECIFIED;
     return;
   }
+  if (estop_pending_ && send_estop(true, "device buttons") != 0) estop_pending_ = false;
   const wire::Mode mode = to_wire_mode(latest_.mode);
   const bool fresh = now - latest_.t_ns <= p_.stale_after_ns;
   if (!fresh && latest_.moves_robot) ++stats_.stale;

@@ -4,8 +4,10 @@
 // stalled servo thread stops the robot). A mode change also goes as a
 // ModeChange session frame, after the first command of that mode was sent
 // successfully (and again after the link was lost and is back). Each command sent is recorded for the pose
-// prediction (model thread). Runs on one asio io_context; the send functions
-// are called there.
+// prediction (model thread). An e-stop pressed on the device (the setpoint's
+// estop_presses grew) goes as an EStop session frame as soon as the link is
+// up (at once, or when it is back). Runs on one asio io_context; the send
+// functions are called there.
 #pragma once
 
 #include <asio.hpp>
@@ -29,6 +31,7 @@ struct CommandSenderStats {
   std::uint64_t link_down = 0;       // periods with no link (connecting, reconnecting, lost): nothing sent
   std::uint64_t mode_changes_sent = 0;
   std::uint64_t stale = 0;  // commands sent with the deadman released because the setpoint was stale
+  std::uint64_t estops_sent = 0;  // EStop frames (engage or release) sent
 };
 
 class CommandSender {
@@ -48,8 +51,12 @@ class CommandSender {
   void stop();
   // One period's work (the timer calls it; tests may too, on the io thread).
   void send_once();
+  // Sends an EStop frame now (engaged or released) and returns its request
+  // id (its Ack names it); 0 if the link is down (nothing sent).
+  std::uint64_t send_estop(bool engaged, const std::string& reason);
   // Network thread only (or after stop).
   const CommandSenderStats& stats() const { return stats_; }
+  math::Mode mode() const { return latest_.mode; }  // of the newest setpoint taken
 
  private:
   void arm();
@@ -65,7 +72,9 @@ class CommandSender {
   StationSetpoint latest_;
   bool have_ = false;
   wire::Mode sent_mode_ = wire::MODE_UNSPECIFIED;
-  std::uint64_t request_id_ = 0;
+  std::uint64_t request_id_ = 0;  // of mode changes and e-stops alike
+  std::uint64_t estop_presses_seen_ = 0;
+  bool estop_pending_ = false;
   std::chrono::steady_clock::time_point next_;
   bool running_ = false;
   CommandSenderStats stats_;

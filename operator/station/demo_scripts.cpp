@@ -75,6 +75,13 @@ NavGoalHand::NavGoalHand(std::shared_ptr<const OperatorView> view, std::vector<E
 
 device::HandTarget NavGoalHand::at(double t_s) const noexcept {
   const OperatorView& v = *view_;
+  if (v.resyncs != resyncs_seen_) {
+    // The robot restarted (and its W with it): the route starts again from
+    // where the robot now is, not from where the old one had got to.
+    resyncs_seen_ = v.resyncs;
+    index_ = 0;
+    arrived_ = false;
+  }
   // Intermediate goals are passed (not stopped at) inside pass_radius.
   while (index_ + 1 < route_.size() && v.valid && math::is_finite(v.T_W_R) &&
          (route_[index_] - Eigen::Vector2d(v.T_W_R.x, v.T_W_R.y)).norm() < p_.pass_radius)

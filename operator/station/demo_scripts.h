@@ -88,8 +88,10 @@ NavHandTarget hand_target_for_goal(const OperatorView& view, const Eigen::Vector
                                    bool was_arrived = false) noexcept;
 
 // The closed-loop hand: at(t) takes the task's OperatorView, moves along the
-// route (intermediate goals are passed inside pass_radius) and rate-limits the
-// stylus target to hand_speed. at() keeps its state in mutable members: it is
+// route (intermediate goals are passed inside pass_radius; never while the
+// view is invalid, e.g. the model is stale) and rate-limits the stylus
+// target to hand_speed. When the robot restarted (view.resyncs changed) the
+// route starts again from its first goal. at() keeps its state in mutable members: it is
 // called only on the servo thread (SimulatedOmni::write), right after the tick
 // that wrote the view (and once by SimulatedOmni's constructor before the
 // servo thread starts). The accessors are for that thread or after it
@@ -122,6 +124,7 @@ class NavGoalHand final : public device::HandScript {
   mutable bool started_ = false;
   mutable Eigen::Vector3d position_H_ = Eigen::Vector3d::Zero();
   mutable NavHandTarget last_;
+  mutable std::uint64_t resyncs_seen_ = 0;
 };
 
 // The default route of "nav-to-goal" (see the file comment).

@@ -7,13 +7,22 @@
 #include <sstream>
 #include <stdexcept>
 
+#include <spdlog/spdlog.h>
+
+#include "common/config/config.h"
+#include "common/net/station_cli.h"
 #include "operator/device/replay_device.h"
 #include "operator/device/simulated_omni.h"
 #include "operator/device/trajectory_csv.h"
 #include "operator/station/demo_scripts.h"
+#include "report.pb.h"
 
 namespace hemm::op {
 namespace {
+// The robot answers an EStop within a round trip and a simulation step; this
+// allows for round trips of seconds (the link's own limit is 2 s).
+constexpr std::chrono::milliseconds kAckTimeout{5000};
+
 std::int64_t steady_now_ns() {
   return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch())
       .count();
@@ -25,7 +34,8 @@ std::string to_string(const OperatorStationSummary& s) {
   o << "servo: " << servo::to_string(s.timing) << "\n"
     << "model: scans_in=" << s.model.scans_in << " scans_rejected=" << s.model.scans_rejected
     << " scans_dropped=" << s.model.scans_dropped << " states_in=" << s.model.states_in
-    << " states_rejected=" << s.model.states_rejected << " snapshots=" << s.model.snapshots << "\n"
+    << " states_rejected=" << s.model.states_rejected << " snapshots=" << s.model.snapshots
+    << " robot_restarts=" << s.model.resyncs << "\n"
     << "registration: accepted=" << s.model.registration.accepted << " rejected=" << s.model.registration.rejected
     << " degenerate=" << s.model.registration.degenerate << " last_rms_m=" << s.model.registration.last_rms
     << " correction=(" << s.model.registration.correction.x << ", " << s.model.registration.correction.y << ", "
@@ -33,6 +43,9 @@ std::string to_string(const OperatorStationSummary& s) {
     << "commands: sent=" << s.commands.commands_sent << " failures=" << s.commands.send_failures
     << " link_down=" << s.commands.link_down << " mode_changes=" << s.commands.mode_changes_sent << " stale=" << s.commands.stale
     << " mode_switches=" << s.mode_switches << "\n"
+    << "e-stop: device presses=" << s.estop_presses << " sent=" << s.commands.estops_sent
+    << " acknowledged=" << s.estop_acks << " refused=" << s.estop_refusals << " robot reports "
+    << (s.robot_estop < 0 ? "nothing" : s.robot_estop ? "engaged" : "released") << "\n"
     << "logs: servo written=" << s.servo_log_written << " dropped=" << s.servo_log_dropped
     << " world written=" << s.world_log_written << " dropped=" << s.world_log_dropped << "\n";
   o << "robot (predicted): x=" << s.robot_pose.x << " y=" << s.robot_pose.y << " theta=" << s.robot_pose.theta
@@ -45,146 +58,84 @@ std::string to_string(const OperatorStationSummary& s) {
 }
 
 namespace {
-// A tiny JSON writer for flat objects of numbers (enough for the summary; no
-// JSON library is among the project's dependencies).
-class JsonObject {
- public:
-  explicit JsonObject(std::ostringstream& o, int indent) : o_(o), indent_(indent) { o_ << "{"; }
-  void key(const char* k) {
-    o_ << (first_ ? "\n" : ",\n") << std::string(static_cast<std::size_t>(indent_ + 2), ' ') << '"' << k << "\": ";
-    first_ = false;
-  }
-  void u(const char* k, std::uint64_t v) {
-    key(k);
-    o_ << v;
-  }
-  void b(const char* k, bool v) {
-    key(k);
-    o_ << (v ? "true" : "false");
-  }
-  void d(const char* k, double v) {
-    key(k);
-    if (!std::isfinite(v)) {
-      o_ << "null";
-      return;
-    }
-    char buf[40];
-    std::snprintf(buf, sizeof buf, "%.9g", v);
-    o_ << buf;
-  }
-  void null(const char* k) {
-    key(k);
-    o_ << "null";
-  }
-  void close() { o_ << "\n" << std::string(static_cast<std::size_t>(indent_), ' ') << "}"; }
-
- private:
-  std::ostringstream& o_;
-  int indent_;
-  bool first_ = true;
-};
-
-void histogram_json(std::ostringstream& o, JsonObject& parent, const char* k, const servo::HistogramSummary& h) {
-  parent.key(k);
-  JsonObject j(o, 4);
-  j.u("count", h.count);
-  j.d("median", h.median_us);
-  j.d("p99", h.p99_us);
-  j.d("max", h.max_us);
-  j.d("mean", h.mean_us);
-  j.close();
+void fill(report::LatencyHistogram* j, const servo::HistogramSummary& h) {
+  j->set_count(h.count);
+  j->set_median(h.median_us);
+  j->set_p99(h.p99_us);
+  j->set_max(h.max_us);
+  j->set_mean(h.mean_us);
 }
 }  // namespace
 
-std::string to_json(const OperatorStationSummary& s) {
-  std::ostringstream o;
-  JsonObject top(o, 0);
-  top.key("timing");
-  {
-    JsonObject t(o, 2);
-    t.u("ticks", s.timing.ticks);
-    t.u("misses", s.timing.misses);
-    t.u("overruns", s.timing.overruns);
-    t.u("late_wakes", s.timing.late_wakes);
-    t.u("skipped_periods", s.timing.skipped_periods);
-    histogram_json(o, t, "period_us", s.timing.period);
-    histogram_json(o, t, "wake_latency_us", s.timing.wake_latency);
-    histogram_json(o, t, "compute_us", s.timing.compute);
-    t.close();
+report::OperatorStation to_report(const OperatorStationSummary& s) {
+  report::OperatorStation r;
+  report::ServoTiming& t = *r.mutable_timing();
+  t.set_ticks(s.timing.ticks);
+  t.set_misses(s.timing.misses);
+  t.set_overruns(s.timing.overruns);
+  t.set_late_wakes(s.timing.late_wakes);
+  t.set_skipped_periods(s.timing.skipped_periods);
+  fill(t.mutable_period_us(), s.timing.period);
+  fill(t.mutable_wake_latency_us(), s.timing.wake_latency);
+  fill(t.mutable_compute_us(), s.timing.compute);
+  report::LocalModel& m = *r.mutable_model();
+  m.set_scans_in(s.model.scans_in);
+  m.set_scans_rejected(s.model.scans_rejected);
+  m.set_scans_dropped(s.model.scans_dropped);
+  m.set_states_in(s.model.states_in);
+  m.set_states_rejected(s.model.states_rejected);
+  m.set_commands_dropped(s.model.commands_dropped);
+  m.set_snapshots(s.model.snapshots);
+  m.set_freed(s.model.freed);
+  m.set_registration_attempted(s.model.registration.attempted);
+  m.set_registration_accepted(s.model.registration.accepted);
+  m.set_registration_rejected(s.model.registration.rejected);
+  m.set_registration_degenerate(s.model.registration.degenerate);
+  m.set_registration_last_rms_m(s.model.registration.last_rms);
+  m.set_registration_last_step_m(s.model.registration.last_step);
+  m.set_correction_x_m(s.model.registration.correction.x);
+  m.set_correction_y_m(s.model.registration.correction.y);
+  m.set_correction_theta_rad(s.model.registration.correction.theta);
+  m.set_resyncs(s.model.resyncs);
+  m.set_old_epoch_dropped(s.model.old_epoch_dropped);
+  report::CommandStream& c = *r.mutable_commands();
+  c.set_sent(s.commands.commands_sent);
+  c.set_send_failures(s.commands.send_failures);
+  c.set_link_down(s.commands.link_down);
+  c.set_mode_changes_sent(s.commands.mode_changes_sent);
+  c.set_stale(s.commands.stale);
+  c.set_estops_sent(s.commands.estops_sent);
+  r.set_mode_switches(s.mode_switches);
+  report::OperatorEStop& e = *r.mutable_estop();
+  e.set_device_presses(s.estop_presses);
+  e.set_acknowledged(s.estop_acks);
+  e.set_refused(s.estop_refusals);
+  if (s.robot_estop >= 0) e.set_robot_engaged(s.robot_estop == 1);
+  report::Logs& l = *r.mutable_logs();
+  l.set_servo_written(s.servo_log_written);
+  l.set_servo_dropped(s.servo_log_dropped);
+  l.set_world_written(s.world_log_written);
+  l.set_world_dropped(s.world_log_dropped);
+  report::RobotPose& p = *r.mutable_robot_pose();
+  p.set_valid(s.robot_pose_valid);
+  p.set_x_m(s.robot_pose.x);
+  p.set_y_m(s.robot_pose.y);
+  p.set_theta_rad(s.robot_pose.theta);
+  if (s.has_goal) {
+    report::NavGoal& g = *r.mutable_nav_goal();
+    g.set_goal_x_m(s.goal_W.x());
+    g.set_goal_y_m(s.goal_W.y());
+    g.set_arrived(s.arrived);
+    if (s.first_arrival_s >= 0.0) g.set_first_arrival_s(s.first_arrival_s);
+    g.set_arrivals(s.arrivals);
+    g.set_goal_index(s.goal_index);
+    g.set_route_size(s.route_size);
+    if (s.goal_distance_m >= 0.0) g.set_goal_distance_m(s.goal_distance_m);
   }
-  top.key("model");
-  {
-    JsonObject m(o, 2);
-    m.u("scans_in", s.model.scans_in);
-    m.u("scans_rejected", s.model.scans_rejected);
-    m.u("scans_dropped", s.model.scans_dropped);
-    m.u("states_in", s.model.states_in);
-    m.u("states_rejected", s.model.states_rejected);
-    m.u("commands_dropped", s.model.commands_dropped);
-    m.u("snapshots", s.model.snapshots);
-    m.u("freed", s.model.freed);
-    // Scan registration: how often a correction was accepted, its last fit
-    // (point-to-line RMS, m) and step (m), and the correction itself (map
-    // frame from odometry's: x, y in m, theta in rad).
-    m.u("registration_attempted", s.model.registration.attempted);
-    m.u("registration_accepted", s.model.registration.accepted);
-    m.u("registration_rejected", s.model.registration.rejected);
-    m.u("registration_degenerate", s.model.registration.degenerate);
-    m.d("registration_last_rms_m", s.model.registration.last_rms);
-    m.d("registration_last_step_m", s.model.registration.last_step);
-    m.d("correction_x_m", s.model.registration.correction.x);
-    m.d("correction_y_m", s.model.registration.correction.y);
-    m.d("correction_theta_rad", s.model.registration.correction.theta);
-    m.close();
-  }
-  top.key("commands");
-  {
-    JsonObject c(o, 2);
-    c.u("sent", s.commands.commands_sent);
-    c.u("send_failures", s.commands.send_failures);
-    c.u("link_down", s.commands.link_down);
-    c.u("mode_changes_sent", s.commands.mode_changes_sent);
-    c.u("stale", s.commands.stale);
-    c.close();
-  }
-  top.u("mode_switches", s.mode_switches);
-  top.key("logs");
-  {
-    JsonObject l(o, 2);
-    l.u("servo_written", s.servo_log_written);
-    l.u("servo_dropped", s.servo_log_dropped);
-    l.u("world_written", s.world_log_written);
-    l.u("world_dropped", s.world_log_dropped);
-    l.close();
-  }
-  top.key("robot_pose");
-  {
-    JsonObject r(o, 2);
-    r.b("valid", s.robot_pose_valid);
-    r.d("x_m", s.robot_pose.x);
-    r.d("y_m", s.robot_pose.y);
-    r.d("theta_rad", s.robot_pose.theta);
-    r.close();
-  }
-  if (!s.has_goal) {
-    top.null("nav_goal");
-  } else {
-    top.key("nav_goal");
-    JsonObject g(o, 2);
-    g.d("goal_x_m", s.goal_W.x());
-    g.d("goal_y_m", s.goal_W.y());
-    g.b("arrived", s.arrived);
-    if (s.first_arrival_s >= 0.0) g.d("first_arrival_s", s.first_arrival_s); else g.null("first_arrival_s");
-    g.u("arrivals", s.arrivals);
-    g.u("goal_index", s.goal_index);
-    g.u("route_size", s.route_size);
-    if (s.goal_distance_m >= 0.0) g.d("goal_distance_m", s.goal_distance_m); else g.null("goal_distance_m");
-    g.close();
-  }
-  top.close();
-  o << "\n";
-  return o.str();
+  return r;
 }
+
+std::string to_json(const OperatorStationSummary& s) { return config::to_json(to_report(s)); }
 
 bool write_map_csv(const mapping::LocalMap& map, const std::string& path, std::string* error) {
   std::FILE* f = std::fopen(path.c_str(), "w");
@@ -280,6 +231,9 @@ servo::RealtimeStatus OperatorStation::start() {
                          if (taps_.on_stream) taps_.on_stream(recv_ns, false, m);
                          model_->submit_scan(std::make_shared<const wire::RangeScan>(m.range_scan()));
                        });
+  client_.on_session_frame(wire::SessionFrame::kAck, [this](const wire::SessionFrame& f) { on_ack(f.ack()); });
+  client_.on_session_frame(wire::SessionFrame::kEstop,
+                           [this](const wire::SessionFrame& f) { on_robot_estop(f.estop()); });
   if (servo_log_) {
     if (auto e = servo_log_->start(o_.log_path)) throw std::runtime_error(*e);
     if (auto e = world_log_->start(o_.log_path + ".world.csv")) throw std::runtime_error(*e);
@@ -308,6 +262,54 @@ void OperatorStation::poll_link() {
   });
 }
 
+void OperatorStation::request_estop(bool engaged, const std::string& reason, Reply done) {
+  const std::uint64_t id = stopped_ ? 0 : sender_->send_estop(engaged, reason);
+  if (id == 0) {
+    done(std::string("error no link to the robot: nothing sent") +
+         (engaged ? " (without a link the robot stops by itself)" : ""));
+    return;
+  }
+  spdlog::warn("event=estop_request request_id={} engaged={} reason=\"{}\"", id, engaged, net::printable_text(reason));
+  PendingAck p;
+  p.engaged = engaged;
+  p.done = std::move(done);
+  p.timer = std::make_unique<asio::steady_timer>(io_, kAckTimeout);
+  p.timer->async_wait([this, id](const asio::error_code& ec) {
+    if (ec) return;
+    auto it = pending_acks_.find(id);
+    if (it == pending_acks_.end()) return;
+    const Reply d = std::move(it->second.done);
+    pending_acks_.erase(it);
+    d("error request_id=" + std::to_string(id) + " no acknowledgement from the robot within " +
+      std::to_string(kAckTimeout.count()) + " ms");
+  });
+  pending_acks_.emplace(id, std::move(p));
+}
+
+void OperatorStation::on_ack(const wire::Ack& a) {
+  const std::string reason = net::printable_text(a.reason());
+  spdlog::info("event=ack request_id={} ok={} reason=\"{}\"", a.request_id(), a.ok(), reason);
+  auto it = pending_acks_.find(a.request_id());
+  if (it == pending_acks_.end()) return;
+  ++(a.ok() ? estop_acks_ : estop_refusals_);
+  it->second.timer->cancel();
+  const Reply d = std::move(it->second.done);
+  pending_acks_.erase(it);
+  d(std::string(a.ok() ? "ok" : "error") + " request_id=" + std::to_string(a.request_id()) + " " + reason);
+}
+
+void OperatorStation::on_robot_estop(const wire::EStop& e) {
+  robot_estop_ = e.engaged() ? 1 : 0;
+  spdlog::warn("event=robot_estop engaged={} reason=\"{}\"", e.engaged(), net::printable_text(e.reason()));
+}
+
+std::string OperatorStation::status_line() const {
+  return std::string("ok session=") + (client_.session_open() ? "open" : "closed") +
+         " link=" + (client_.link_up() ? "up" : "down") + " estop=" +
+         (robot_estop_ < 0 ? "unknown" : robot_estop_ ? "engaged" : "released") + " mode=" +
+         wire::Mode_Name(to_wire_mode(sender_->mode()));
+}
+
 void OperatorStation::stop() {
   if (!started_ || stopped_) return;
   stopped_ = true;
@@ -320,6 +322,9 @@ void OperatorStation::stop() {
     link_timer_.cancel();
     client_.streams().on(wire::StreamMessage::kRobotState, nullptr);
     client_.streams().on(wire::StreamMessage::kRangeScan, nullptr);
+    client_.on_session_frame(wire::SessionFrame::kAck, nullptr);
+    client_.on_session_frame(wire::SessionFrame::kEstop, nullptr);
+    for (auto& [id, p] : pending_acks_) p.timer->cancel();
   };
   if (io_.stopped() || io_.get_executor().running_in_this_thread()) {
     detach();
@@ -348,6 +353,10 @@ OperatorStationSummary OperatorStation::summary() const {
   s.model = model_->stats();
   s.commands = sender_->stats();
   s.mode_switches = task_->mode_switches();
+  s.estop_presses = task_->estop_presses();
+  s.estop_acks = estop_acks_;
+  s.estop_refusals = estop_refusals_;
+  s.robot_estop = robot_estop_;
   if (servo_log_) {
     s.servo_log_written = servo_log_->written();
     s.servo_log_dropped = servo_log_->dropped();

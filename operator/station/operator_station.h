@@ -15,6 +15,7 @@
 
 #include <asio.hpp>
 #include <functional>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -27,6 +28,10 @@
 #include "operator/servo/servo_loop.h"
 #include "operator/station/command_sender.h"
 #include "operator/station/operator_task.h"
+
+namespace hemm::report {
+class OperatorStation;  // report.pb.h
+}  // namespace hemm::report
 
 namespace hemm::op {
 
@@ -57,6 +62,9 @@ struct OperatorStationSummary {
   ModelStats model;
   CommandSenderStats commands;
   std::uint64_t mode_switches = 0;
+  std::uint64_t estop_presses = 0;  // on the device (both buttons)
+  std::uint64_t estop_acks = 0, estop_refusals = 0;  // the robot's answers to this station's EStop frames
+  int robot_estop = -1;             // as the robot last reported it: 1 engaged, 0 released, -1 never reported
   std::uint64_t servo_log_written = 0, servo_log_dropped = 0;
   std::uint64_t world_log_written = 0, world_log_dropped = 0;
   // The robot pose the servo task predicted on its last tick (W), and whether
@@ -74,8 +82,10 @@ struct OperatorStationSummary {
   double goal_distance_m = -1.0;
 };
 std::string to_string(const OperatorStationSummary& s);
-// The summary as one JSON object (units in the keys; non-finite numbers as
-// null). Keys: see operator_station.cpp, to_json.
+// The summary as a report message (proto/report.proto: units in the keys;
+// unknown values left out) and as its JSON (protobuf's printer, see
+// config::to_json: 64-bit counters are quoted, non-finite numbers "NaN").
+report::OperatorStation to_report(const OperatorStationSummary& s);
 std::string to_json(const OperatorStationSummary& s);
 
 class OperatorStation {
@@ -94,6 +104,15 @@ class OperatorStation {
   // Stops the servo and model threads (the sender is cancelled on the io
   // thread via post), writes the map dump, closes logs. Idempotent.
   void stop();
+
+  // Network thread: engages or releases the robot's e-stop from this station
+  // (control socket, terminal key). done(reply) is called once: "ok
+  // request_id=N ..." when the robot acknowledged it, "error ..." when there
+  // is no link, the robot refused it, or no Ack came within ack_timeout.
+  using Reply = std::function<void(const std::string& reply)>;
+  void request_estop(bool engaged, const std::string& reason, Reply done);
+  // Network thread: one line for a control socket's "status".
+  std::string status_line() const;
   // After stop(): everything counted.
   OperatorStationSummary summary() const;
 
@@ -124,6 +143,8 @@ class OperatorStation {
 
  private:
   void poll_link();
+  void on_ack(const wire::Ack& a);
+  void on_robot_estop(const wire::EStop& e);
 
   asio::io_context& io_;
   OperatorClient& client_;
@@ -140,6 +161,14 @@ class OperatorStation {
   std::unique_ptr<CommandSender> sender_;
   asio::steady_timer link_timer_;
   SessionTaps taps_;
+  struct PendingAck {
+    bool engaged = false;
+    Reply done;
+    std::unique_ptr<asio::steady_timer> timer;
+  };
+  std::map<std::uint64_t, PendingAck> pending_acks_;  // network thread
+  std::uint64_t estop_acks_ = 0, estop_refusals_ = 0;
+  int robot_estop_ = -1;
   bool started_ = false;
   bool stopped_ = false;
 };

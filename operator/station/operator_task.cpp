@@ -27,18 +27,18 @@ wire::Mode to_wire_mode(math::Mode m) {
 const char* station_log_header() {
   return "t_ns,mode,robot_x,robot_y,robot_theta,goal_x,goal_y,goal_z,proxy_x,proxy_y,fw_x,fw_y,"
          "fh_x,fh_y,fh_z,v,omega,contacts,model_version,model_age_ns,scale,state_stamp_ns,odom_x,odom_y,odom_theta,"
-         "truth_x,truth_y,truth_theta,has_truth";
+         "truth_x,truth_y,truth_theta,has_truth,force_gain";
 }
 
 std::size_t format_station_log_record(const StationLogRecord& r, char* buf, std::size_t size) {
   const int n = std::snprintf(
       buf, size,
       "%" PRId64 ",%u,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%d,%" PRIu64
-      ",%" PRId64 ",%.6f,%" PRId64 ",%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%d\n",
+      ",%" PRId64 ",%.6f,%" PRId64 ",%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%d,%.4f\n",
       r.t_ns, r.mode, r.robot[0], r.robot[1], r.robot[2], r.goal_W[0], r.goal_W[1], r.goal_W[2], r.proxy_W[0],
       r.proxy_W[1], r.force_W[0], r.force_W[1], r.force_H[0], r.force_H[1], r.force_H[2], r.v, r.omega, r.contacts,
       r.model_version, r.model_age_ns, r.scale, r.state_stamp_ns, r.odom[0], r.odom[1], r.odom[2], r.truth[0],
-      r.truth[1], r.truth[2], r.has_truth);
+      r.truth[1], r.truth[2], r.has_truth, r.force_gain);
   if (n < 0 || static_cast<std::size_t>(n) >= size) return 0;
   return static_cast<std::size_t>(n);
 }
@@ -48,8 +48,9 @@ OperatorServoTask::OperatorServoTask(const OperatorTaskParams& p, StationLogger*
   if (std::string e = haptics::validate(p.proxy); !e.empty())
     throw std::invalid_argument("OperatorServoTask: proxy: " + e);
   if (!(p.exploration_range > 0) || !(p.navigation_look_ahead > 0) || !(p.arm_reach > 0) ||
-      !(p.relax_speed > 0) || !(p.max_extrapolation_s >= 0))
-    throw std::invalid_argument("OperatorServoTask: ranges, reach, relax speed must be positive");
+      !(p.relax_speed > 0) || !(p.max_extrapolation_s >= 0) || !(p.engage_move > 0) ||
+      !std::isfinite(p.engage_move))
+    throw std::invalid_argument("OperatorServoTask: ranges, reach, relax speed, engage_move must be positive");
   explore_ = math::make_exploration_map(p.workspace, p.exploration_range);
   navigate_ = math::make_navigation_map(p.workspace, p.navigation_look_ahead);
   if (!p.navigation_point_origin_R.allFinite() || p.navigation_point_origin_R.norm() > 5.0)
@@ -78,6 +79,15 @@ void OperatorServoTask::switch_to(math::Mode next, const Eigen::Vector3d& p_B) n
   anchor_ = math::reanchor_at_switch(map_of(next), T_W_R_, p_B, proxy3, goal_W_, map_of(mode_).scale);
   mode_ = next;
   ++switches_;
+  hold_motion(p_B);
+}
+
+void OperatorServoTask::hold_motion(const Eigen::Vector3d& p_B) noexcept {
+  if (!held_) ++holds_;
+  held_ = true;
+  hold_moved_ = false;
+  hold_neutral_ = false;
+  hold_ref_B_ = p_B;
 }
 
 void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelSnapshot& model,
@@ -94,14 +104,43 @@ void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelS
   const Eigen::Vector3d& p_H = in.ee[0].position_H;  // the Omni's stylus: end-effector 0
   const Eigen::Vector3d p_B = p_H.allFinite() ? Eigen::Vector3d(R * p_H) : Eigen::Vector3d::Zero();
 
+  // A model going stale (or a robot restart being taken in): the force fades
+  // (never a step: the gain moves at most 1 / fade per second whatever its
+  // target does) and the robot is held.
+  bool stale = false;
+  double gain_target = 1.0, fade_s = 1.0;
+  if (snap != nullptr) {
+    fade_s = static_cast<double>(snap->fade_ns) * 1e-9;
+    if (snap->have_data) {
+      const std::int64_t over = in.t_ns - snap->data_stamp_ns - snap->stale_after_ns;
+      stale = over > 0;
+      gain_target = std::clamp(1.0 - static_cast<double>(over) / static_cast<double>(snap->fade_ns), 0.0, 1.0);
+    }
+    if (snap->resyncing) {
+      stale = true;
+      gain_target = 0.0;
+    }
+  }
+  const double gain_step = p_.proxy.period / std::max(fade_s, 1e-3);
+  force_gain_ += std::clamp(gain_target - force_gain_, -gain_step, gain_step);
+  const bool resynced = snap != nullptr && snap->resyncs != resyncs_seen_;
+  if (resynced) resyncs_seen_ = snap->resyncs;
+
   // Buttons: rising edges switch modes (not on the very first tick: a held
-  // button at start-up is not a press).
+  // button at start-up is not a press). Both down is the e-stop.
+  constexpr std::uint32_t kBoth = device::kButton1 | device::kButton2;
   const std::uint32_t buttons = in.ee[0].handle.buttons;
   const std::uint32_t pressed =
       view_presses_ != nullptr ? view_presses_->exchange(0, std::memory_order_relaxed) : 0u;
   const std::uint32_t rising = first_ ? 0u : ((buttons & ~buttons_prev_) | pressed);
+  const bool estop_press = !first_ && (buttons & kBoth) == kBoth && (buttons_prev_ & kBoth) != kBoth;
   buttons_prev_ = buttons;
-  if (!first_) {
+  if (estop_press) {
+    ++estop_presses_;
+    hold_motion(p_B);
+  }
+  if (stale) hold_motion(p_B);  // held from where the hand is when the model is fresh again
+  if (!estop_press && !first_) {
     if (rising & device::kButton1) {
       switch_to(mode_ == math::Mode::kExploration   ? math::Mode::kNavigation
                 : mode_ == math::Mode::kNavigation ? math::Mode::kManipulation
@@ -115,8 +154,12 @@ void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelS
 
   const math::ScaledMap& sm = map_of(mode_);
   goal_W_ = math::anchored_point_W(sm, anchor_, T_W_R_, p_B);
-  if (first_) {
+  if (first_ || resynced) {
+    // Start-up, or a restarted robot's map and pose just took over (the force
+    // has faded out): the proxy starts again at the goal.
     haptics::proxy_reset(proxy_, goal_W_.head<2>());
+    if (first_) ++holds_;  // start-up: held from the first tick
+    hold_ref_B_ = p_B;
     first_ = false;
   }
   haptics::proxy_tick(p_.proxy, map, proxy_, goal_W_, sm.scale);
@@ -130,10 +173,19 @@ void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelS
   sp.t_ns = in.t_ns;
   sp.tick = ticks_;
   sp.mode = mode_;
-  if (mode_ == math::Mode::kNavigation) {
-    const math::BaseCommand c = math::navigation_command(navigate_, proxy_B + anchor_.offset_B);
-    sp.v = c.v;
-    sp.omega = c.omega;
+  sp.estop_presses = estop_presses_;
+  math::BaseCommand nav_cmd;
+  if (mode_ == math::Mode::kNavigation) nav_cmd = math::navigation_command(navigate_, proxy_B + anchor_.offset_B);
+  if (held_) {
+    if ((p_B - hold_ref_B_).norm() >= p_.engage_move) hold_moved_ = true;
+    if (mode_ != math::Mode::kNavigation || (nav_cmd.v == 0.0 && nav_cmd.omega == 0.0)) hold_neutral_ = true;
+    held_ = !(hold_moved_ && hold_neutral_);
+  }
+  if (held_) {
+    // Nothing moves: zero command, no arm target, deadman released.
+  } else if (mode_ == math::Mode::kNavigation) {
+    sp.v = nav_cmd.v;
+    sp.omega = nav_cmd.omega;
     sp.moves_robot = true;
   } else if (mode_ == math::Mode::kManipulation) {
     const math::ManipulationTarget t = math::manipulation_target(manipulate_, proxy_B + anchor_.offset_B);
@@ -144,7 +196,8 @@ void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelS
   last_ = sp;
   setpoints_.put(sp);
 
-  const Eigen::Vector3d F_B = math::force_W_to_B(T_W_R_, proxy_.force_W);
+  const Eigen::Vector3d F_W = force_gain_ * proxy_.force_W;  // rendered
+  const Eigen::Vector3d F_B = math::force_W_to_B(T_W_R_, F_W);
   const Eigen::Vector3d F_H = R.transpose() * F_B;
   out.command.ee[0].force_H = F_H.allFinite() ? F_H : Eigen::Vector3d::Zero();
   out.publish_setpoint = false;  // the base / arm command travels in StationSetpoint
@@ -156,7 +209,8 @@ void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelS
     view_->T_W_R = T_W_R_;
     view_->t_ns = in.t_ns;
     view_->mode = mode_;
-    view_->valid = snap != nullptr && snap->have_state;
+    view_->valid = snap != nullptr && snap->have_state && !stale;
+    view_->resyncs = resyncs_seen_;
   }
 
   if (log_ != nullptr || view_ticks_ != nullptr) {
@@ -169,8 +223,9 @@ void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelS
     for (int i = 0; i < 3; ++i) r.goal_W[i] = goal_W_[i];
     r.proxy_W[0] = proxy_.proxy_W.x();
     r.proxy_W[1] = proxy_.proxy_W.y();
-    r.force_W[0] = proxy_.force_W.x();
-    r.force_W[1] = proxy_.force_W.y();
+    r.force_W[0] = F_W.x();
+    r.force_W[1] = F_W.y();
+    r.force_gain = force_gain_;
     for (int i = 0; i < 3; ++i) r.force_H[i] = out.command.ee[0].force_H[i];
     r.v = sp.v;
     r.omega = sp.omega;

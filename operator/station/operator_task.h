@@ -8,7 +8,11 @@
 //
 // Modes (button 1, rising edge: exploration -> navigation -> manipulation ->
 // exploration; button 2, rising edge: toggles exploration <-> navigation,
-// from manipulation it goes to navigation):
+// from manipulation it goes to navigation). Both buttons down together is the
+// e-stop (counted in StationSetpoint::estop_presses; the command sender sends
+// it): a press of both on the same tick switches no mode, and the robot is
+// held (see "Motion hold") so that a release of the e-stop moves nothing
+// until the hand does:
 //  - exploration (E_T_H): the stylus point mapped around the robot's present
 //    (predicted) pose is the proxy's goal; the proxy rests on the map's
 //    surfaces. The robot does not move (v = omega = 0, no deadman).
@@ -25,8 +29,28 @@
 // At a switch the new map is re-anchored (reanchor_at_switch) so the force is
 // continuous, then the anchor relaxes at relax_speed (device m/s).
 //
+// Motion hold. The re-anchored proxy is where the OLD mode left it, so the
+// new mode's command taken from it is not what the hand asks for (switching
+// exploration -> navigation with the stylus centred would back the robot up;
+// with the exploration proxy far ahead it would drive at full speed). So at
+// start-up and at every switch the robot is held (v = omega = 0, no arm
+// target, deadman released) until the hand has moved the stylus engage_move
+// from where it was when the hold began AND, in navigation, the command has
+// been in its dead band at least once since (a joystick's zero-start
+// interlock: motion starts from rest, never at the speed the proxy happens
+// to give).
+//
 // The robot pose used on each tick is the snapshot's prediction extrapolated
 // to the tick time with the command acting (bounded by max_extrapolation_s).
+//
+// A stale model (ModelThread: its newest robot data older than RTT / 2 +
+// fresh_s) is not rendered at full force: the force is scaled by a gain that
+// falls linearly to zero over fade_s as the model ages, and moves at most
+// 1 / fade_s per second (so fresh data after an outage brings the force back
+// over fade_s, not in one tick). While stale, or while a restarted robot is
+// taken in, the robot is held (the motion hold below) and the view says
+// invalid; when the restarted robot's map takes over the proxy starts again
+// at the goal.
 // The tick never allocates, locks or blocks. Setpoints go to a newest-wins
 // mailbox (StationSetpoint: the servo's ServoSetpoint has no room for the
 // base / arm command), a W-frame log record into an optional logger.
@@ -60,6 +84,7 @@ struct StationSetpoint {
   Eigen::Vector3d arm_target_R = Eigen::Vector3d::Zero();  // manipulation
   bool arm_valid = false;
   bool moves_robot = false;  // deadman: the mode commands motion
+  std::uint64_t estop_presses = 0;  // e-stop presses on the device so far (both buttons together)
 };
 
 // One record per tick, W frame, for the plots (deploy/plots/plot_run.py).
@@ -83,6 +108,7 @@ struct StationLogRecord {
   double odom[3] = {0, 0, 0};
   double truth[3] = {0, 0, 0};
   int has_truth = 0;
+  double force_gain = 1.0;          // the stale-model fade (1: fresh)
 };
 const char* station_log_header();
 std::size_t format_station_log_record(const StationLogRecord& r, char* buf, std::size_t size);
@@ -125,7 +151,8 @@ struct OperatorView {
   math::Pose2 T_W_R;          // predicted robot pose in W
   std::int64_t t_ns = 0;      // the tick's time
   math::Mode mode = math::Mode::kExploration;
-  bool valid = false;         // false until the model has a RobotState
+  bool valid = false;         // false until the model has a RobotState, and while it is stale
+  std::uint64_t resyncs = 0;  // robot restarts taken in: a closed-loop hand restarts its task from the robot's state
 };
 
 struct OperatorTaskParams {
@@ -142,6 +169,10 @@ struct OperatorTaskParams {
   Eigen::Vector3d arm_workspace_centre_R{0.35, 0.0, 0.30};
   double arm_reach = 0.5;
   double relax_speed = 0.02;  // device m/s at which a switch's anchor fades
+  // Stylus travel (device m) that counts as "the hand moved" for the motion
+  // hold: well above a hand's tremor on the Omni (~0.1 mm), a quarter of the
+  // navigation dead band.
+  double engage_move = 0.002;
   double max_extrapolation_s = 0.5;
   math::Mode initial_mode = math::Mode::kExploration;
 };
@@ -165,6 +196,11 @@ class OperatorServoTask final : public servo::ServoTask {
   const StationSetpoint& last_setpoint() const noexcept { return last_; }
   const math::Pose2& robot_pose() const noexcept { return T_W_R_; }
   std::uint64_t mode_switches() const noexcept { return switches_; }
+  std::uint64_t estop_presses() const noexcept { return estop_presses_; }
+  double force_gain() const noexcept { return force_gain_; }
+  // True while motion is held (see "Motion hold" above).
+  bool motion_held() const noexcept { return held_; }
+  std::uint64_t motion_holds() const noexcept { return holds_; }  // holds begun
   const OperatorTaskParams& params() const noexcept { return p_; }
   // The scaled map of a mode (B -> R).
   const math::ScaledMap& map_of(math::Mode m) const noexcept;
@@ -183,6 +219,7 @@ class OperatorServoTask final : public servo::ServoTask {
 
  private:
   void switch_to(math::Mode next, const Eigen::Vector3d& p_B) noexcept;
+  void hold_motion(const Eigen::Vector3d& p_B) noexcept;
 
   OperatorTaskParams p_;
   math::ExplorationMap explore_;
@@ -195,8 +232,15 @@ class OperatorServoTask final : public servo::ServoTask {
   math::Pose2 T_W_R_;
   Eigen::Vector3d goal_W_ = Eigen::Vector3d::Zero();
   std::uint32_t buttons_prev_ = 0;
+  std::uint64_t estop_presses_ = 0;
   bool first_ = true;
   std::uint64_t switches_ = 0;
+  double force_gain_ = 1.0;         // stale-model fade
+  std::uint64_t resyncs_seen_ = 0;
+  bool held_ = true;
+  bool hold_moved_ = false, hold_neutral_ = false;
+  Eigen::Vector3d hold_ref_B_ = Eigen::Vector3d::Zero();
+  std::uint64_t holds_ = 0;
   std::uint64_t ticks_ = 0;
   StationSetpoint last_;
   servo::LatestMailbox<StationSetpoint> setpoints_;

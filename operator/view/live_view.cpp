@@ -11,6 +11,7 @@
 
 #include "common/view/mujoco_window.h"
 #include "common/view/png_sequence.h"
+#include "common/net/station_cli.h"
 #include "common/view/view_loop.h"
 #include "operator/device/haptic_device.h"
 #include "operator/view/operator_scene.h"
@@ -55,16 +56,17 @@ view::MjModelPtr load_world() {
 
 }  // namespace
 
-LiveViewLinks client_view_links(OperatorClient& client, asio::io_context& io) {
+LiveViewLinks station_view_links(OperatorClient& client, OperatorStation& station, asio::io_context& io) {
   LiveViewLinks l;
   l.link_stats = [&client] { return client.statistics(); };
-  l.estop = [&client, &io] {
-    asio::post(io, [&client] {
-      wire::SessionFrame f;
-      f.mutable_estop()->set_engaged(true);
-      f.mutable_estop()->set_reason("e-stop key of the operator's live view");
-      client.send_session_frame(f);
-      spdlog::warn("event=estop_requested source=view");
+  // One more place to press the e-stop, through the station like the others
+  // (a request id, the robot's Ack awaited and logged).
+  l.estop = [&station, &io] {
+    spdlog::warn("event=estop_requested source=view");
+    asio::post(io, [&station] {
+      station.request_estop(true, "view key", [](const std::string& reply) {
+        spdlog::warn("event=estop_reply via=view reply=\"{}\"", net::printable_text(reply));
+      });
     });
   };
   return l;

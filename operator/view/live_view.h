@@ -33,9 +33,11 @@ struct LiveViewLinks {
 };
 
 // The links of a running hemm-operator: statistics from the client; the
-// e-stop key posts an EStop{engaged} session frame to the robot on the
-// network thread (io's). The robot engages it for any authenticated session.
-LiveViewLinks client_view_links(OperatorClient& client, asio::io_context& io);
+// e-stop key engages the robot's e-stop through the station
+// (OperatorStation::request_estop on the network thread, io's: an EStop with
+// a request id whose Ack is logged). The robot engages it for any
+// authenticated session.
+LiveViewLinks station_view_links(OperatorClient& client, OperatorStation& station, asio::io_context& io);
 
 struct LiveViewStats {
   std::uint64_t frames = 0;

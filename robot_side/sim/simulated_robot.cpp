@@ -149,8 +149,24 @@ struct SimulatedRobot::Impl {
   std::mt19937_64 rng{1};
   uint32_t scan_id = 0;
   std::deque<RangeScanData> scans;
-  std::vector<Eigen::Vector2d> laser_points_W, sonar_points_W;  // odometry world frame
-  std::vector<Eigen::Vector2d> guard_points_R;                  // scratch
+  // The newest laser and sonar scans as the guard keeps them (odometry W).
+  struct GuardScan {
+    std::vector<Eigen::Vector2d> ends_W;  // each beam's end at its known range
+    std::vector<uint8_t> known, obstacle;
+    std::vector<float> known_range;       // scratch
+    double cone_half_angle = 0.0;
+    bool ring = false;
+    void clear() {
+      ends_W.clear();
+      known.clear();
+      obstacle.clear();
+    }
+  };
+  GuardScan laser_guard, sonar_guard;
+  std::vector<Eigen::Vector2d> guard_points_R, guard_ends_R;  // scratch, refreshed every step
+  KnownFree known_free{};
+  ArmKeepOut arm_keep_out;
+  SimulatedRobot::ArmRefusals arm_refusals;
 
   int64_t now() const { return origin_ns + steps * dt_ns; }
 
@@ -184,21 +200,33 @@ struct SimulatedRobot::Impl {
     odom.x = p.x;
     odom.y = p.y;
     odom.theta = p.theta;
-    laser_points_W.clear();
-    sonar_points_W.clear();
+    laser_guard.clear();
+    sonar_guard.clear();
+    guard_points_R.clear();
     reset_arm(arm_state, q());
     arm_holding = true;
     have_arm_goal = false;
   }
 
-  void store_guard_points(const RangeScanData& s, std::vector<Eigen::Vector2d>& out) const {
-    out.clear();
+  // Dropouts are not free space: a short run of them is bounded by its
+  // neighbours (2 laser beams, 1 sonar), a longer one is unknown.
+  void store_guard_scan(const RangeScanData& s, GuardScan& g) const {
+    const bool sonar = s.kind == RangeSensorKind::kSonar;
+    g.ring = sonar;
+    g.cone_half_angle = sonar ? 0.5 * s.beam_width : 0.0;
+    g.known_range.resize(s.size());
+    known_beam_ranges(s.ranges, s.valid, sonar ? 1 : 2, g.ring, g.known_range);
+    g.ends_W.resize(s.size());
+    g.known.resize(s.size());
+    g.obstacle.resize(s.size());
     const double c = std::cos(odom.theta), sn = std::sin(odom.theta);
     for (size_t i = 0; i < s.size(); ++i) {
-      if (!s.valid[i]) continue;
       const double a = s.angle_min + static_cast<double>(i) * s.angle_step;
-      const Eigen::Vector3d p_R = s.T_R_S * Eigen::Vector3d(s.ranges[i] * std::cos(a), s.ranges[i] * std::sin(a), 0);
-      out.emplace_back(odom.x + c * p_R.x() - sn * p_R.y(), odom.y + sn * p_R.x() + c * p_R.y());
+      const double r = std::max(0.0f, g.known_range[i]);
+      const Eigen::Vector3d p_R = s.T_R_S * Eigen::Vector3d(r * std::cos(a), r * std::sin(a), 0);
+      g.ends_W[i] = {odom.x + c * p_R.x() - sn * p_R.y(), odom.y + sn * p_R.x() + c * p_R.y()};
+      g.known[i] = g.known_range[i] >= 0.0f;
+      g.obstacle[i] = s.valid[i];
     }
   }
 
@@ -211,12 +239,14 @@ struct SimulatedRobot::Impl {
     s.scan_id = scan_id++;
     s.T_W_R_odom = {odom.x, odom.y, odom.theta};
     s.T_W_R_truth = planar(T_W_R);
-    store_guard_points(s, is_laser ? laser_points_W : sonar_points_W);
+    store_guard_scan(s, is_laser ? laser_guard : sonar_guard);
     scans.push_back(std::move(s));
     while (scans.size() > kMaxQueuedScans) scans.pop_front();
   }
 
-  // The guard's footprint grows with the arm when it reaches out.
+  // The guard's footprint grows with the arm when it reaches out. The
+  // stored scans are brought into R at the present odometry pose: the
+  // returns (obstacles) and what they show free.
   GuardLimit guard_limit() {
     CollisionGuardParams g = guard;
     for (const Eigen::Vector3d& p_A : kinematics::arm_points(arm, q())) {
@@ -226,14 +256,18 @@ struct SimulatedRobot::Impl {
       g.half_width = std::max(g.half_width, std::abs(p.y()) + 0.04);
     }
     guard_points_R.clear();
+    known_free.fill(0.0);
     const double c = std::cos(odom.theta), sn = std::sin(odom.theta);
-    for (const auto* pts : {&laser_points_W, &sonar_points_W}) {
-      for (const Eigen::Vector2d& w : *pts) {
-        const Eigen::Vector2d dlt = w - Eigen::Vector2d(odom.x, odom.y);
-        guard_points_R.emplace_back(c * dlt.x() + sn * dlt.y(), -sn * dlt.x() + c * dlt.y());
+    for (const GuardScan* gs : {&laser_guard, &sonar_guard}) {
+      guard_ends_R.resize(gs->ends_W.size());
+      for (size_t i = 0; i < gs->ends_W.size(); ++i) {
+        const Eigen::Vector2d dlt = gs->ends_W[i] - Eigen::Vector2d(odom.x, odom.y);
+        guard_ends_R[i] = {c * dlt.x() + sn * dlt.y(), -sn * dlt.x() + c * dlt.y()};
+        if (gs->obstacle[i]) guard_points_R.push_back(guard_ends_R[i]);
       }
+      add_known_free(guard_ends_R, gs->known, gs->cone_half_angle, gs->ring, known_free);
     }
-    return collision_guard(g, guard_points_R);
+    return collision_guard(g, guard_points_R, &known_free);
   }
 
   void control_step() {
@@ -258,15 +292,18 @@ struct SimulatedRobot::Impl {
     }
     const GuardLimit gl = guard_limit();
     const double v_guarded = std::clamp(v_cmd, -gl.max_backward, gl.max_forward);
-    if (v_guarded != v_cmd || setpoint.v > gl.max_forward || -setpoint.v > gl.max_backward)
+    const double w_guarded = std::clamp(w_cmd, -gl.max_yaw_cw, gl.max_yaw_ccw);
+    if (v_guarded != v_cmd || setpoint.v > gl.max_forward || -setpoint.v > gl.max_backward ||
+        w_guarded != w_cmd || setpoint.omega > gl.max_yaw_ccw || -setpoint.omega > gl.max_yaw_cw)
       flags |= wire::SAFETY_COLLISION_GUARD;
     if (estop) {
       setpoint = {};
     } else {
-      setpoint = slew_setpoint(base_limits, setpoint, v_guarded, w_cmd, dt);
+      setpoint = slew_setpoint(base_limits, setpoint, v_guarded, w_guarded, dt);
       // Braking for the guard may exceed the comfort slew: never run faster
       // than the guard allows.
       setpoint.v = std::clamp(setpoint.v, -gl.max_backward, gl.max_forward);
+      setpoint.omega = std::clamp(setpoint.omega, -gl.max_yaw_cw, gl.max_yaw_ccw);
     }
     const WheelSpeeds ws = wheel_speeds(geometry, setpoint);
     const double r = geometry.wheel_radius;
@@ -398,6 +435,7 @@ std::optional<std::string> SimulatedRobot::load(const config::RobotConfig& cfg, 
   impl->guard.reaction_time = cfg.safety().guard_reaction_time_s();
   impl->geometry.slip_factor = cfg.base().skid_slip_factor();
   impl->guard.max_decel = cfg.base().max_accel_mps2();
+  impl->guard.max_yaw_decel = cfg.base().max_yaw_accel_rps2();
   impl->watchdog.timeout_ns = static_cast<int64_t>(cfg.safety().watchdog_ms()) * 1'000'000;
   impl->laser = laser_params_from_config(cfg);
   impl->sonar = sonar_params_from_config(cfg);
@@ -458,6 +496,18 @@ std::optional<std::string> SimulatedRobot::set_command(const BaseArmCommand& c, 
     const kinematics::Arm5Vector seed = s.have_arm_goal ? s.arm_goal : s.arm_state.q_ref;
     const kinematics::IkResult ik = kinematics::inverse_kinematics(s.arm, t, seed);
     if (ik.status == kinematics::IkStatus::kInvalidInput) return reject("arm target rejected by IK");
+    // The pose the arm would go to (the IK's nearest reachable one) must stay
+    // out of the floor, the base and what the sensors have seen.
+    std::array<Eigen::Vector3d, 5> chain;
+    chain[0] = s.T_R_A.translation();
+    const auto joints = kinematics::arm_points(s.arm, ik.q);
+    for (size_t i = 0; i < joints.size(); ++i) chain[i + 1] = s.T_R_A * joints[i];
+    if (const ArmRefusal why = check_arm_chain(s.arm_keep_out, chain, s.guard_points_R); why != ArmRefusal::kNone) {
+      ++(why == ArmRefusal::kFloor ? s.arm_refusals.floor
+         : why == ArmRefusal::kBase ? s.arm_refusals.base
+                                    : s.arm_refusals.scene);
+      return reject(to_string(why));
+    }
     s.arm_goal = ik.q;
     s.have_arm_goal = true;
     s.arm_goal_flagged = ik.status != kinematics::IkStatus::kConverged;
@@ -468,6 +518,7 @@ std::optional<std::string> SimulatedRobot::set_command(const BaseArmCommand& c, 
 }
 
 uint64_t SimulatedRobot::rejected_commands() const { return impl_ ? impl_->rejected : 0; }
+SimulatedRobot::ArmRefusals SimulatedRobot::arm_refusals() const { return impl_ ? impl_->arm_refusals : ArmRefusals{}; }
 void SimulatedRobot::set_operator_in_control(bool b) {
   if (impl_) impl_->operator_in_control = b;
 }

@@ -11,9 +11,9 @@
 //   * no operator in control, watchdog expired (no valid command for
 //     watchdog_ms), or the command's deadman released: the base decelerates
 //     to a stop within its acceleration limits, the arm holds;
-//   * collision guard: the base's forward/backward speed is limited so that
-//     its stopping distance plus collision_margin_m fits in the free range of
-//     its swept corridor, from its own laser and sonar data.
+//   * collision guard: the base's forward/backward speed and its yaw rate are
+//     limited so that it stops short of what its own laser and sonar see, in
+//     space they saw free (CollisionGuardParams in robot_side/control/safety.h).
 //
 // Time is the simulation's: time_ns() = origin + steps * timestep. In real-time
 // mode the station sets the origin to its steady clock and steps to it (see
@@ -67,8 +67,15 @@ class SimulatedRobot {
   // with a reason and change nothing. A manipulation command's target is
   // solved by IK at once; an unreachable one is replaced by the nearest
   // reachable pose and flagged SAFETY_JOINT_LIMIT.
+  // A manipulation target whose arm pose would reach into the floor, the
+  // base or a return of the robot's own recent scans is refused too
+  // (ArmKeepOut in robot_side/control/safety.h), counted by reason.
   std::optional<std::string> set_command(const BaseArmCommand& command, int64_t now_ns);
   uint64_t rejected_commands() const;
+  struct ArmRefusals {
+    uint64_t floor = 0, base = 0, scene = 0;
+  };
+  ArmRefusals arm_refusals() const;
 
   void set_operator_in_control(bool in_control);  // set by the authenticated session
   void set_estop(bool engaged);

@@ -6,11 +6,15 @@
 #include <atomic>
 #include <chrono>
 #include <mutex>
+#include <random>
 #include <sstream>
 #include <vector>
 
+#include "common/config/config.h"
 #include "common/net/mailbox.h"
+#include "common/net/station_cli.h"
 #include "config_robot.pb.h"
+#include "report.pb.h"
 #include "robot_side/sim/realtime.h"
 
 namespace hemm::robot {
@@ -18,7 +22,8 @@ namespace {
 
 // Requests from the session channel, applied by the simulation thread.
 struct Request {
-  enum class Kind { kMode, kEStop } kind = Kind::kMode;
+  // kEStop: from the operator (a session frame); kLocalEStop: at the robot.
+  enum class Kind { kMode, kEStop, kLocalEStop } kind = Kind::kMode;
   wire::Mode mode = wire::MODE_UNSPECIFIED;
   uint64_t request_id = 0;
   bool engaged = false;
@@ -27,13 +32,6 @@ struct Request {
 
 // A bound on queued session requests: a flooding peer gets refusals, not memory.
 constexpr size_t kMaxQueuedRequests = 64;
-
-// Peer text goes back into frames and logs: printable ASCII, bounded.
-std::string printable(const std::string& s) {
-  std::string out;
-  for (char c : s.substr(0, 200)) out.push_back((c >= 0x20 && c <= 0x7e && c != '"') ? c : '_');
-  return out;
-}
 
 bool is_power_of_two(uint64_t n) { return n != 0 && (n & (n - 1)) == 0; }
 
@@ -48,10 +46,18 @@ wire::SessionFrame make_ack(uint64_t request_id, bool ok, const std::string& rea
 
 }  // namespace
 
+// A command and how much longer than the fastest command it took to arrive
+// (held on the path): the watchdog counts from its send time, so it gets
+// that much less time.
+struct TimedCommand {
+  BaseArmCommand command;
+  int64_t excess_age_ns = 0;
+};
+
 struct RobotStation::Shared {
   RobotServer* server = nullptr;
   asio::io_context* io = nullptr;
-  net::NewestMailbox<BaseArmCommand> commands;  // network thread -> simulation thread
+  net::NewestMailbox<TimedCommand> commands;  // network thread -> simulation thread
   std::mutex req_mu;
   std::vector<Request> requests;  // guarded by req_mu
   std::atomic<bool> stop{false};
@@ -63,10 +69,11 @@ struct RobotStation::Shared {
   std::atomic<int64_t> max_lateness_ns{0}, lateness_sum_ns{0};
   std::atomic<uint64_t> lateness_n{0};
   std::atomic<uint64_t> commands_received{0}, commands_without_control{0}, commands_malformed{0},
-      commands_mode_mismatch{0}, commands_applied{0}, commands_rejected{0};
+      commands_mode_mismatch{0}, commands_stale{0}, commands_applied{0}, commands_rejected{0};
+  std::atomic<uint64_t> arm_refused_floor{0}, arm_refused_base{0}, arm_refused_scene{0};
   std::atomic<uint64_t> states_sent{0}, scans_sent{0}, scan_chunks_sent{0}, send_failures{0};
   std::atomic<uint64_t> mode_changes{0}, estop_changes{0}, requests_refused{0};
-  std::atomic<bool> estop{false};
+  std::atomic<bool> estop{false}, estop_local{false};
   std::atomic<int> mode{0};
   std::atomic<uint32_t> safety{0};
 };
@@ -90,7 +97,8 @@ void refuse(RobotStation::Shared& sh, uint64_t request_id, const std::string& wh
 // Network thread: queue a request for the simulation thread, or refuse it.
 void queue_request(const SharedPtr& sh, Request r) {
   std::lock_guard<std::mutex> lk(sh->req_mu);
-  if (sh->requests.size() >= kMaxQueuedRequests) {
+  // The robot's own e-stop is never refused.
+  if (sh->requests.size() >= kMaxQueuedRequests && r.kind != Request::Kind::kLocalEStop) {
     refuse(*sh, r.request_id, "too many pending requests");
     send_now(*sh, make_ack(r.request_id, false, "too many pending requests"));
     return;
@@ -100,40 +108,40 @@ void queue_request(const SharedPtr& sh, Request r) {
 
 }  // namespace
 
-std::string to_json(const RobotStationStatistics& s, const std::string& indent) {
-  std::ostringstream os;
-  os << "{";
-  bool first = true;
-  auto f = [&](const char* k, auto v) {
-    os << (first ? "\n" : ",\n") << indent << "  \"" << k << "\": " << v;
-    first = false;
-  };
-  f("sim_steps", s.sim_steps);
-  f("late_steps", s.late_steps);
-  f("resyncs", s.resyncs);
-  f("contact_steps", s.contact_steps);
-  f("guard_states", s.guard_states);
-  f("max_lateness_ns", s.max_lateness_ns);
-  f("mean_lateness_ns", s.mean_lateness_ns);
-  f("commands_received", s.commands_received);
-  f("commands_without_control", s.commands_without_control);
-  f("commands_malformed", s.commands_malformed);
-  f("commands_mode_mismatch", s.commands_mode_mismatch);
-  f("commands_applied", s.commands_applied);
-  f("commands_rejected", s.commands_rejected);
-  f("states_sent", s.states_sent);
-  f("scans_sent", s.scans_sent);
-  f("scan_chunks_sent", s.scan_chunks_sent);
-  f("send_failures", s.send_failures);
-  f("mode_changes", s.mode_changes);
-  f("estop_changes", s.estop_changes);
-  f("requests_refused", s.requests_refused);
-  f("estop", s.estop ? "true" : "false");
-  f("mode", s.mode);
-  f("safety", s.safety);
-  os << "\n" << indent << "}";
-  return os.str();
+report::RobotStation to_report(const RobotStationStatistics& s) {
+  report::RobotStation r;
+  r.set_sim_steps(s.sim_steps);
+  r.set_late_steps(s.late_steps);
+  r.set_resyncs(s.resyncs);
+  r.set_contact_steps(s.contact_steps);
+  r.set_guard_states(s.guard_states);
+  r.set_max_lateness_ns(s.max_lateness_ns);
+  r.set_mean_lateness_ns(s.mean_lateness_ns);
+  r.set_commands_received(s.commands_received);
+  r.set_commands_without_control(s.commands_without_control);
+  r.set_commands_malformed(s.commands_malformed);
+  r.set_commands_mode_mismatch(s.commands_mode_mismatch);
+  r.set_commands_stale(s.commands_stale);
+  r.set_commands_applied(s.commands_applied);
+  r.set_commands_rejected(s.commands_rejected);
+  r.set_arm_refused_floor(s.arm_refused_floor);
+  r.set_arm_refused_base(s.arm_refused_base);
+  r.set_arm_refused_scene(s.arm_refused_scene);
+  r.set_states_sent(s.states_sent);
+  r.set_scans_sent(s.scans_sent);
+  r.set_scan_chunks_sent(s.scan_chunks_sent);
+  r.set_send_failures(s.send_failures);
+  r.set_mode_changes(s.mode_changes);
+  r.set_estop_changes(s.estop_changes);
+  r.set_requests_refused(s.requests_refused);
+  r.set_estop(s.estop);
+  r.set_estop_local(s.estop_local);
+  r.set_mode(s.mode);
+  r.set_safety(s.safety);
+  return r;
 }
+
+std::string to_json(const RobotStationStatistics& s) { return config::to_json(to_report(s)); }
 
 std::string to_log_fields(const RobotStationStatistics& s) {
   std::ostringstream os;
@@ -141,12 +149,16 @@ std::string to_log_fields(const RobotStationStatistics& s) {
      << " contact_steps=" << s.contact_steps << " guard_states=" << s.guard_states
      << " max_lateness_us=" << s.max_lateness_ns / 1000 << " mean_lateness_us=" << s.mean_lateness_ns / 1000.0
      << " commands_received=" << s.commands_received << " commands_applied=" << s.commands_applied
-     << " commands_rejected=" << s.commands_rejected << " commands_without_control=" << s.commands_without_control
+     << " commands_rejected=" << s.commands_rejected << " arm_refused_floor=" << s.arm_refused_floor
+     << " arm_refused_base=" << s.arm_refused_base << " arm_refused_scene=" << s.arm_refused_scene
+     << " commands_without_control=" << s.commands_without_control
      << " commands_malformed=" << s.commands_malformed << " commands_mode_mismatch=" << s.commands_mode_mismatch
+     << " commands_stale=" << s.commands_stale
      << " states_sent=" << s.states_sent << " scans_sent=" << s.scans_sent
      << " scan_chunks_sent=" << s.scan_chunks_sent << " send_failures=" << s.send_failures
      << " mode_changes=" << s.mode_changes << " estop_changes=" << s.estop_changes
-     << " requests_refused=" << s.requests_refused << " estop=" << s.estop << " mode=" << s.mode
+     << " requests_refused=" << s.requests_refused << " estop=" << s.estop << " estop_local=" << s.estop_local
+     << " mode=" << s.mode
      << " safety=" << s.safety;
   return os.str();
 }
@@ -160,16 +172,22 @@ std::string to_summary(const RobotStationStatistics& s) {
      << " states with the collision guard limiting the base\n"
      << "  commands: " << s.commands_received << " received, " << s.commands_applied << " applied, "
      << s.commands_rejected << " rejected by the robot, " << s.commands_without_control << " without control, "
-     << s.commands_malformed << " malformed, " << s.commands_mode_mismatch << " wrong mode\n"
+     << s.commands_malformed << " malformed, " << s.commands_mode_mismatch << " wrong mode, " << s.commands_stale
+     << " stale\n"
+     << "  arm targets refused: " << s.arm_refused_floor << " into the floor, " << s.arm_refused_base
+     << " into the base, " << s.arm_refused_scene << " into seen geometry\n"
      << "  sent: " << s.states_sent << " states, " << s.scans_sent << " scans (" << s.scan_chunks_sent
      << " chunks), " << s.send_failures << " send failures\n"
      << "  session: " << s.mode_changes << " mode changes, " << s.estop_changes << " e-stop changes, "
-     << s.requests_refused << " requests refused; e-stop " << (s.estop ? "engaged" : "released") << "\n";
+     << s.requests_refused << " requests refused; e-stop " << (s.estop ? "engaged" : "released")
+     << (s.estop_local ? " (at the robot)" : "") << "\n";
   return os.str();
 }
 
 RobotStation::RobotStation(asio::io_context& io, RobotServer& server, RobotStationOptions o)
     : io_(io), server_(server), o_(o), shared_(std::make_shared<Shared>()) {
+  std::random_device rd;
+  while (frame_epoch_ == 0) frame_epoch_ = (static_cast<uint64_t>(rd()) << 32) ^ rd();
   shared_->server = &server_;
   shared_->io = &io_;
 }
@@ -198,7 +216,7 @@ bool RobotStation::start(std::string* error) {
   const SharedPtr sh = shared_;
 
   server_.streams().on(wire::StreamMessage::kCommand,
-                       [sh](const net::DatagramHeader& h, int64_t, const wire::StreamMessage& m) {
+                       [sh](const net::DatagramHeader& h, int64_t recv_ns, const wire::StreamMessage& m) {
                          ++sh->commands_received;
                          // The server only delivers datagrams of the authenticated
                          // session; that session must also hold control.
@@ -209,14 +227,26 @@ bool RobotStation::start(std::string* error) {
                            }
                            return;
                          }
-                         BaseArmCommand c;
-                         if (auto err = from_wire(m.command(), h.seq, &c)) {
+                         TimedCommand c;
+                         if (auto err = from_wire(m.command(), h.seq, &c.command)) {
                            const uint64_t n = ++sh->commands_malformed;
                            if (is_power_of_two(n)) {
                              spdlog::warn("event=command_malformed count={} error=\"{}\"", n, *err);
                            }
                            return;
                          }
+                         // Something on the path may hold commands and release
+                         // them later: judge the command's age, not its arrival.
+                         const net::MessageAge age = sh->server->message_age(m.command().stamp_ns(), recv_ns);
+                         if (age.stale) {
+                           const uint64_t n = ++sh->commands_stale;
+                           if (is_power_of_two(n)) {
+                             spdlog::warn("event=command_dropped why=stale age_ms={} known={} count={}",
+                                          age.age_ns / 1'000'000, age.known, n);
+                           }
+                           return;
+                         }
+                         c.excess_age_ns = age.excess_ns;
                          sh->commands.publish(c);
                        });
 
@@ -243,20 +273,29 @@ bool RobotStation::start(std::string* error) {
     const wire::EStop& e = f.estop();
     // Anyone authenticated may stop the robot; only the controller may release it.
     if (!e.engaged() && !sh->server->operator_in_control()) {
-      refuse(*sh, 0, "e-stop release without control");
-      send_now(*sh, make_ack(0, false, "only the controlling operator may release the e-stop"));
+      refuse(*sh, e.request_id(), "e-stop release without control");
+      send_now(*sh, make_ack(e.request_id(), false, "only the controlling operator may release the e-stop"));
       return;
     }
     Request r;
     r.kind = Request::Kind::kEStop;
+    r.request_id = e.request_id();
     r.engaged = e.engaged();
-    r.reason = printable(e.reason());
+    r.reason = net::printable_text(e.reason());
     queue_request(sh, std::move(r));
   });
 
   shared_->stop.store(false, std::memory_order_release);
   thread_ = std::thread([this] { run(); });
   return true;
+}
+
+void RobotStation::local_estop(bool engaged, const std::string& reason) {
+  Request r;
+  r.kind = Request::Kind::kLocalEStop;
+  r.engaged = engaged;
+  r.reason = net::printable_text(reason);
+  queue_request(shared_, std::move(r));
 }
 
 void RobotStation::stop() {
@@ -279,8 +318,12 @@ RobotStationStatistics RobotStation::statistics() const {
   s.commands_without_control = sh.commands_without_control.load();
   s.commands_malformed = sh.commands_malformed.load();
   s.commands_mode_mismatch = sh.commands_mode_mismatch.load();
+  s.commands_stale = sh.commands_stale.load();
   s.commands_applied = sh.commands_applied.load();
   s.commands_rejected = sh.commands_rejected.load();
+  s.arm_refused_floor = sh.arm_refused_floor.load();
+  s.arm_refused_base = sh.arm_refused_base.load();
+  s.arm_refused_scene = sh.arm_refused_scene.load();
   s.states_sent = sh.states_sent.load();
   s.scans_sent = sh.scans_sent.load();
   s.scan_chunks_sent = sh.scan_chunks_sent.load();
@@ -289,6 +332,7 @@ RobotStationStatistics RobotStation::statistics() const {
   s.estop_changes = sh.estop_changes.load();
   s.requests_refused = sh.requests_refused.load();
   s.estop = sh.estop.load();
+  s.estop_local = sh.estop_local.load();
   s.mode = sh.mode.load();
   s.safety = sh.safety.load();
   return s;
@@ -315,6 +359,24 @@ void RobotStation::run() {
   uint64_t last_seq = 0;
   bool was_in_control = false;
   std::vector<Request> requests;
+  // The e-stop has two sources: the operator's and the robot's own (local);
+  // the robot is stopped while either is engaged, and each is released only
+  // where it was engaged.
+  bool remote_estop = false, local_estop = false;
+  auto apply_estop = [&](const std::string& why) {
+    const bool engaged = remote_estop || local_estop;
+    const bool was = robot_.estop();
+    robot_.set_estop(engaged);
+    sh.estop.store(engaged);
+    sh.estop_local.store(local_estop);
+    if (was != engaged) ++sh.estop_changes;
+    spdlog::warn("event=estop engaged={} local={} remote={} reason=\"{}\"", engaged, local_estop, remote_estop, why);
+    // Report the state to the operator (who may not be the one who changed it).
+    wire::SessionFrame rep;
+    rep.mutable_estop()->set_engaged(engaged);
+    rep.mutable_estop()->set_reason(why);
+    post_frame(sp, std::move(rep));
+  };
   SimViewFrame view_frame;  // the live view's buffers (swapped with the feed's)
 
   while (!sh.stop.load(std::memory_order_acquire)) {
@@ -375,31 +437,33 @@ void RobotStation::run() {
         sh.mode.store(session_mode);
         spdlog::info("event=mode_change mode={} request_id={}", wire::Mode_Name(r.mode), r.request_id);
         post_frame(sp, make_ack(r.request_id, true, "mode " + wire::Mode_Name(r.mode)));
+      } else if (r.kind == Request::Kind::kLocalEStop) {
+        if (r.engaged == local_estop) continue;
+        local_estop = r.engaged;
+        apply_estop((r.engaged ? "engaged at the robot: " : "released at the robot: ") + r.reason);
       } else {
         if (!r.engaged && !in_control) {
           refuse(sh, r.request_id, "e-stop release without control");
           post_frame(sp, make_ack(r.request_id, false, "only the controlling operator may release the e-stop"));
           continue;
         }
-        const bool was = robot_.estop();
-        robot_.set_estop(r.engaged);
-        sh.estop.store(r.engaged);
+        if (!r.engaged && local_estop) {
+          refuse(sh, r.request_id, "e-stop engaged at the robot");
+          post_frame(sp, make_ack(r.request_id, false, "the e-stop is engaged at the robot: only the robot can release it"));
+          continue;
+        }
         post_frame(sp, make_ack(r.request_id, true, r.engaged ? "e-stop engaged" : "e-stop released"));
-        if (was != r.engaged) {
-          ++sh.estop_changes;
-          spdlog::warn("event=estop engaged={} reason=\"{}\"", r.engaged, r.reason);
-          // Report the new state (the operator may not be the one who asked).
-          wire::SessionFrame rep;
-          rep.mutable_estop()->set_engaged(r.engaged);
-          rep.mutable_estop()->set_reason((r.engaged ? "engaged by operator: " : "released by operator: ") + r.reason);
-          post_frame(sp, std::move(rep));
+        if (r.engaged != remote_estop) {
+          remote_estop = r.engaged;
+          apply_estop((r.engaged ? "engaged by operator: " : "released by operator: ") + r.reason);
         }
       }
     }
     requests.clear();
 
     // The newest command (older ones were superseded in the mailbox).
-    if (const BaseArmCommand* c = sh.commands.take()) {
+    if (const TimedCommand* tc = sh.commands.take()) {
+      const BaseArmCommand* c = &tc->command;
       if (!in_control) {
         ++sh.commands_without_control;  // arrived before control or the link was lost
       } else if (session_mode != wire::MODE_UNSPECIFIED && c->mode != session_mode) {
@@ -408,8 +472,12 @@ void RobotStation::run() {
           spdlog::warn("event=command_dropped why=mode_mismatch mode={} session_mode={} count={}",
                        wire::Mode_Name(c->mode), wire::Mode_Name(session_mode), n);
         }
-      } else if (auto err = robot_.set_command(*c, robot_.time_ns())) {
+      } else if (auto err = robot_.set_command(*c, robot_.time_ns() - tc->excess_age_ns)) {
         const uint64_t n = ++sh.commands_rejected;
+        const SimulatedRobot::ArmRefusals ar = robot_.arm_refusals();
+        sh.arm_refused_floor.store(ar.floor);
+        sh.arm_refused_base.store(ar.base);
+        sh.arm_refused_scene.store(ar.scene);
         if (is_power_of_two(n)) spdlog::warn("event=command_rejected count={} error=\"{}\"", n, *err);
       } else {
         ++sh.commands_applied;
@@ -447,6 +515,7 @@ void RobotStation::run() {
       if (streaming) {
         wire::StreamMessage m;
         to_wire(st, m.mutable_robot_state());
+        m.mutable_robot_state()->set_frame_epoch(frame_epoch_);
         asio::post(io_, [sp, m = std::move(m)] {
           Shared& s = *sp;
           if (!s.server->link_up()) return;
@@ -465,6 +534,7 @@ void RobotStation::run() {
       for (const RangeScanData& scan : scans) {
         std::vector<wire::StreamMessage> msgs;
         for (wire::RangeScan& chunk : to_wire_chunks(scan, o_.max_scan_payload_bytes)) {
+          chunk.set_frame_epoch(frame_epoch_);
           msgs.emplace_back();
           *msgs.back().mutable_range_scan() = std::move(chunk);
         }

@@ -12,9 +12,15 @@
 //
 // Safety: commands only count from the authenticated controlling operator
 // while its link is up; without one the robot reports SAFETY_NO_OPERATOR and
-// decelerates; with the link down it also reports SAFETY_LINK_LOST. Mode
+// decelerates; with the link down it also reports SAFETY_LINK_LOST.
+// A command older than the measured round trip plus link.stale_margin_ms
+// (its stamp mapped to the robot's clock with the link's offset estimate),
+// or arriving before there is an estimate, is refused (commands_stale). The
+// watchdog counts from a command's send time, not its arrival: a command
+// held on the path for t gets t less (README "Protocol", "Command age"). Mode
 // changes need control; engaging the e-stop does not (any authenticated
-// session may stop the robot), releasing it does.
+// session may stop the robot), releasing it does. The robot station has its
+// own e-stop too (local_estop), which only the robot station releases.
 //
 // Session mode: until the controlling operator sends a ModeChange, commands
 // carry their own mode. After one, a command in another mode is dropped
@@ -39,6 +45,10 @@
 #include "robot_side/sim/simulated_robot.h"
 #include "robot_side/sim/wire_convert.h"
 #include "robot_side/view/sim_view_feed.h"
+
+namespace hemm::report {
+class RobotStation;  // report.pb.h
+}  // namespace hemm::report
 
 namespace hemm::config {
 class RobotConfig;
@@ -67,8 +77,13 @@ struct RobotStationStatistics {
   uint64_t commands_without_control = 0; // dropped: sender not the controlling operator / link down
   uint64_t commands_malformed = 0;       // dropped: failed wire validation
   uint64_t commands_mode_mismatch = 0;   // dropped: not in the session's mode
+  uint64_t commands_stale = 0;           // dropped: older than the measured round trip + margin (or age unknown)
   uint64_t commands_applied = 0;
-  uint64_t commands_rejected = 0;        // rejected by the robot (limits, IK)
+  uint64_t commands_rejected = 0;        // rejected by the robot (limits, IK, arm keep-out)
+  // Of those, arm targets refused because the arm would reach into ...
+  uint64_t arm_refused_floor = 0;        // ... the floor
+  uint64_t arm_refused_base = 0;         // ... the robot's base
+  uint64_t arm_refused_scene = 0;        // ... something its sensors have seen
   uint64_t states_sent = 0;
   uint64_t scans_sent = 0;               // scans whose every chunk was sent
   uint64_t scan_chunks_sent = 0;
@@ -77,12 +92,15 @@ struct RobotStationStatistics {
   uint64_t estop_changes = 0;
   uint64_t requests_refused = 0;         // ModeChange/EStop answered with Ack ok=false
   bool estop = false;
+  bool estop_local = false;              // engaged at the robot (local_estop), not by the operator
   int mode = 0;                          // session mode (wire::Mode; 0: commands choose)
   uint32_t safety = 0;                   // newest state's SafetyFlags
 };
 
-// {"sim_steps": ..., ...} on one line per field, no trailing newline.
-std::string to_json(const RobotStationStatistics& s, const std::string& indent = "  ");
+// The statistics as a report message (proto/report.proto) and as its JSON
+// (protobuf's printer, see config::to_json; ends with a newline).
+report::RobotStation to_report(const RobotStationStatistics& s);
+std::string to_json(const RobotStationStatistics& s);
 // key=value fields on one line.
 std::string to_log_fields(const RobotStationStatistics& s);
 // A human-readable multi-line summary (ends with a newline).
@@ -102,6 +120,10 @@ class RobotStation {
   // thread. Call before the io_context runs or on its thread. False with
   // *error if not loaded or already started.
   bool start(std::string* error);
+  // The robot's own e-stop (a key, a signal or a control command at the
+  // robot station; any thread). While engaged the robot is stopped whatever
+  // the operator says; only this releases it. The operator is told.
+  void local_estop(bool engaged, const std::string& reason);
   // Stops and joins the simulation thread (idempotent; any thread, also the
   // network thread). The server keeps running: stop it (Bye) afterwards.
   void stop();
@@ -121,6 +143,9 @@ class RobotStation {
   bool sonar_enabled() const { return sonar_on_; }
   int64_t timestep_ns() const { return robot_.timestep_ns(); }
   const RobotStationOptions& options() const { return o_; }
+  // Random, non-zero, fixed for this station's life (its odometry frame W):
+  // sent with every state and scan, so the operator knows a restarted robot.
+  uint64_t frame_epoch() const { return frame_epoch_; }
 
   struct Shared;  // state shared with the network thread (robot_station.cpp)
 
@@ -136,6 +161,7 @@ class RobotStation {
   std::shared_ptr<SimViewFeed> view_;
   std::thread thread_;
   bool attached_ = false;
+  uint64_t frame_epoch_ = 0;
 };
 
 }  // namespace hemm::robot

@@ -100,5 +100,49 @@ TEST(ClockSyncTest, FollowsAStepInOffset) {
   EXPECT_EQ(e.peer_to_local(e.estimate().offset_ns + 5), 5);
 }
 
+// A message's age with an asymmetric path (30 ms robot -> operator, 10 ms
+// operator -> robot) and clocks 1000 s apart: a command that took the least
+// delay has excess 0, one held for 2 s on the way has excess 2 s exactly,
+// and the stale limit is rtt_median + margin on the age.
+TEST(ClockSyncTest, MessageAgeExcessIsTheTimeTheMessageWasHeld) {
+  const int64_t theta = 1000'000 * kMs;  // operator clock minus robot clock
+  ClockOffsetEstimator e(ClockEstimatorParams{256, 1.0});
+  std::mt19937 rng(3);
+  std::uniform_int_distribution<int64_t> jitter(0, 5 * kMs);
+  for (int i = 0; i < 100; ++i) {
+    const int64_t t1 = i * 50 * kMs;
+    const int64_t t2 = t1 + theta + 30 * kMs + (i == 7 ? 0 : jitter(rng));
+    const int64_t t3 = t2 + kMs;
+    const int64_t t4 = t3 - theta + 10 * kMs + (i == 7 ? 0 : jitter(rng));
+    ASSERT_TRUE(e.add(t1, t2, t3, t4));
+  }
+  const ClockEstimate& est = e.estimate();
+  ASSERT_TRUE(est.valid);
+  EXPECT_EQ(est.rtt_min_ns, 40 * kMs);  // (t4 - t1) - (t3 - t2) at the least delays
+  const int64_t margin = 200 * kMs;
+  const int64_t s = 123 * kMs + theta;  // stamp on the operator's clock
+  const int64_t sent_local = s - theta;
+  MessageAge fast = judge_message_age(est, s, sent_local + 10 * kMs, margin);
+  ASSERT_TRUE(fast.known);
+  EXPECT_EQ(fast.excess_ns, 0);
+  EXPECT_EQ(fast.age_ns, 20 * kMs);  // rtt_min / 2, whatever the asymmetry
+  EXPECT_FALSE(fast.stale);
+  MessageAge held = judge_message_age(est, s, sent_local + 10 * kMs + 2000 * kMs, margin);
+  EXPECT_EQ(held.excess_ns, 2000 * kMs);
+  EXPECT_TRUE(held.stale);
+  // Just inside and just outside rtt_median + margin.
+  const int64_t limit_arrival = sent_local + 10 * kMs - 20 * kMs + est.rtt_median_ns + margin;
+  EXPECT_FALSE(judge_message_age(est, s, limit_arrival, margin).stale);
+  EXPECT_TRUE(judge_message_age(est, s, limit_arrival + 1, margin).stale);
+  // From the future by more than the margin: stale (a stamp that cannot be right).
+  EXPECT_TRUE(judge_message_age(est, s, sent_local - margin - 50 * kMs, margin).stale);
+  // No estimate: unknown, and stale.
+  const MessageAge none = judge_message_age(ClockEstimate{}, s, sent_local, margin);
+  EXPECT_FALSE(none.known);
+  EXPECT_TRUE(none.stale);
+  // Hostile stamps do not overflow.
+  EXPECT_TRUE(judge_message_age(est, INT64_MIN, INT64_MAX, margin).stale);
+}
+
 }  // namespace
 }  // namespace hemm::net

@@ -2,6 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <sodium.h>
+
+#include <algorithm>
 #include <random>
 
 namespace hemm::net {
@@ -119,6 +122,27 @@ TEST(FramingTest, SealedFramesOpenInOrderOnly) {
   ASSERT_TRUE(rx.open(b, &inner));
   EXPECT_EQ(inner, bytes("second"));
   EXPECT_EQ(rx.counter(), 2u);
+}
+
+// Independent reference: libsodium's combined ChaCha20-Poly1305-IETF with
+// nonce 0(4) || counter(8, BE) and the frame's length header as associated data.
+TEST(FramingTest, SealedFramesAreChaCha20Poly1305WithTheLengthHeaderAsAssociatedData) {
+  ASSERT_GE(sodium_init(), 0);
+  Key k{};
+  for (size_t i = 0; i < k.size(); ++i) k[i] = static_cast<uint8_t>(i * i + 1);
+  FrameSealer tx(k);
+  const auto plain = bytes("an e-stop, say");
+  tx.seal(plain);  // counter 0
+  const auto s = tx.seal(plain);  // counter 1
+  uint8_t nonce[12] = {0};
+  nonce[11] = 1;
+  const uint8_t ad[4] = {0, 0, 0, static_cast<uint8_t>(plain.size() + 16)};
+  std::vector<uint8_t> ref(plain.size() + 16);
+  unsigned long long n = 0;
+  crypto_aead_chacha20poly1305_ietf_encrypt(ref.data(), &n, plain.data(), plain.size(), ad, 4, nullptr, nonce,
+                                            k.data());
+  EXPECT_EQ(s, ref);
+  EXPECT_EQ(std::search(s.begin(), s.end(), plain.begin(), plain.begin() + 4), s.end()) << "plaintext visible";
 }
 
 TEST(FramingTest, SealedFrameRejectsEveryBitFlipAndWrongKey) {

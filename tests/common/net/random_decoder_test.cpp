@@ -1,9 +1,10 @@
 // Feeds 200,000+ random and mutated datagrams, TCP byte streams and
 // handshake frames to the decoders of both stations. Nothing may crash (run
 // it under ASan/UBSan too), and nothing the spec rejects may be accepted:
-// every mutated authenticated datagram or sealed frame must be rejected, and
-// a handshake never authenticates from forged or mutated frames unless the
-// authenticated content is unchanged.
+// every mutated sealed datagram or frame must be rejected, a datagram sealed
+// for one direction never opens in the other, and a handshake never
+// authenticates from forged or mutated frames unless the authenticated
+// content is unchanged.
 #include <google/protobuf/stubs/logging.h>
 #include <gtest/gtest.h>
 
@@ -162,6 +163,11 @@ TEST(RandomDecoderTest, TwoHundredThousandRandomAndMutatedInputs) {
       ASSERT_EQ(v, StreamReceiver::Verdict::kRejected) << "a mutated datagram was accepted";
       ASSERT_EQ(rx.counters().delivered, before.delivered);
       ASSERT_EQ(rx.counters().rejected_total(), before.rejected_total() + 1);
+      // Reflected to the other station (same session, other direction's key): never opens.
+      StreamReceiver& other = to_robot ? op_rx : robot_rx;
+      const auto other_bad_tag = other.counters().rejected_bad_tag;
+      ASSERT_EQ(other.receive(good, &h, &m), StreamReceiver::Verdict::kRejected) << "a reflected datagram opened";
+      ASSERT_EQ(other.counters().rejected_bad_tag, other_bad_tag + 1);
       ASSERT_EQ(rx.receive(good, &h, &m), StreamReceiver::Verdict::kDeliver);
       ++mutated_datagrams;
       inputs += 2;

@@ -8,9 +8,9 @@
 // drives the robot to a goal just in front of a wall, watching the pose the
 // station predicts. Checked: the servo loop computed a finite force on every
 // tick it ran (the 1 kHz log has one row per tick), its median period is
-// 1 ms within 5 %, deadline misses are counted and printed, the force never
-// left the device's limits, the robot reached the goal, and it never touched
-// anything (MuJoCo contacts counted by the robot station). At 0 and 300 ms
+// 1 ms within 5 %, deadline misses are counted and printed, the force stayed
+// close to the exact scene's (RMS error), the robot reached the goal, and it
+// never touched anything (MuJoCo contacts counted by the robot station). At 0 and 300 ms
 // the operator also probes the bin in exploration mode. For every run
 // hemm-truth (SIMULATION ONLY) replays the proxy path against the scene's
 // exact geometry: the force error of the local model. One table at the end.
@@ -41,7 +41,11 @@ const std::string kBin = std::string(HEMM_BINARY_DIR) + "/bin/";
 const std::string kConfigs = std::string(HEMM_SOURCE_DIR) + "/deploy/configs/";
 const std::string kScene = std::string(HEMM_SOURCE_DIR) + "/deploy/scenes/home.xml";
 
-constexpr double kDevicePeakForce = 3.3;  // N, SIMULATED Omni (operator/device/simulated_omni.h)
+// The rendered force against the force the same proxy gives on the exact
+// scene (hemm-truth), RMS over all ticks: about 0.17 N in these runs (scan
+// noise, occlusion); a wrong frame, a stale pose or a lost surface gives
+// errors of the order of the forces themselves (0.5 to 3 N).
+constexpr double kForceErrorRms = 0.3;  // N
 // The nav-to-goal script's default goal (operator/station/demo_scripts.h).
 constexpr double kGoalX = 2.45, kGoalY = -1.6;
 // The SIMULATED operator steers by the pose the station predicts from
@@ -281,7 +285,9 @@ void check_servo(const RunResult& r) {
   EXPECT_NEAR(r.period_median_ms, 1.0, 0.05);
   // Misses are reported; a shared 2-core VM stalls, so the bound is wide.
   EXPECT_LT(r.misses, 0.05 * r.ticks);
-  EXPECT_LE(r.max_force, kDevicePeakForce + 1e-6);
+  // The force follows the true scene. (Not |F| <= the device's peak: the
+  // proxy clamps to that very bound, so such a check could never fail.)
+  EXPECT_LT(r.err_rms, kForceErrorRms);
   // No unstable contact: an active rendering loop gives back joules. What is
   // measured here (tenths of a millijoule to a few) is scan noise and the
   // robot's own motion moving surfaces into the resting proxy.

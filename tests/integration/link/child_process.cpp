@@ -20,9 +20,10 @@ extern char** environ;
 namespace hemm::test {
 
 ChildProcess::ChildProcess(std::vector<std::string> argv, const std::string& stdout_path,
-                           const std::string& stderr_path) {
+                           const std::string& stderr_path, const std::string& stdin_path) {
   posix_spawn_file_actions_t fa;
   posix_spawn_file_actions_init(&fa);
+  posix_spawn_file_actions_addopen(&fa, 0, stdin_path.c_str(), O_RDWR | O_NOCTTY, 0);
   posix_spawn_file_actions_addopen(&fa, 1, stdout_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
   posix_spawn_file_actions_addopen(&fa, 2, stderr_path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
   std::vector<char*> args;
@@ -116,7 +117,8 @@ bool wait_for_text(const std::string& path, const std::string& needle, std::chro
 }
 
 std::optional<double> json_number(const std::string& json, const std::string& key) {
-  const std::regex re("\"" + key + "\"\\s*:\\s*(-?[0-9.eE+-]+|true|false)");
+  // Quoted numbers too: protobuf's JSON prints 64-bit integers as strings.
+  const std::regex re("\"" + key + "\"\\s*:\\s*\"?(-?[0-9.eE+-]+|true|false)");
   std::smatch m;
   if (!std::regex_search(json, m, re)) return std::nullopt;
   if (m[1] == "true") return 1.0;

@@ -14,13 +14,17 @@ namespace hemm::test {
 
 class ChildProcess {
  public:
-  // Starts argv[0] with stdout/stderr redirected to the given files.
-  ChildProcess(std::vector<std::string> argv, const std::string& stdout_path, const std::string& stderr_path);
+  // Starts argv[0] with stdout/stderr redirected to the given files and
+  // stdin from stdin_path (never the test's own terminal: a station reads
+  // keys from a terminal on stdin).
+  ChildProcess(std::vector<std::string> argv, const std::string& stdout_path, const std::string& stderr_path,
+               const std::string& stdin_path = "/dev/null");
   ~ChildProcess();  // SIGKILL + reap if still running
   ChildProcess(const ChildProcess&) = delete;
   ChildProcess& operator=(const ChildProcess&) = delete;
 
   bool started() const { return pid_ > 0; }
+  pid_t pid() const { return pid_; }
   // Exit status, or nullopt if it did not exit within the timeout (then it is killed: -9).
   std::optional<int> wait(std::chrono::milliseconds timeout);
   void signal(int sig);

@@ -5,12 +5,14 @@
 #include <arpa/inet.h>
 #include <netinet/in.h>
 #include <poll.h>
+#include <sys/stat.h>
 #include <sys/socket.h>
 #include <unistd.h>
 
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <optional>
 #include <thread>
 
 #include "common/net/datagram.h"
@@ -126,7 +128,8 @@ TEST(LinkLoopbackTest, WrongKeyIsRefusedWithExitCode4) {
   Robot r = start_robot(dir, 8.0);
   {
     std::ofstream k(dir + "/wrong.key");
-    k << std::string(64, 'a') << "\n";
+    // A strong key that is not the robot's.
+    k << "5d0c3a9e7b21f4866ac1d8e93f0b7254c6e18a2d9f3b5e07a4c92d61f8b0e375\n";
   }
   auto op = start_operator(r, "op", 5.0, {"--key", dir + "/wrong.key"});
   const auto rc = op->wait(20s);
@@ -151,6 +154,70 @@ TEST(LinkLoopbackTest, BadKeyFileGivesExitCode3) {
   ASSERT_TRUE(rc.has_value());
   EXPECT_EQ(*rc, 3);
   EXPECT_NE(read_file(dir + "/op.err").find("64 hexadecimal"), std::string::npos) << read_file(dir + "/op.err");
+}
+
+TEST(LinkLoopbackTest, WeakKeyFileGivesExitCode3) {
+  const std::string dir = make_temp_dir();
+  {
+    std::ofstream k(dir + "/zero.key");
+    k << std::string(64, '0') << "\n";
+  }
+  for (const std::string bin : {"hemm-robot", "hemm-operator"}) {
+    ChildProcess p({kBin + bin, "--key", dir + "/zero.key", "--duration", "1"}, dir + "/p.out", dir + "/p.err");
+    const auto rc = p.wait(20s);
+    ASSERT_TRUE(rc.has_value());
+    EXPECT_EQ(*rc, 3) << bin << ": " << read_file(dir + "/p.err");
+    EXPECT_NE(read_file(dir + "/p.err").find("key is weak"), std::string::npos) << read_file(dir + "/p.err");
+  }
+}
+
+TEST(LinkLoopbackTest, DemoKeyIsRefusedOffLoopbackWithExitCode3) {
+  const std::string dir = make_temp_dir();
+  ChildProcess robot({kBin + "hemm-robot", "--config", std::string(HEMM_SOURCE_DIR) + "/deploy/configs/robot.pbtxt",
+                      "--listen", "0.0.0.0", "--session-port", "0", "--stream-port", "0", "--duration", "1"},
+                     dir + "/r.out", dir + "/r.err");
+  auto rc = robot.wait(20s);
+  ASSERT_TRUE(rc.has_value());
+  EXPECT_EQ(*rc, 3) << read_file(dir + "/r.err");
+  EXPECT_NE(read_file(dir + "/r.err").find("demo key is public"), std::string::npos) << read_file(dir + "/r.err");
+  ChildProcess op({kBin + "hemm-operator", "--config", std::string(HEMM_SOURCE_DIR) + "/deploy/configs/operator.pbtxt",
+                   "--robot", "192.0.2.7", "--duration", "1"},
+                  dir + "/o.out", dir + "/o.err");
+  rc = op.wait(20s);
+  ASSERT_TRUE(rc.has_value());
+  EXPECT_EQ(*rc, 3) << read_file(dir + "/o.err");
+  EXPECT_NE(read_file(dir + "/o.err").find("demo key is public"), std::string::npos) << read_file(dir + "/o.err");
+}
+
+TEST(LinkLoopbackTest, KeyFileReadableByOthersIsWarnedAbout) {
+  const std::string dir = make_temp_dir();
+  const std::string key = dir + "/station.key";
+  {
+    std::ofstream k(key);
+    k << "5d0c3a9e7b21f4866ac1d8e93f0b7254c6e18a2d9f3b5e07a4c92d61f8b0e375\n";
+  }
+  ::chmod(key.c_str(), 0644);
+  ChildProcess robot({kBin + "hemm-robot", "--config", std::string(HEMM_SOURCE_DIR) + "/deploy/configs/robot.pbtxt",
+                      "--key", key, "--session-port", "0", "--stream-port", "0", "--duration", "0.5"},
+                     dir + "/r.out", dir + "/r.err");
+  const auto rc = robot.wait(30s);
+  ASSERT_TRUE(rc.has_value());
+  EXPECT_EQ(*rc, 0) << read_file(dir + "/r.err");
+  EXPECT_NE(read_file(dir + "/r.err").find("is accessible to group or others (mode 0644)"), std::string::npos)
+      << read_file(dir + "/r.err");
+}
+
+TEST(LinkLoopbackTest, OperatorWhoseDurationEndsBeforeItEverConnectedExitsWith7) {
+  const std::string dir = make_temp_dir();
+  const int nobody = free_port();  // nothing listens there
+  ChildProcess op({kBin + "hemm-operator", "--config", std::string(HEMM_SOURCE_DIR) + "/deploy/configs/operator.pbtxt",
+                   "--session-port", std::to_string(nobody), "--duration", "1"},
+                  dir + "/o.out", dir + "/o.err");
+  const auto rc = op.wait(20s);
+  ASSERT_TRUE(rc.has_value());
+  EXPECT_EQ(*rc, 7) << read_file(dir + "/o.err");
+  EXPECT_NE(read_file(dir + "/o.err").find("before a session was opened"), std::string::npos)
+      << read_file(dir + "/o.err");
 }
 
 TEST(LinkLoopbackTest, BadConfigGivesExitCode2WithFileLineColumn) {
@@ -265,14 +332,18 @@ class RawOperator {
   net::FrameDecoder dec_{1 << 20};
 };
 
-std::vector<uint8_t> heartbeat_datagram(const Key& k, uint64_t sid, uint64_t seq) {
-  wire::StreamMessage m;
-  m.mutable_heartbeat()->set_period_ms(50);
+std::vector<uint8_t> datagram_of(const wire::StreamMessage& m, const Key& k, uint64_t sid, uint64_t seq) {
   const std::string p = m.SerializeAsString();
   std::vector<uint8_t> d;
   net::encode_datagram(k, net::DatagramHeader{sid, seq, net::DatagramHeader{}.send_time_ns},
                        std::span(reinterpret_cast<const uint8_t*>(p.data()), p.size()), &d);
   return d;
+}
+
+std::vector<uint8_t> heartbeat_datagram(const Key& k, uint64_t sid, uint64_t seq) {
+  wire::StreamMessage m;
+  m.mutable_heartbeat()->set_period_ms(50);
+  return datagram_of(m, k, sid, seq);
 }
 
 TEST(LinkLoopbackTest, ForgedReplayedAndStaleDatagramsAreRejectedAndCounted) {
@@ -304,32 +375,40 @@ TEST(LinkLoopbackTest, ForgedReplayedAndStaleDatagramsAreRejectedAndCounted) {
 
   op.open_udp();
   const int port = r.stream_port;
-  // 20 good ones: the robot learns our endpoint and the link comes up.
+  // 20 good ones: the robot challenges our address (path validation) ...
   for (uint64_t s = 1; s <= 20; ++s) op.send_datagram(heartbeat_datagram(k, sid, s), port);
-  // The robot answers on the endpoint it learned, authenticated with its key.
-  bool got_robot_datagram = false;
-  for (int i = 0; i < 20 && !got_robot_datagram; ++i) {
+  std::optional<wire::StreamMessage> challenge_msg;
+  for (int i = 0; i < 20 && !challenge_msg; ++i) {
     auto d = op.recv_datagram(500ms);
     if (!d) continue;
     net::DatagramHeader h;
-    std::span<const uint8_t> payload;
-    got_robot_datagram = net::decode_datagram(*d, sid, sec.keys.udp_s2c, &h, &payload) == net::DatagramError::kOk;
+    std::vector<uint8_t> payload;
+    wire::StreamMessage m;
+    if (net::decode_datagram(*d, sid, sec.keys.udp_s2c, &h, &payload) == net::DatagramError::kOk &&
+        m.ParseFromArray(payload.data(), static_cast<int>(payload.size())) && m.has_path_challenge()) {
+      challenge_msg = m;
+    }
   }
-  EXPECT_TRUE(got_robot_datagram);
+  ASSERT_TRUE(challenge_msg) << "the robot sent no path challenge";
+  // ... we answer it (seq 21), and the link comes up.
+  wire::StreamMessage response;
+  response.mutable_path_response()->set_token(challenge_msg->path_challenge().token());
+  op.send_datagram(datagram_of(response, k, sid, 21), port);
+  ASSERT_TRUE(wait_for_text(dir + "/robot.err", "event=link_up", 5s)) << r.err();
   // 3 exact replays of seq 5.
   for (int i = 0; i < 3; ++i) op.send_datagram(heartbeat_datagram(k, sid, 5), port);
   // 4 forged: fresh sequence numbers, wrong key.
   Key wrong = k;
   wrong[0] ^= 0x80;
-  for (uint64_t s = 21; s <= 24; ++s) op.send_datagram(heartbeat_datagram(wrong, sid, s), port);
-  // 2 for an unknown session, 1 with a bad version, 1 too short.
-  op.send_datagram(heartbeat_datagram(k, sid + 1, 21), port);
-  op.send_datagram(heartbeat_datagram(k, sid ^ 0xff00, 22), port);
-  auto bad_version = heartbeat_datagram(k, sid, 23);
-  bad_version[2] = 2;
+  for (uint64_t s = 22; s <= 25; ++s) op.send_datagram(heartbeat_datagram(wrong, sid, s), port);
+  // 2 for an unknown session, 1 with a bad version (protocol 1's), 1 too short.
+  op.send_datagram(heartbeat_datagram(k, sid + 1, 22), port);
+  op.send_datagram(heartbeat_datagram(k, sid ^ 0xff00, 23), port);
+  auto bad_version = heartbeat_datagram(k, sid, 24);
+  bad_version[2] = 1;
   op.send_datagram(bad_version, port);
   op.send_datagram(std::vector<uint8_t>(20, 0x48), port);
-  // Jump ahead by 2000: seq 21..2020 count as lost, and seq 10 is now behind the 1024 window.
+  // Jump ahead to 2021: seq 22..2020 count as lost, and seq 10 is now behind the 1024 window.
   op.send_datagram(heartbeat_datagram(k, sid, 2021), port);
   std::this_thread::sleep_for(100ms);
   op.send_datagram(heartbeat_datagram(k, sid, 10), port);
@@ -350,14 +429,15 @@ TEST(LinkLoopbackTest, ForgedReplayedAndStaleDatagramsAreRejectedAndCounted) {
   ASSERT_TRUE(rc.has_value());
   EXPECT_EQ(*rc, 0);
   const std::string j = r.json();
-  EXPECT_EQ(num(j, "delivered"), 22);  // 1..20, 2021, 2022
+  EXPECT_EQ(num(j, "delivered"), 23);  // 1..20, the path response 21, 2021, 2022
   EXPECT_EQ(num(j, "duplicated"), 3);
   EXPECT_EQ(num(j, "rejected_bad_tag"), 4);
   EXPECT_EQ(num(j, "rejected_unknown_session"), 2);
   EXPECT_EQ(num(j, "rejected_bad_version"), 1);
   EXPECT_EQ(num(j, "rejected_bad_size"), 1);
   EXPECT_EQ(num(j, "rejected_replay"), 1);
-  EXPECT_EQ(num(j, "lost"), 2000);
+  EXPECT_EQ(num(j, "lost"), 1999);
+  EXPECT_EQ(num(j, "paths_validated"), 1);
   // At least once each (a multi-second stall of a loaded machine could add more).
   EXPECT_GE(num(j, "link_lost_events"), 1);
   EXPECT_GE(num(j, "link_restored_events"), 1);

@@ -61,6 +61,16 @@ struct RelayRig {
                                  dir + "/op.json"},
         dir + "/op.out", dir + "/op.err");
   }
+  // The operator exits 0 by itself; then the robot and the relay are stopped.
+  void finish() {
+    const auto rc = op->wait(60s);
+    ASSERT_TRUE(rc.has_value()) << logs();
+    EXPECT_EQ(*rc, 0) << logs();
+    robot->signal(SIGTERM);
+    relay->signal(SIGTERM);
+    ASSERT_TRUE(robot->wait(20s).has_value());
+    relay->wait(20s);
+  }
   std::string logs() const {
     return "--- robot\n" + read_file(dir + "/robot.err") + "--- relay\n" + read_file(dir + "/relay.err") +
            "--- operator\n" + read_file(dir + "/op.err");
@@ -76,13 +86,7 @@ TEST(LinkRelayTest, SessionHoldsAndRttIsMeasuredAt200msDelay20msJitter10PercentL
   // biases the median RTT up by ~10 % at these rates).
   s.start({"--delay-ms", "200", "--jitter-ms", "20", "--jitter-dist", "normal", "--jitter-reorder", "--loss", "0.1"},
           40, 40, 20);
-  const auto rc = s.op->wait(60s);
-  ASSERT_TRUE(rc.has_value()) << s.logs();
-  EXPECT_EQ(*rc, 0) << s.logs();
-  s.robot->signal(SIGTERM);
-  s.relay->signal(SIGTERM);
-  ASSERT_TRUE(s.robot->wait(20s).has_value());
-  s.relay->wait(20s);
+  ASSERT_NO_FATAL_FAILURE(s.finish());
   const std::string oj = read_file(s.dir + "/op.json");
   const std::string rj = read_file(s.dir + "/robot.json");
   // The session held: opened once, never lost.
@@ -120,13 +124,7 @@ TEST(LinkRelayTest, OutageIsReportedAsLinkLostAndTheSessionRecoversWithoutRestar
   s.start({"--delay-ms", "20", "--jitter-ms", "2", "--loss", "0", "--outage", "4:3"}, 30, 30, 12);
   EXPECT_TRUE(wait_for_text(s.dir + "/robot.err", "event=link_lost", 15s)) << s.logs();
   EXPECT_TRUE(wait_for_text(s.dir + "/robot.err", "event=link_restored", 15s)) << s.logs();
-  const auto rc = s.op->wait(60s);
-  ASSERT_TRUE(rc.has_value()) << s.logs();
-  EXPECT_EQ(*rc, 0) << s.logs();
-  s.robot->signal(SIGTERM);
-  s.relay->signal(SIGTERM);
-  ASSERT_TRUE(s.robot->wait(20s).has_value());
-  s.relay->wait(20s);
+  ASSERT_NO_FATAL_FAILURE(s.finish());
   const std::string oj = read_file(s.dir + "/op.json");
   const std::string rj = read_file(s.dir + "/robot.json");
   EXPECT_GE(num(rj, "link_lost_events"), 1) << s.logs();
@@ -137,6 +135,29 @@ TEST(LinkRelayTest, OutageIsReportedAsLinkLostAndTheSessionRecoversWithoutRestar
   // Heartbeats flowed again after the outage.
   EXPECT_GE(num(oj, "link_restored_events"), 1) << s.logs();
   EXPECT_NE(read_file(s.dir + "/robot.err").find("event=peer_bye"), std::string::npos) << s.logs();
+}
+
+// 2 s round trip (1 s each way) and 5 % datagram loss each way, with the
+// shipped configs unchanged: the session opens (each handshake step waits
+// handshake_timeout_ms = 3 s for a reply that takes 2 s), the robot validates
+// the operator's path, and both measure the round trip.
+TEST(LinkRelayTest, SessionOpensAt2sRoundTripAnd5PercentLossWithTheDefaultConfigs) {
+  if (!relay_built()) GTEST_SKIP() << "hemm-relay is not built in " << kBin << " (add component 'relay')";
+  RelayRig s;
+  s.start({"--delay-ms", "1000", "--loss", "0.05"}, 40, 40, 14);
+  ASSERT_NO_FATAL_FAILURE(s.finish());
+  const std::string oj = read_file(s.dir + "/op.json");
+  const std::string rj = read_file(s.dir + "/robot.json");
+  EXPECT_EQ(num(oj, "sessions_opened"), 1) << s.logs();
+  EXPECT_EQ(num(rj, "sessions_opened"), 1) << s.logs();
+  EXPECT_EQ(num(rj, "paths_validated"), 1) << s.logs();
+  EXPECT_EQ(num(oj, "clock_valid"), 1) << s.logs();
+  std::printf("[ measured ] 2 s rtt: operator rtt_median_ms=%.1f delivered=%.0f; robot rtt_median_ms=%.1f "
+              "delivered=%.0f path_challenges_sent=%.0f\n",
+              num(oj, "rtt_median_ms"), num(oj, "delivered"), num(rj, "rtt_median_ms"), num(rj, "delivered"),
+              num(rj, "path_challenges_sent"));
+  EXPECT_NEAR(num(oj, "rtt_median_ms"), 2000.0, 150.0);
+  EXPECT_GT(num(oj, "delivered"), 500);  // robot state and scans for several seconds
 }
 
 }  // namespace

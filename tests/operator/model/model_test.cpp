@@ -240,6 +240,93 @@ TEST(ModelThread, PredictsWithRecordedCommandsAndFreesRetiredSnapshots) {
   EXPECT_EQ(mt.stats().snapshots, 22u);
 }
 
+// Issue 9 item 8: the model's age and the thresholds the servo fades by.
+TEST(ModelThread, StaleAfterIsTheOneWayDelayPlusFreshCappedByTheMapWindow) {
+  hemm::servo::ModelChannel ch;
+  ho::ModelThreadParams p;  // fresh 0.25 s, fade 1 s, window 3 s
+  ho::ModelThread mt(ch, p);
+  const std::int64_t t0 = 1'000'000'000;
+  hw::RobotState st;
+  st.set_stamp_ns(t0);
+  st.mutable_t_w_r_odom()->set_x(0.0);
+  mt.submit_state(st);
+  mt.set_command_delay(300'000'000);
+  mt.step(t0 + 10'000'000);
+  const auto* snap = newest(ch);
+  ASSERT_NE(snap, nullptr);
+  EXPECT_TRUE(snap->have_data);
+  EXPECT_EQ(snap->data_stamp_ns, t0);
+  EXPECT_EQ(snap->stale_after_ns, 550'000'000);  // 0.3 + 0.25 s
+  EXPECT_EQ(snap->fade_ns, 1'000'000'000);
+  // A newer scan is newer data.
+  mt.submit_scan(std::make_shared<const hw::RangeScan>(wall_scan(1.0, {0, 0, 0}, t0 + 40'000'000)));
+  mt.step(t0 + 50'000'000);
+  EXPECT_EQ(newest(ch)->data_stamp_ns, t0 + 40'000'000);
+  // A 5 s one-way delay: capped so the force is gone before the map's
+  // segments age out (3 s window - 1 s fade).
+  mt.set_command_delay(5'000'000'000);
+  mt.step(t0 + 60'000'000);
+  EXPECT_EQ(newest(ch)->stale_after_ns, 2'000'000'000);
+}
+
+// Issue 9 item 8: the robot restarted (a new frame epoch). The old robot's map
+// stays, the pose frozen, while the force fades (resyncing); then the new
+// robot's map and state take over and the command history is gone.
+TEST(ModelThread, ARestartedRobotIsTakenInAfterTheFade) {
+  hemm::servo::ModelChannel ch;
+  ho::ModelThreadParams p;
+  ho::ModelThread mt(ch, p);
+  const std::int64_t t0 = 10'000'000'000;
+  const std::uint64_t old_epoch = 0x1111, new_epoch = 0x2222;
+  hw::RobotState st;
+  st.set_stamp_ns(t0);
+  st.mutable_t_w_r_odom()->set_x(1.5);
+  st.set_frame_epoch(old_epoch);
+  mt.submit_state(st);
+  hw::RangeScan old_scan = wall_scan(1.0, {1.5, 0.0, 0.0}, t0);  // wall x = 2.5
+  old_scan.set_frame_epoch(old_epoch);
+  mt.submit_scan(std::make_shared<const hw::RangeScan>(old_scan));
+  mt.record_command({t0, 0.3, 0.0});
+  mt.step(t0 + 10'000'000);
+  ASSERT_FALSE(newest(ch)->resyncing);
+  const double x_old = newest(ch)->T_W_R.x;
+  EXPECT_GT(x_old, 1.5);  // predicted on with the command
+  // The restarted robot: at the origin, a wall x = 1 (1 m ahead).
+  const std::int64_t t1 = t0 + 3'000'000'000;
+  st.set_stamp_ns(t1);
+  st.mutable_t_w_r_odom()->set_x(0.0);
+  st.set_frame_epoch(new_epoch);
+  mt.submit_state(st);
+  hw::RangeScan new_scan = wall_scan(1.0, {0.0, 0.0, 0.0}, t1);
+  new_scan.set_frame_epoch(new_epoch);
+  mt.submit_scan(std::make_shared<const hw::RangeScan>(new_scan));
+  mt.step(t1 + 10'000'000);
+  const auto* during = newest(ch);
+  EXPECT_TRUE(during->resyncing);
+  EXPECT_EQ(during->resyncs, 0u);
+  EXPECT_NEAR(during->T_W_R.x, x_old, 1e-3);  // frozen where the old robot was last seen
+  EXPECT_EQ(during->v, 0.0);
+  // A late scan of the old robot is dropped, not mixed in.
+  mt.submit_scan(std::make_shared<const hw::RangeScan>(old_scan));
+  mt.step(t1 + 500'000'000);
+  EXPECT_TRUE(newest(ch)->resyncing);
+  EXPECT_EQ(mt.stats().old_epoch_dropped, 1u);
+  // After the fade: the new robot's map and pose.
+  mt.step(t1 + 1'020'000'000);
+  const auto* after = newest(ch);
+  EXPECT_FALSE(after->resyncing);
+  EXPECT_EQ(after->resyncs, 1u);
+  EXPECT_EQ(mt.stats().resyncs, 1u);
+  EXPECT_NEAR(after->T_W_R.x, 0.0, 1e-9);  // the old command (0.3 m/s) is not integrated on
+  ASSERT_GT(after->map.segments.size(), 5u);
+  for (const auto& seg : after->map.segments) EXPECT_NEAR(seg.a.x(), 1.0, 0.02);  // only the new wall
+  // The old robot's data, resent, never comes back.
+  mt.submit_state([&] { hw::RobotState o = st; o.set_frame_epoch(old_epoch); return o; }());
+  mt.step(t1 + 1'100'000'000);
+  EXPECT_FALSE(newest(ch)->resyncing);
+  EXPECT_EQ(mt.stats().old_epoch_dropped, 2u);
+}
+
 TEST(ModelThread, ThreadPublishes) {
   hemm::servo::ModelChannel ch;
   ho::ModelThreadParams p;

@@ -7,15 +7,22 @@
 namespace {
 thread_local bool t_counting = false;
 std::atomic<std::uint64_t> g_counted{0};
+std::atomic<std::uint64_t> g_frees{0};
 
 inline void note() noexcept {
   if (t_counting) g_counted.fetch_add(1, std::memory_order_relaxed);
+}
+// A free on the servo thread is as bad as an allocation (it takes the
+// allocator's locks, and means something was retired on the wrong thread).
+inline void note_free(const void* p) noexcept {
+  if (t_counting && p != nullptr) g_frees.fetch_add(1, std::memory_order_relaxed);
 }
 }  // namespace
 
 namespace hemm::test {
 void count_allocations_on_this_thread(bool on) noexcept { t_counting = on; }
 std::uint64_t counted_allocations() noexcept { return g_counted.load(); }
+std::uint64_t counted_frees() noexcept { return g_frees.load(); }
 #ifdef HEMM_SANITIZE
 bool malloc_is_hooked() noexcept { return false; }
 #else
@@ -45,7 +52,10 @@ void* realloc(void* p, std::size_t n) {
   note();
   return __libc_realloc(p, n);
 }
-void free(void* p) { __libc_free(p); }
+void free(void* p) {
+  note_free(p);
+  __libc_free(p);
+}
 void* aligned_alloc(std::size_t al, std::size_t n) {
   note();
   return __libc_memalign(al, n);
@@ -87,6 +97,14 @@ void* counted_new_aligned(std::size_t n, std::align_val_t al) {
   if (p == nullptr) throw std::bad_alloc();
   return p;
 }
+// Counted once here, not again in the free() hook.
+void counted_delete(void* p) noexcept {
+  note_free(p);
+  const bool was = t_counting;
+  t_counting = false;
+  std::free(p);
+  t_counting = was;
+}
 }  // namespace
 
 void* operator new(std::size_t n) { return counted_new(n); }
@@ -107,11 +125,11 @@ void* operator new[](std::size_t n, const std::nothrow_t&) noexcept {
 }
 void* operator new(std::size_t n, std::align_val_t al) { return counted_new_aligned(n, al); }
 void* operator new[](std::size_t n, std::align_val_t al) { return counted_new_aligned(n, al); }
-void operator delete(void* p) noexcept { std::free(p); }
-void operator delete[](void* p) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
-void operator delete(void* p, std::align_val_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::align_val_t) noexcept { std::free(p); }
-void operator delete(void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
-void operator delete[](void* p, std::size_t, std::align_val_t) noexcept { std::free(p); }
+void operator delete(void* p) noexcept { counted_delete(p); }
+void operator delete[](void* p) noexcept { counted_delete(p); }
+void operator delete(void* p, std::size_t) noexcept { counted_delete(p); }
+void operator delete[](void* p, std::size_t) noexcept { counted_delete(p); }
+void operator delete(void* p, std::align_val_t) noexcept { counted_delete(p); }
+void operator delete[](void* p, std::align_val_t) noexcept { counted_delete(p); }
+void operator delete(void* p, std::size_t, std::align_val_t) noexcept { counted_delete(p); }
+void operator delete[](void* p, std::size_t, std::align_val_t) noexcept { counted_delete(p); }

@@ -90,6 +90,7 @@ TEST(ServoLoop, RunsTwoSecondsAtOneKilohertzWithoutAllocating) {
   ServoConfig cfg;  // 1 kHz, SCHED_FIFO + mlockall if permitted
   ServoLoop loop(omni, task, models, cfg, &logger);
   const std::uint64_t allocs_before = test::counted_allocations();
+  const std::uint64_t frees_before = test::counted_frees();
 
   std::atomic<bool> done{false};
   std::uint64_t takes = 0, setpoint_backwards = 0, last_tick = 0;
@@ -133,9 +134,12 @@ TEST(ServoLoop, RunsTwoSecondsAtOneKilohertzWithoutAllocating) {
               static_cast<unsigned long long>(logger.written()),
               static_cast<unsigned long long>(logger.dropped()));
 
-  // Not one allocation on the servo thread.
+  // Not one allocation or free on the servo thread (retired snapshots are
+  // freed by the model thread).
   EXPECT_EQ(test::counted_allocations() - allocs_before, 0u)
       << (test::malloc_is_hooked() ? "(malloc + operator new counted)" : "(operator new counted)");
+  EXPECT_EQ(test::counted_frees() - frees_before, 0u)
+      << (test::malloc_is_hooked() ? "(free + operator delete counted)" : "(operator delete counted)");
 
   // Timing: the median period within 5 % of 1 ms.
   EXPECT_NEAR(s.period.median_us, 1000.0, 50.0);
@@ -218,8 +222,8 @@ TEST(ServoLoop, OverrunsAreCountedAndMissedDeadlinesSkipped) {
   EXPECT_GE(s.compute.max_us, 2600.0);
 }
 
-// The counter must see allocations on the servo thread, or the zero above
-// would prove nothing.
+// The counter must see allocations and frees on the servo thread, or the
+// zeros above would prove nothing.
 class AllocatingTask final : public ServoTask {
  public:
   void on_servo_start() noexcept override { test::count_allocations_on_this_thread(true); }
@@ -238,7 +242,7 @@ class AllocatingTask final : public ServoTask {
   void* volatile raw_sink = nullptr;
 };
 
-TEST(ServoLoop, AllocationCounterSeesServoThreadAllocations) {
+TEST(ServoLoop, AllocationCounterSeesServoThreadAllocationsAndFrees) {
   auto script = std::make_shared<device::HoldScript>(Vector3d::Zero());
   device::SimulatedOmni omni(device::SimulatedOmniModel{}, script);
   AllocatingTask task;
@@ -248,11 +252,13 @@ TEST(ServoLoop, AllocationCounterSeesServoThreadAllocations) {
   cfg.lock_memory = false;
   ServoLoop loop(omni, task, models, cfg);
   const std::uint64_t before = test::counted_allocations();
+  const std::uint64_t frees_before = test::counted_frees();
   loop.start();
   while (loop.summary().ticks < 20) std::this_thread::sleep_for(std::chrono::milliseconds(5));
   loop.stop();
-  // 10 operator new (+ 10 malloc where malloc is hooked).
+  // 10 operator new (+ 10 malloc where malloc is hooked), and as many frees.
   EXPECT_EQ(test::counted_allocations() - before, test::malloc_is_hooked() ? 20u : 10u);
+  EXPECT_EQ(test::counted_frees() - frees_before, test::malloc_is_hooked() ? 20u : 10u);
 }
 
 // Without real-time privileges start() must still run the loop, reporting
@@ -371,6 +377,7 @@ TEST(ServoLoop, TwoEndEffectorsBothWrenchesReachTheDeviceAndTheLog) {
   cfg.lock_memory = false;
   ServoLoop loop(dev, task, models, cfg, &logger);
   const std::uint64_t allocs_before = test::counted_allocations();
+  const std::uint64_t frees_before = test::counted_frees();
   loop.start();
   const auto t0 = std::chrono::steady_clock::now();
   while (loop.summary().ticks < 700 && std::chrono::steady_clock::now() - t0 < std::chrono::seconds(10))
@@ -382,6 +389,7 @@ TEST(ServoLoop, TwoEndEffectorsBothWrenchesReachTheDeviceAndTheLog) {
   ASSERT_LE(ticks, 20000u);
 
   EXPECT_EQ(test::counted_allocations() - allocs_before, 0u);
+  EXPECT_EQ(test::counted_frees() - frees_before, 0u);
   EXPECT_EQ(task.wrong_count, 0u);
   ASSERT_EQ(dev.writes(), ticks);
   // Each NaN command zeroed end-effector 1's wrench and was counted.

@@ -130,6 +130,47 @@ TEST(CommandSender, LinkDownSendsNothingAndRepeatsTheModeAfterwards) {
   EXPECT_EQ(f.frames[1].mode_change().mode(), hw::MODE_NAVIGATION);
 }
 
+// Issue 9 item 9: an e-stop pressed on the device goes to the robot as an
+// EStop frame with a request id (once per press), and one pressed while the
+// link is down goes when it is back.
+TEST(CommandSender, DeviceEStopGoesAsAnEStopFrameWithARequestId) {
+  Fixture f;
+  ho::StationSetpoint sp = nav(f.now, 0.4, 0.1);
+  f.box.put(sp);
+  f.sender.send_once();
+  ASSERT_EQ(f.frames.size(), 1u);  // the mode
+  sp.estop_presses = 1;
+  f.box.put(sp);
+  f.sender.send_once();
+  ASSERT_EQ(f.frames.size(), 2u);
+  ASSERT_TRUE(f.frames[1].has_estop());
+  EXPECT_TRUE(f.frames[1].estop().engaged());
+  const std::uint64_t id = f.frames[1].estop().request_id();
+  EXPECT_GT(id, f.frames[0].mode_change().request_id());  // one id sequence for every request
+  for (int i = 0; i < 3; ++i) f.sender.send_once();  // the same press is not sent again
+  EXPECT_EQ(f.frames.size(), 2u);
+  f.up = false;
+  sp.estop_presses = 2;
+  f.box.put(sp);
+  f.sender.send_once();
+  EXPECT_EQ(f.frames.size(), 2u);
+  f.up = true;
+  f.sender.send_once();
+  ASSERT_GE(f.frames.size(), 3u);
+  bool sent_after = false;
+  for (std::size_t i = 2; i < f.frames.size(); ++i)
+    sent_after = sent_after || (f.frames[i].has_estop() && f.frames[i].estop().request_id() > id);
+  EXPECT_TRUE(sent_after);
+  EXPECT_EQ(f.sender.stats().estops_sent, 2u);
+  // A release from the station (control socket, terminal key).
+  const std::uint64_t rid = f.sender.send_estop(false, "test");
+  EXPECT_GT(rid, id);
+  EXPECT_FALSE(f.frames.back().estop().engaged());
+  EXPECT_EQ(f.frames.back().estop().request_id(), rid);
+  f.up = false;
+  EXPECT_EQ(f.sender.send_estop(true, "test"), 0u);
+}
+
 TEST(CommandSender, SentCommandsDriveThePrediction) {
   Fixture f;
   hw::RobotState st;

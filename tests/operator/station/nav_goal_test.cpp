@@ -7,14 +7,13 @@
 // delay): the robot reaches the goal within the tolerance, stops there, and
 // its footprint stays clear of home.xml's bin, walls and sofa. Also the
 // station summary's JSON. Simulated time only: nothing sleeps.
+#include <google/protobuf/util/json_util.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <cstring>
 #include <deque>
-#include <map>
 #include <random>
 #include <string>
 #include <vector>
@@ -23,6 +22,7 @@
 #include "operator/model/model_thread.h"
 #include "operator/station/demo_scripts.h"
 #include "operator/station/operator_station.h"
+#include "report.pb.h"
 
 namespace ho = hemm::op;
 namespace hm = hemm::math;
@@ -254,6 +254,36 @@ TEST(NavGoalHand, MovesTheStylusAtBoundedSpeedAndFollowsTheRoute) {
   EXPECT_NEAR(hand.first_arrival_s(), 4.001, 1e-9);
 }
 
+// Issue 9 item 8: the hand's route progress follows the robot, not a model
+// that went stale: it never advances while the view is invalid, and when the
+// robot restarted (view.resyncs) the route starts again from where the new
+// robot is.
+TEST(NavGoalHand, RouteProgressIsResynchronisedFromTheRestartedRobot) {
+  auto view = std::make_shared<ho::OperatorView>();
+  ho::NavGoalParams p;
+  ho::NavGoalHand hand(view, {{1.2, 0.0}, {1.0, -0.7}}, p);
+  *view = view_at(0.6, 0.0, 0.0);
+  hand.at(0.001);
+  EXPECT_EQ(hand.goal_index(), 0u);
+  // The model went stale: its extrapolated pose passes the first goal, but
+  // the view is invalid: no progress, stylus to the centre.
+  *view = view_at(1.2, 0.0, 0.0);
+  view->valid = false;
+  for (int i = 2; i <= 1000; ++i) hand.at(i * 0.001);
+  EXPECT_EQ(hand.goal_index(), 0u);
+  EXPECT_TRUE(hand.at(1.001).position_H.isZero(1e-12));
+  // The old robot had passed it before it died...
+  *view = view_at(1.1, 0.0, 0.0);
+  hand.at(1.002);
+  EXPECT_EQ(hand.goal_index(), 1u);
+  // ... and the restarted robot stands at the start of the route: back to the first goal.
+  *view = view_at(0.0, 0.0, 0.0);
+  view->resyncs = 1;
+  hand.at(1.003);
+  EXPECT_EQ(hand.goal_index(), 0u);
+  EXPECT_FALSE(hand.arrived());
+}
+
 // ---------------------------------------------------------------- closed loop
 
 // home.xml's obstacles near the route, as the 2D footprints the base must not
@@ -429,74 +459,8 @@ INSTANTIATE_TEST_SUITE_P(OneWayDelayMs, ClosedLoop, ::testing::Values(0, 500));
 
 // ---------------------------------------------------------------- JSON
 
-// A minimal JSON reader for the summary: objects, numbers, true/false/null;
-// flattens keys as "a.b.c". Returns false on anything malformed.
-struct MiniJson {
-  const char* s;
-  std::map<std::string, std::string> values;  // raw tokens; objects are not listed
-  void ws() {
-    while (*s == ' ' || *s == '\n' || *s == '\t' || *s == '\r') ++s;
-  }
-  bool string(std::string* out) {
-    if (*s != '"') return false;
-    ++s;
-    out->clear();
-    while (*s && *s != '"') out->push_back(*s++);
-    if (*s != '"') return false;
-    ++s;
-    return true;
-  }
-  bool value(const std::string& path) {
-    ws();
-    if (*s == '{') return object(path);
-    const char* b = s;
-    if (std::strncmp(s, "true", 4) == 0) s += 4;
-    else if (std::strncmp(s, "false", 5) == 0) s += 5;
-    else if (std::strncmp(s, "null", 4) == 0) s += 4;
-    else {
-      char* end = nullptr;
-      std::strtod(s, &end);
-      if (end == s) return false;
-      s = end;
-    }
-    values[path] = std::string(b, s);
-    return true;
-  }
-  bool object(const std::string& path) {
-    ++s;
-    ws();
-    if (*s == '}') {
-      ++s;
-      return true;
-    }
-    for (;;) {
-      ws();
-      std::string k;
-      if (!string(&k)) return false;
-      ws();
-      if (*s++ != ':') return false;
-      if (!value(path.empty() ? k : path + "." + k)) return false;
-      ws();
-      if (*s == ',') {
-        ++s;
-        continue;
-      }
-      if (*s == '}') {
-        ++s;
-        return true;
-      }
-      return false;
-    }
-  }
-  bool parse(const std::string& text) {
-    s = text.c_str();
-    ws();
-    if (*s != '{' || !object("")) return false;
-    ws();
-    return *s == '\0';
-  }
-};
-
+// The summary is printed by protobuf's JSON support (report.proto): it
+// parses back, with protobuf's own parser, into the same numbers.
 TEST(StationJson, HasEveryKeyAndTheNumbersParseBack) {
   ho::OperatorStationSummary s;
   s.timing.ticks = 25001;
@@ -509,9 +473,11 @@ TEST(StationJson, HasEveryKeyAndTheNumbersParseBack) {
   s.timing.compute = {25001, 8.5, 20.5, 77.5, 9.125};
   s.model.scans_in = 11;
   s.model.states_in = 12;
+  s.model.resyncs = 1;
   s.commands.commands_sent = 5000;
   s.commands.stale = 7;
   s.mode_switches = 2;
+  s.robot_estop = 1;
   s.servo_log_written = 100;
   s.world_log_dropped = 9;
   s.robot_pose = {2.4, -1.55, -1.25};
@@ -525,58 +491,64 @@ TEST(StationJson, HasEveryKeyAndTheNumbersParseBack) {
   s.route_size = 2;
   s.goal_distance_m = std::hypot(0.05, 0.05);
 
-  MiniJson j;
-  ASSERT_TRUE(j.parse(ho::to_json(s))) << ho::to_json(s);
-  auto num = [&](const std::string& k) {
-    EXPECT_TRUE(j.values.count(k)) << k;
-    return std::strtod(j.values[k].c_str(), nullptr);
-  };
-  EXPECT_EQ(num("timing.ticks"), 25001);
-  EXPECT_EQ(num("timing.misses"), 3);
-  EXPECT_EQ(num("timing.overruns"), 1);
-  EXPECT_EQ(num("timing.late_wakes"), 2);
-  EXPECT_EQ(num("timing.skipped_periods"), 4);
-  EXPECT_EQ(num("timing.period_us.count"), 25000);
-  EXPECT_EQ(num("timing.period_us.median"), 1000.5);
-  EXPECT_EQ(num("timing.period_us.p99"), 1012.5);
-  EXPECT_EQ(num("timing.period_us.max"), 2345.5);
-  EXPECT_NEAR(num("timing.period_us.mean"), 1000.01, 1e-9);
-  EXPECT_EQ(num("timing.wake_latency_us.median"), 50.5);
-  EXPECT_EQ(num("timing.wake_latency_us.p99"), 120.5);
-  EXPECT_EQ(num("timing.compute_us.max"), 77.5);
-  EXPECT_EQ(num("model.scans_in"), 11);
-  EXPECT_EQ(num("model.states_in"), 12);
-  for (const char* k : {"model.scans_rejected", "model.scans_dropped", "model.states_rejected",
-                        "model.commands_dropped", "model.snapshots", "model.freed", "commands.send_failures",
-                        "commands.mode_changes_sent", "logs.servo_dropped", "logs.world_written"})
-    EXPECT_EQ(num(k), 0) << k;
-  EXPECT_EQ(num("commands.sent"), 5000);
-  EXPECT_EQ(num("commands.stale"), 7);
-  EXPECT_EQ(num("mode_switches"), 2);
-  EXPECT_EQ(num("logs.servo_written"), 100);
-  EXPECT_EQ(num("logs.world_dropped"), 9);
-  EXPECT_EQ(j.values["robot_pose.valid"], "true");
-  EXPECT_NEAR(num("robot_pose.x_m"), 2.4, 1e-9);
-  EXPECT_NEAR(num("robot_pose.y_m"), -1.55, 1e-9);
-  EXPECT_NEAR(num("robot_pose.theta_rad"), -1.25, 1e-9);
-  EXPECT_NEAR(num("nav_goal.goal_x_m"), 2.45, 1e-9);
-  EXPECT_NEAR(num("nav_goal.goal_y_m"), -1.6, 1e-9);
-  EXPECT_EQ(j.values["nav_goal.arrived"], "true");
-  EXPECT_NEAR(num("nav_goal.first_arrival_s"), 12.25, 1e-9);
-  EXPECT_EQ(num("nav_goal.arrivals"), 1);
-  EXPECT_EQ(num("nav_goal.goal_index"), 1);
-  EXPECT_EQ(num("nav_goal.route_size"), 2);
-  EXPECT_NEAR(num("nav_goal.goal_distance_m"), std::hypot(0.05, 0.05), 1e-8);
+  const std::string text = ho::to_json(s);
+  for (const char* k : {"\"timing\"", "\"period_us\"", "\"wake_latency_us\"", "\"compute_us\"", "\"median\"",
+                        "\"p99\"", "\"model\"", "\"scans_rejected\"", "\"commands\"", "\"mode_switches\"",
+                        "\"estop\"", "\"logs\"", "\"robot_pose\"", "\"x_m\"", "\"nav_goal\"", "\"goal_distance_m\""})
+    EXPECT_NE(text.find(k), std::string::npos) << k << " in " << text;
+  hemm::report::OperatorStation r;
+  ASSERT_TRUE(google::protobuf::util::JsonStringToMessage(text, &r).ok()) << text;
+  EXPECT_EQ(r.timing().ticks(), 25001u);
+  EXPECT_EQ(r.timing().misses(), 3u);
+  EXPECT_EQ(r.timing().overruns(), 1u);
+  EXPECT_EQ(r.timing().late_wakes(), 2u);
+  EXPECT_EQ(r.timing().skipped_periods(), 4u);
+  EXPECT_EQ(r.timing().period_us().count(), 25000u);
+  EXPECT_EQ(r.timing().period_us().median(), 1000.5);
+  EXPECT_EQ(r.timing().period_us().p99(), 1012.5);
+  EXPECT_EQ(r.timing().period_us().max(), 2345.5);
+  EXPECT_EQ(r.timing().period_us().mean(), 1000.01);
+  EXPECT_EQ(r.timing().wake_latency_us().median(), 50.5);
+  EXPECT_EQ(r.timing().wake_latency_us().p99(), 120.5);
+  EXPECT_EQ(r.timing().compute_us().max(), 77.5);
+  EXPECT_EQ(r.model().scans_in(), 11u);
+  EXPECT_EQ(r.model().states_in(), 12u);
+  EXPECT_EQ(r.model().resyncs(), 1u);
+  EXPECT_EQ(r.model().scans_rejected(), 0u);
+  EXPECT_EQ(r.commands().sent(), 5000u);
+  EXPECT_EQ(r.commands().stale(), 7u);
+  EXPECT_EQ(r.mode_switches(), 2u);
+  ASSERT_TRUE(r.estop().has_robot_engaged());
+  EXPECT_TRUE(r.estop().robot_engaged());
+  EXPECT_EQ(r.logs().servo_written(), 100u);
+  EXPECT_EQ(r.logs().world_dropped(), 9u);
+  EXPECT_TRUE(r.robot_pose().valid());
+  EXPECT_EQ(r.robot_pose().x_m(), 2.4);
+  EXPECT_EQ(r.robot_pose().y_m(), -1.55);
+  EXPECT_EQ(r.robot_pose().theta_rad(), -1.25);
+  ASSERT_TRUE(r.has_nav_goal());
+  EXPECT_EQ(r.nav_goal().goal_x_m(), 2.45);
+  EXPECT_EQ(r.nav_goal().goal_y_m(), -1.6);
+  EXPECT_TRUE(r.nav_goal().arrived());
+  EXPECT_EQ(r.nav_goal().first_arrival_s(), 12.25);
+  EXPECT_EQ(r.nav_goal().arrivals(), 1u);
+  EXPECT_EQ(r.nav_goal().goal_index(), 1u);
+  EXPECT_EQ(r.nav_goal().route_size(), 2u);
+  EXPECT_EQ(r.nav_goal().goal_distance_m(), std::hypot(0.05, 0.05));
 
-  // No goal, no pose yet, a non-finite number: nulls, still valid JSON.
+  // No goal, no pose, the robot's e-stop never reported, a non-finite
+  // number: absent / NaN, still valid JSON that parses back.
   ho::OperatorStationSummary e;
   e.timing.period.mean_us = std::nan("");
-  MiniJson j2;
-  ASSERT_TRUE(j2.parse(ho::to_json(e))) << ho::to_json(e);
-  EXPECT_EQ(j2.values["nav_goal"], "null");
-  EXPECT_EQ(j2.values["robot_pose.valid"], "false");
-  EXPECT_EQ(j2.values["timing.period_us.mean"], "null");
-  EXPECT_EQ(j2.values.count("nav_goal.arrived"), 0u);
+  const std::string text2 = ho::to_json(e);
+  hemm::report::OperatorStation r2;
+  ASSERT_TRUE(google::protobuf::util::JsonStringToMessage(text2, &r2).ok()) << text2;
+  EXPECT_FALSE(r2.has_nav_goal());
+  EXPECT_EQ(text2.find("\"nav_goal\""), std::string::npos) << text2;
+  EXPECT_FALSE(r2.robot_pose().valid());
+  EXPECT_NE(text2.find("\"valid\": false"), std::string::npos) << text2;  // zeros are printed
+  EXPECT_FALSE(r2.estop().has_robot_engaged());
+  EXPECT_TRUE(std::isnan(r2.timing().period_us().mean()));
 }
 
 }  // namespace

@@ -85,7 +85,7 @@ TEST_F(OperatorCli, StationJsonIsWrittenAtExit) {
   const std::string text = read_file(json);
   for (const char* k : {"\"timing\"", "\"ticks\"", "\"misses\"", "\"period_us\"", "\"wake_latency_us\"",
                         "\"compute_us\"", "\"median\"", "\"p99\"", "\"model\"", "\"commands\"", "\"logs\"",
-                        "\"robot_pose\"", "\"nav_goal\"", "\"goal_distance_m\""})
+                        "\"robot_pose\"", "\"nav_goal\"", "\"goal_index\""})
     EXPECT_NE(text.find(k), std::string::npos) << k << " in " << text;
   EXPECT_NE(text.find("\"goal_x_m\": -1.5"), std::string::npos) << text;
   EXPECT_NE(text.find("\"goal_y_m\": 0.25"), std::string::npos) << text;

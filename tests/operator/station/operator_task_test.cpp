@@ -204,6 +204,208 @@ TEST(Modes, AnchorRelaxesAtBoundedForceRate) {
   EXPECT_NEAR(out.command.ee[0].force_H.norm(), 0.0, 1e-9);
 }
 
+// Issue 9 item 10: a switch re-anchors the map for the force, and the
+// command used to follow the re-anchored proxy: switching exploration ->
+// navigation commanded -0.16 m/s with the stylus centred and 0.7 m/s with
+// the exploration proxy far ahead. No motion may follow a switch until the
+// hand moves (and, in navigation, the command has passed through neutral).
+struct SwitchRun {
+  double max_abs_v = 0.0, max_abs_omega = 0.0;
+  bool any_moves = false;
+  void note(const ho::StationSetpoint& sp) {
+    max_abs_v = std::max(max_abs_v, std::abs(sp.v));
+    max_abs_omega = std::max(max_abs_omega, std::abs(sp.omega));
+    any_moves = any_moves || sp.moves_robot;
+  }
+};
+
+TEST(ModeSwitch, NoMotionAfterSwitchingToNavigationWithTheStylusCentredUntilTheHandMoves) {
+  ho::OperatorTaskParams p;
+  Runner r(p);
+  const auto free_space = wall_snapshot({20, -1}, {20, 1}, {-1, 0}, {0, 0, 0});  // nothing near
+  r.move(*free_space, H(0, 0, 0), H(0, 0, 0), 1, 500);
+  r.tick(*free_space, H(0, 0, 0), hd::kButton2);  // -> navigation, stylus centred
+  ASSERT_EQ(r.task.mode(), hm::Mode::kNavigation);
+  SwitchRun after;
+  for (int i = 0; i < 1500; ++i) {
+    r.tick(*free_space, H(0, 0, 0), 0);
+    after.note(r.task.last_setpoint());
+  }
+  EXPECT_EQ(after.max_abs_v, 0.0);
+  EXPECT_EQ(after.max_abs_omega, 0.0);
+  EXPECT_FALSE(after.any_moves);
+  // The hand pushes forward 20 mm: the robot is driven.
+  r.move(*free_space, H(0, 0, 0), H(0.020, 0, 0), 200, 100);
+  EXPECT_TRUE(r.task.last_setpoint().moves_robot);
+  EXPECT_GT(r.task.last_setpoint().v, 0.2);
+}
+
+TEST(ModeSwitch, NoMotionAfterSwitchingToNavigationWithTheProxyFarAheadUntilTheHandReturnsThroughNeutral) {
+  ho::OperatorTaskParams p;
+  Runner r(p);
+  const auto free_space = wall_snapshot({20, -1}, {20, 1}, {-1, 0}, {0, 0, 0});
+  // Exploration: stylus 20 mm forward = the proxy 1 m ahead of the robot.
+  r.move(*free_space, H(0, 0, 0), H(0.020, 0, 0), 300, 300);
+  ASSERT_NEAR(r.task.proxy().proxy_W.x(), 1.0, 1e-6);
+  r.tick(*free_space, H(0.020, 0, 0), hd::kButton2);  // -> navigation
+  ASSERT_EQ(r.task.mode(), hm::Mode::kNavigation);
+  SwitchRun held;
+  for (int i = 0; i < 1500; ++i) {  // the hand stays
+    r.tick(*free_space, H(0.020, 0, 0), 0);
+    held.note(r.task.last_setpoint());
+  }
+  EXPECT_EQ(held.max_abs_v, 0.0);
+  EXPECT_FALSE(held.any_moves);
+  // The hand moves further forward: still no motion (it never passed neutral).
+  SwitchRun further;
+  for (int i = 1; i <= 200; ++i) {
+    r.tick(*free_space, H(0.020 + 0.005 * i / 200.0, 0, 0), 0);
+    further.note(r.task.last_setpoint());
+  }
+  EXPECT_EQ(further.max_abs_v, 0.0);
+  EXPECT_FALSE(further.any_moves);
+  // Back to the centre (through neutral), then forward: the robot is driven.
+  r.move(*free_space, H(0.025, 0, 0), H(0, 0, 0), 500, 100);
+  r.move(*free_space, H(0, 0, 0), H(0.020, 0, 0), 200, 100);
+  EXPECT_TRUE(r.task.last_setpoint().moves_robot);
+  EXPECT_GT(r.task.last_setpoint().v, 0.2);
+}
+
+TEST(ModeSwitch, NoArmMotionAfterSwitchingToManipulationUntilTheHandMoves) {
+  ho::OperatorTaskParams p;
+  p.initial_mode = hm::Mode::kNavigation;
+  Runner r(p);
+  const auto free_space = wall_snapshot({20, -1}, {20, 1}, {-1, 0}, {0, 0, 0});
+  r.move(*free_space, H(0, 0, 0), H(0.004, 0.003, 0), 100, 100);
+  r.tick(*free_space, H(0.004, 0.003, 0), hd::kButton1);  // navigation -> manipulation
+  ASSERT_EQ(r.task.mode(), hm::Mode::kManipulation);
+  for (int i = 0; i < 1000; ++i) {
+    r.tick(*free_space, H(0.004, 0.003, 0), 0);
+    ASSERT_FALSE(r.task.last_setpoint().arm_valid) << "tick " << i;
+    ASSERT_FALSE(r.task.last_setpoint().moves_robot) << "tick " << i;
+  }
+  r.move(*free_space, H(0.004, 0.003, 0), H(0.004, 0.003, 0.010), 100, 10);
+  EXPECT_TRUE(r.task.last_setpoint().arm_valid);
+  EXPECT_TRUE(r.task.last_setpoint().moves_robot);
+}
+
+// Issue 9 item 9: both device buttons together are the e-stop: counted once
+// per press, no mode switch, the robot held until the hand moves again.
+TEST(EStop, BothButtonsTogetherAreAnEStopAndSwitchNoMode) {
+  ho::OperatorTaskParams p;
+  p.initial_mode = hm::Mode::kNavigation;
+  Runner r(p);
+  const auto free_space = wall_snapshot({20, -1}, {20, 1}, {-1, 0}, {0, 0, 0});
+  r.move(*free_space, H(0, 0, 0), H(0.020, 0, 0), 200, 100);
+  ASSERT_TRUE(r.task.last_setpoint().moves_robot);
+  const std::uint32_t both = hd::kButton1 | hd::kButton2;
+  for (int i = 0; i < 50; ++i) r.tick(*free_space, H(0.020, 0, 0), both);  // pressed and held
+  EXPECT_EQ(r.task.estop_presses(), 1u);
+  EXPECT_EQ(r.task.last_setpoint().estop_presses, 1u);
+  EXPECT_EQ(r.task.mode(), hm::Mode::kNavigation);
+  EXPECT_EQ(r.task.mode_switches(), 0u);
+  EXPECT_FALSE(r.task.last_setpoint().moves_robot);
+  EXPECT_EQ(r.task.last_setpoint().v, 0.0);
+  for (int i = 0; i < 50; ++i) r.tick(*free_space, H(0.020, 0, 0), 0);  // released: still held
+  EXPECT_FALSE(r.task.last_setpoint().moves_robot);
+  r.tick(*free_space, H(0.020, 0, 0), both);  // a second press
+  EXPECT_EQ(r.task.estop_presses(), 2u);
+  r.tick(*free_space, H(0.020, 0, 0), 0);
+  // One button alone is a mode switch, not an e-stop.
+  r.tick(*free_space, H(0.020, 0, 0), hd::kButton2);
+  EXPECT_EQ(r.task.estop_presses(), 2u);
+  EXPECT_EQ(r.task.mode(), hm::Mode::kExploration);
+}
+
+// Issue 9 item 8: a model going stale (no robot data: the robot died, the
+// link went) fades its force to zero over fade_s, never in one tick, and the
+// robot is held; fresh data brings the force back at the same bounded rate.
+TEST(StaleModel, ForceFadesWithoutAStepAndTheRobotIsHeld) {
+  ho::OperatorTaskParams p;
+  p.initial_mode = hm::Mode::kNavigation;
+  p.navigation_point_origin_R = Eigen::Vector3d::Zero();
+  Runner r(p);
+  // Wall x = 0.76 ahead of the robot; data stamped at t = 0, fresh for 1 s, fade 1 s.
+  auto stale = wall_snapshot({0.76, -3}, {0.76, 3}, {-1, 0}, {0, 0, 0});
+  stale->have_data = true;
+  stale->data_stamp_ns = 0;
+  stale->stale_after_ns = 1'000'000'000;
+  stale->fade_ns = 1'000'000'000;
+  // Stylus 30 mm forward: the navigation point 0.75 m ahead, 0.02 m past the
+  // proxy's stop at the wall (0.24 N, under the continuous rating's ramp).
+  std::vector<double> f;
+  std::vector<bool> moves;
+  for (int i = 1; i <= 3000; ++i) {
+    const hs::TickOutput out = r.tick(*stale, H(std::min(1.0, i / 300.0) * 0.030, 0, 0));
+    f.push_back(out.command.ee[0].force_H.norm());
+    moves.push_back(r.task.last_setpoint().moves_robot);
+  }
+  const double f0 = f[899];  // t = 0.9 s: still fresh
+  EXPECT_NEAR(f0, 300.0 * 0.02 / 25.0, 0.01);
+  EXPECT_TRUE(moves[899]);
+  EXPECT_NEAR(f[1499], 0.5 * f0, 0.03 * f0);  // halfway through the fade
+  EXPECT_LT(f[2000], 1e-9);                   // gone by stale_after + fade
+  double max_step = 0.0;
+  for (std::size_t i = 600; i < f.size(); ++i) max_step = std::max(max_step, std::abs(f[i] - f[i - 1]));
+  EXPECT_LT(max_step, 1.2 * f0 * 1e-3) << "a step in the force";  // <= f0 per ms of fade
+  for (std::size_t i = 1001; i < moves.size(); ++i) ASSERT_FALSE(moves[i]) << "moves at tick " << i;
+  EXPECT_EQ(r.task.force_gain(), 0.0);
+  // Fresh data again: the force comes back over the fade time, no step; the
+  // robot stays held until the hand moves.
+  auto fresh = wall_snapshot({0.76, -3}, {0.76, 3}, {-1, 0}, {0, 0, 0});
+  fresh->have_data = true;
+  fresh->data_stamp_ns = r.t;
+  fresh->stale_after_ns = 10'000'000'000;
+  fresh->fade_ns = 1'000'000'000;
+  std::vector<double> g;
+  for (int i = 0; i < 1200; ++i) {
+    g.push_back(r.tick(*fresh, H(0.030, 0, 0)).command.ee[0].force_H.norm());
+    ASSERT_FALSE(r.task.last_setpoint().moves_robot);
+  }
+  max_step = 0.0;
+  for (std::size_t i = 1; i < g.size(); ++i) max_step = std::max(max_step, std::abs(g[i] - g[i - 1]));
+  EXPECT_LT(max_step, 1.2 * f0 * 1e-3);
+  EXPECT_NEAR(g[499], 0.5 * f0, 0.05 * f0);
+  EXPECT_NEAR(g.back(), f0, 0.02 * f0);
+}
+
+// Issue 9 item 8: while a restarted robot is taken in (resyncing) the force
+// is faded out and the robot held; when its map takes over, the view counts
+// the resync (the closed-loop hand restarts its route from it).
+TEST(StaleModel, ARobotRestartFadesHoldsAndIsCountedInTheView) {
+  ho::OperatorTaskParams p;
+  p.initial_mode = hm::Mode::kNavigation;
+  ho::OperatorView view;
+  ho::OperatorServoTask task(p, nullptr, &view);
+  auto tick = [&](const hs::ModelSnapshot& m, std::int64_t t, const Eigen::Vector3d& p_H) {
+    hd::DeviceSample s;
+    s.t_ns = t;
+    s.ee[0].position_H = p_H;
+    hs::TickOutput out;
+    task.tick(s, m, out);
+    return out;
+  };
+  auto snap = wall_snapshot({20, -3}, {20, 3}, {-1, 0}, {0, 0, 0});
+  snap->have_data = true;
+  snap->data_stamp_ns = 0;
+  snap->stale_after_ns = 10'000'000'000;
+  snap->resyncing = true;
+  for (int i = 1; i <= 1500; ++i) tick(*snap, i * 1'000'000LL, H(0.01 * std::min(1.0, i / 100.0), 0, 0));
+  EXPECT_EQ(task.force_gain(), 0.0);
+  EXPECT_FALSE(task.last_setpoint().moves_robot);
+  EXPECT_FALSE(view.valid);
+  EXPECT_EQ(view.resyncs, 0u);
+  auto taken = wall_snapshot({20, -3}, {20, 3}, {-1, 0}, {0, 0, 0});
+  taken->have_data = true;
+  taken->data_stamp_ns = 1'500'000'000;
+  taken->stale_after_ns = 10'000'000'000;
+  taken->resyncs = 1;
+  tick(*taken, 1'501'000'000, H(0.01, 0, 0));
+  EXPECT_TRUE(view.valid);
+  EXPECT_EQ(view.resyncs, 1u);
+  EXPECT_FALSE(task.last_setpoint().moves_robot);  // held until the hand moves again
+}
+
 TEST(Manipulation, ArmTargetFollowsTheProxyInR) {
   ho::OperatorTaskParams p;
   p.initial_mode = hm::Mode::kManipulation;
@@ -220,7 +422,7 @@ TEST(Manipulation, ArmTargetFollowsTheProxyInR) {
                                                          << want.p_R.transpose();
 }
 
-TEST(Tick, NeverAllocates) {
+TEST(Tick, NeverAllocatesOrFrees) {
   ho::OperatorTaskParams p;
   auto log = ho::make_station_logger(256);  // not started: pushes fill the ring, then count drops
   Runner r(p, &log);
@@ -228,14 +430,19 @@ TEST(Tick, NeverAllocates) {
   r.move(*snap, H(0, 0, 0), H(0.001, 0, 0), 10, 0);  // warm up
   hemm::test::count_allocations_on_this_thread(true);
   const std::uint64_t before = hemm::test::counted_allocations();
+  const std::uint64_t frees_before = hemm::test::counted_frees();
   for (int i = 0; i < 3000; ++i) {
     const double s = std::sin(i * 0.005);
-    r.tick(*snap, H(0.022 * s, 0.01 * s, 0), (i / 500) % 2 == 1 ? hd::kButton1 : 0u);
+    const std::uint32_t buttons = (i / 500) % 2 == 1 ? hd::kButton1 : (i % 700 < 20 ? hd::kButton1 | hd::kButton2 : 0u);
+    r.tick(*snap, H(0.022 * s, 0.01 * s, 0), buttons);
   }
   const std::uint64_t allocs = hemm::test::counted_allocations() - before;
+  const std::uint64_t frees = hemm::test::counted_frees() - frees_before;
   hemm::test::count_allocations_on_this_thread(false);
   EXPECT_EQ(allocs, 0u);
+  EXPECT_EQ(frees, 0u);
   EXPECT_GE(r.task.mode_switches(), 2u);
+  EXPECT_GE(r.task.estop_presses(), 2u);
 }
 
 TEST(Task, RejectsBadParams) {

@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include "config_robot.pb.h"
+#include "robot_side/control/safety.h"
 #include "robot_side/sim/simulated_robot.h"
 
 namespace hr = hemm::robot;
@@ -281,6 +282,111 @@ TEST(Safety, CollisionGuardStopsReversingFromSonarData) {
   EXPECT_LT(v_min, -0.4);
   EXPECT_GT(gap, 0.0);
   EXPECT_LT(std::abs(s.v_truth), 0.02);
+}
+
+// Issue 9 item 11: the guard limited straight motion only. Turning in place
+// with the arm out swung it into a wall beside the robot.
+TEST(Safety, TurningInPlaceWithTheArmOutStopsShortOfAWallBeside) {
+  // Facing south, the x = 2.95 wall 0.45 m to the left of the centre (0.2 m
+  // from the wheels). Turning left swings the front toward it: the arm out
+  // straight (tip 0.54 m forward) would reach 0.09 m into it, the folded arm
+  // (0.31 m forward) would clear it.
+  const hr::Pose2 start{2.95 - 0.45, -1.2, -M_PI / 2};
+  double turned_out = 0.0, turned_folded = 0.0;
+  for (const bool arm_out : {true, false}) {
+    SCOPED_TRACE(arm_out ? "arm out" : "arm folded");
+    Fixture f(start);
+    hr::SimulatedRobot& r = f.robot;
+    if (arm_out) r.set_arm_q_sim(hk::Arm5Vector::Zero());  // straight forward, level
+    r.step(200);
+    int contacts = 0;
+    bool guard_flag = false;
+    const double theta0 = r.state().T_W_R_truth.theta;
+    double theta_2s = theta0;
+    for (int ms = 0; ms < 3000; ++ms) {
+      if (ms % 10 == 0) f.drive(0.0, 1.0);  // turn left, toward the wall
+      r.step(1);
+      contacts += r.robot_contacts_sim();
+      guard_flag |= (r.state().safety & hemm::wire::SAFETY_COLLISION_GUARD) != 0;
+      if (ms == 2000) theta_2s = r.state().T_W_R_truth.theta;
+    }
+    const double turned = std::abs(r.state().T_W_R_truth.theta - theta0);
+    (arm_out ? turned_out : turned_folded) = turned;
+    std::printf("turn in place (%s): turned %.3f rad, %d contact steps\n", arm_out ? "arm out" : "arm folded",
+                turned, contacts);
+    EXPECT_EQ(contacts, 0);
+    EXPECT_TRUE(guard_flag);
+    EXPECT_LT(std::abs(r.state().T_W_R_truth.theta - theta_2s), 0.03);  // stopped turning
+    EXPECT_GT(turned, 0.2);  // but turned until near the wall
+  }
+  EXPECT_GT(turned_folded, turned_out + 0.2);  // the arm's reach is what stopped it early
+}
+
+// With the sonar off nothing sees behind: reversing is a crawl, not blind.
+TEST(Safety, ReversingWithNoDataBehindIsACrawl) {
+  Fixture f({1.7, 1.0, M_PI});  // the x = 2.95 wall 1 m behind the rear bumper
+  f.cfg.mutable_sonar()->set_enabled(false);
+  ASSERT_FALSE(f.robot.load(f.cfg, kScene));
+  hr::SimulatedRobot& r = f.robot;
+  r.set_base_pose_sim({1.7, 1.0, M_PI});
+  r.set_operator_in_control(true);
+  r.step(200);
+  int contacts = 0;
+  double v_min = 0.0;
+  for (int ms = 0; ms < 4000; ++ms) {
+    if (ms % 10 == 0) f.drive(-f.cfg.base().max_speed_mps(), 0.0);
+    r.step(1);
+    contacts += r.robot_contacts_sim();
+    v_min = std::min(v_min, r.state().v_truth);
+  }
+  const hr::CollisionGuardParams guard;
+  std::printf("reversing blind: peak %.3f m/s (crawl %.2f)\n", -v_min, guard.unknown_speed);
+  EXPECT_EQ(contacts, 0);
+  EXPECT_GT(v_min, -(guard.unknown_speed + 0.02));
+  EXPECT_LT(v_min, -0.05);  // it does move
+  EXPECT_NE(r.state().safety & hemm::wire::SAFETY_COLLISION_GUARD, 0u);
+}
+
+// Arm targets: into the floor, the base, or a wall the laser sees are refused
+// (counted by reason); the arm keeps its pose. A free target is taken.
+TEST(Safety, ArmTargetsIntoTheFloorTheBaseOrASeenWallAreRefused) {
+  Fixture f({2.95 - 0.45, 1.0, 0.0});  // the x = 2.95 wall 0.45 m ahead of the centre
+  hr::SimulatedRobot& r = f.robot;
+  auto arm = [&](double x, double y, double z) {
+    hr::BaseArmCommand c;
+    c.seq = ++f.seq;
+    c.mode = hemm::wire::MODE_MANIPULATION;
+    c.arm_target_R = Eigen::Vector3d(x, y, z);
+    c.deadman = true;
+    return r.set_command(c, r.time_ns());
+  };
+  const hk::Arm5Vector q0 = r.state().q;
+  const auto into_wall = arm(0.50, 0.0, 0.36);
+  ASSERT_TRUE(into_wall);
+  EXPECT_NE(into_wall->find("seen"), std::string::npos) << *into_wall;
+  const auto into_floor = arm(0.30, 0.0, -0.10);
+  ASSERT_TRUE(into_floor);
+  EXPECT_NE(into_floor->find("floor"), std::string::npos) << *into_floor;
+  const auto into_base = arm(-0.10, 0.0, 0.27);
+  ASSERT_TRUE(into_base);
+  EXPECT_NE(into_base->find("base"), std::string::npos) << *into_base;
+  const hr::SimulatedRobot::ArmRefusals n = r.arm_refusals();
+  EXPECT_EQ(n.scene, 1u);
+  EXPECT_EQ(n.floor, 1u);
+  EXPECT_EQ(n.base, 1u);
+  EXPECT_EQ(r.rejected_commands(), 3u);
+  r.step(500);
+  EXPECT_LT((r.state().q - q0).norm(), 0.02);  // nothing was followed
+  // Short of the wall (0.07 m): taken, and the arm goes there.
+  EXPECT_FALSE(arm(0.38, 0.0, 0.36));
+  for (int ms = 0; ms < 2000; ++ms) {
+    if (ms % 10 == 0) {
+      ASSERT_FALSE(arm(0.38, 0.0, 0.36));
+    }
+    r.step(1);
+  }
+  EXPECT_NEAR(r.state().T_R_E.translation().x(), 0.38, 0.01);
+  EXPECT_EQ(r.robot_contacts_sim(), 0);
 }
 
 TEST(Safety, EstopAndOperatorGating) {

@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <condition_variable>
+#include <deque>
 #include <functional>
 #include <map>
 #include <mutex>
@@ -115,6 +116,10 @@ struct FakeOperator {
   std::optional<hw::Command> command;
   uint64_t commands_sent = 0;
   std::atomic<bool> fatal{false};
+  // A path that holds every command this long before passing it on (the
+  // command keeps the stamp of when it was made).
+  int64_t hold_ns = 0;
+  std::deque<hw::Command> held;
 
   FakeOperator(uint16_t session_port, bool want_control) {
     hemm::op::OperatorClientOptions o;
@@ -168,10 +173,19 @@ struct FakeOperator {
         std::lock_guard<std::mutex> lk(mu);
         c = command;
       }
+      int64_t hold = 0;
+      {
+        std::lock_guard<std::mutex> lk(mu);
+        hold = hold_ns;
+      }
       if (c) {
+        c->set_stamp_ns(now_ns());
+        held.push_back(*c);
+      }
+      while (!held.empty() && held.front().stamp_ns() <= now_ns() - hold) {
         hw::StreamMessage m;
-        *m.mutable_command() = *c;
-        m.mutable_command()->set_stamp_ns(now_ns());
+        *m.mutable_command() = held.front();
+        held.pop_front();
         if (client->streams().send(m)) {
           std::lock_guard<std::mutex> lk(mu);
           ++commands_sent;
@@ -187,6 +201,10 @@ struct FakeOperator {
   void set_command(std::optional<hw::Command> c) {
     std::lock_guard<std::mutex> lk(mu);
     command = std::move(c);
+  }
+  void set_hold(double seconds) {
+    std::lock_guard<std::mutex> lk(mu);
+    hold_ns = static_cast<int64_t>(seconds * 1e9);
   }
   void send_frame(hw::SessionFrame f) {
     asio::post(io, [this, f = std::move(f)] { client->send_session_frame(f); });
@@ -241,10 +259,11 @@ hw::SessionFrame mode_change(hw::Mode mode, uint64_t id) {
   return f;
 }
 
-hw::SessionFrame estop_frame(bool engaged) {
+hw::SessionFrame estop_frame(bool engaged, uint64_t request_id = 0) {
   hw::SessionFrame f;
   f.mutable_estop()->set_engaged(engaged);
   f.mutable_estop()->set_reason("test");
+  f.mutable_estop()->set_request_id(request_id);
   return f;
 }
 
@@ -586,6 +605,48 @@ TEST(RobotStationLoopback, EStopStopsBaseAndReleaseAllowsMotion) {
   EXPECT_EQ(robot.station->statistics().estop_changes, 2u);
 }
 
+// Issue 9 item 9: the e-stop's Ack names its request, and the robot station
+// has its own e-stop: while it is engaged the robot stays stopped, the
+// operator cannot release it (refused, named), and only the robot releases it.
+TEST(RobotStationLoopback, EStopAckNamesTheRequestAndTheRobotsOwnEStopIsReleasedOnlyThere) {
+  RobotSide robot(test_config());
+  robot.start();
+  FakeOperator op(robot.server->session_port(), true);
+  ASSERT_TRUE(op.wait_connected());
+  op.set_command(nav_command(kSpeed));
+  ASSERT_TRUE(wait_until([&] { auto s = op.last_state(); return s && s->v() > 0.25; }, 3.0));
+
+  // Operator e-stop with a request id: the Ack carries it.
+  op.send_frame(estop_frame(true, 41));
+  ASSERT_TRUE(wait_until([&] { return op.ack_for(41).has_value(); }, 2.0));
+  EXPECT_TRUE(op.ack_for(41)->ok());
+  EXPECT_EQ(op.ack_for(41)->reason(), "e-stop engaged");
+  op.send_frame(estop_frame(false, 42));
+  ASSERT_TRUE(wait_until([&] { return op.ack_for(42).has_value(); }, 2.0));
+  EXPECT_TRUE(op.ack_for(42)->ok());
+  ASSERT_TRUE(wait_until([&] { auto s = op.last_state(); return s && s->v() > 0.25; }, 2.0));
+
+  // The robot's own e-stop: stopped, reported to the operator.
+  robot.station->local_estop(true, "test key");
+  ASSERT_TRUE(wait_until([&] { auto s = op.last_state(); return s && std::abs(s->v()) < 0.01; }, 1.5));
+  EXPECT_TRUE(robot.station->statistics().estop);
+  EXPECT_TRUE(robot.station->statistics().estop_local);
+  ASSERT_TRUE(wait_until([&] { return op.estop_reports(true) == 2; }, 1.0));
+  // The operator cannot release it: refused, by its request id.
+  op.send_frame(estop_frame(false, 43));
+  ASSERT_TRUE(wait_until([&] { return op.ack_for(43).has_value(); }, 2.0));
+  EXPECT_FALSE(op.ack_for(43)->ok());
+  EXPECT_NE(op.ack_for(43)->reason().find("at the robot"), std::string::npos) << op.ack_for(43)->reason();
+  sleep_s(0.3);
+  EXPECT_LT(std::abs(op.last_state()->v()), 0.01);
+  EXPECT_NE(op.last_state()->safety() & hw::SAFETY_ESTOP, 0u);
+  // Released at the robot: motion resumes (the operator never engaged it).
+  robot.station->local_estop(false, "test key");
+  EXPECT_TRUE(wait_until([&] { auto s = op.last_state(); return s && s->v() > 0.25; }, 2.0));
+  EXPECT_FALSE(robot.station->statistics().estop_local);
+  EXPECT_EQ(robot.station->statistics().estop_changes, 4u);
+}
+
 // Link loss: the operator's UDP goes away without Bye while it commands
 // v = 0.3 m/s. The watchdog is set far longer than the link timeout, so only
 // the link loss can stop the base: SAFETY_LINK_LOST, standstill.
@@ -667,4 +728,67 @@ TEST(RobotStationLoopback, BadAndStaleCommandsChangeNothing) {
   st = robot.station->statistics();
   EXPECT_GT(st.commands_applied, 0u);
   EXPECT_EQ(st.mode_changes, 2u);
+}
+
+// Something on the path holds the operator's commands and releases them 3 s
+// later. The robot refuses them as stale (older than the measured round trip
+// plus the margin) and does not move; the same commands passed on at once
+// move it.
+TEST(RobotStationLoopback, CommandsHeldOnThePathAndReleasedSecondsLaterAreRefusedAsStale) {
+  RobotSide robot(test_config());
+  robot.start();
+  FakeOperator op(robot.server->session_port(), true);
+  ASSERT_TRUE(op.wait_connected());
+  op.send_frame(mode_change(hw::MODE_NAVIGATION, 31));
+  ASSERT_TRUE(wait_until([&] { return op.ack_for(31).has_value(); }, 2.0));
+  EXPECT_TRUE(op.ack_for(31)->ok());
+  op.set_hold(3.0);
+  op.set_command(nav_command(kSpeed));
+  sleep_s(3.0 + 1.5);  // 1.5 s of held commands arrive
+  auto st = robot.station->statistics();
+  const auto s = robot.station->latest_state();
+  std::printf("held 3 s: received %lu, stale %lu, applied %lu; |v| %.5f, x %.5f\n",
+              static_cast<unsigned long>(st.commands_received), static_cast<unsigned long>(st.commands_stale),
+              static_cast<unsigned long>(st.commands_applied), s.v, s.T_W_R_truth.x);
+  EXPECT_GT(st.commands_received, 100u);
+  EXPECT_GT(st.commands_stale, 100u);
+  EXPECT_EQ(st.commands_applied, 0u);
+  EXPECT_LT(std::abs(s.v), 0.01);
+  EXPECT_LT(std::abs(s.T_W_R_truth.x), 0.003);
+
+  // The same commands without the hold move the robot.
+  op.set_hold(0.0);
+  EXPECT_TRUE(wait_until([&] { return robot.station->latest_state().v > 0.25; }, 3.0));
+  EXPECT_GT(robot.station->statistics().commands_applied, 0u);
+}
+
+// Commands that come 150 ms late (still younger than the stale limit) are
+// followed, but the watchdog counts from when they were sent, not from
+// their arrival: after the last one the robot has 250 - 150 ms left, not 250.
+TEST(RobotStationLoopback, WatchdogCountsFromTheCommandsSendTimeNotItsArrival) {
+  RobotSide robot(test_config());
+  robot.start();
+  FakeOperator op(robot.server->session_port(), true);
+  ASSERT_TRUE(op.wait_connected());
+  op.send_frame(mode_change(hw::MODE_NAVIGATION, 41));
+  ASSERT_TRUE(wait_until([&] { return op.ack_for(41).has_value(); }, 2.0));
+  op.set_hold(0.150);
+  op.set_command(nav_command(kSpeed));
+  ASSERT_TRUE(wait_until([&] { return robot.station->latest_state().v > 0.25; }, 3.0));
+  op.set_command(std::nullopt);
+  sleep_s(1.0);
+  const auto states = op.states_copy();
+  const uint64_t last_seq = states.back().m.last_command_seq();
+  ASSERT_NE(last_seq, 0u);
+  const auto applied = std::find_if(states.begin(), states.end(),
+                                    [&](const StateRec& r) { return r.m.last_command_seq() == last_seq; });
+  const auto expired = std::find_if(applied, states.end(),
+                                    [](const StateRec& r) { return (r.m.safety() & hw::SAFETY_WATCHDOG) != 0; });
+  ASSERT_NE(expired, states.end());
+  const double left_s = (expired->m.stamp_ns() - applied->m.stamp_ns()) * 1e-9;
+  const double watchdog_s = test_config().safety().watchdog_ms() * 1e-3;
+  std::printf("last command (150 ms late) applied -> watchdog %.3f s (watchdog %.3f s)\n", left_s, watchdog_s);
+  EXPECT_LT(left_s, watchdog_s - 0.15 + 0.05);
+  EXPECT_GT(left_s, watchdog_s - 0.15 - 0.05);
+  EXPECT_GT(robot.station->statistics().commands_applied, 20u);  // followed while they came
 }

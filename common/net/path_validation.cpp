@@ -1,0 +1,81 @@
+#include "common/net/path_validation.h"
+
+#include <algorithm>
+
+#include "common/net/crypto.h"
+
+namespace hemm::net {
+
+void PathValidator::reset() {
+  peer_.reset();
+  peer_seen_ns_ = 0;
+  challenged_any_ = false;
+  last_challenge_ns_ = 0;
+  candidates_.clear();
+  tokens_.clear();
+}
+
+std::optional<PathToken> PathValidator::on_datagram(const PathAddress& from, int64_t now) {
+  if (peer_ && from == *peer_) {
+    peer_seen_ns_ = now;
+    return std::nullopt;
+  }
+  if (peer_ && now - peer_seen_ns_ < p_.quiet_ns) {
+    // The validated path is alive: this is a copy (or a stray), not a move.
+    ++c_.ignored;
+    return std::nullopt;
+  }
+  auto it = std::find_if(candidates_.begin(), candidates_.end(), [&](const Candidate& c) { return c.addr == from; });
+  if (it == candidates_.end()) {
+    if (candidates_.size() >= std::max<size_t>(1, p_.max_candidates)) {
+      candidates_.erase(std::min_element(candidates_.begin(), candidates_.end(), [](const auto& a, const auto& b) {
+        return a.last_seen_ns < b.last_seen_ns;
+      }));
+    }
+    candidates_.push_back(Candidate{from, now, now, std::max<int64_t>(1, p_.first_retry_ns)});
+    it = candidates_.end() - 1;
+  }
+  it->last_seen_ns = now;
+  if (now < it->next_challenge_ns) return std::nullopt;
+  if (challenged_any_ && now - last_challenge_ns_ < p_.min_interval_ns) {
+    ++c_.rate_limited;
+    return std::nullopt;
+  }
+  Outstanding o;
+  random_bytes(o.token.data(), o.token.size());
+  o.addr = from;
+  o.expires_ns = now + p_.token_lifetime_ns;
+  if (tokens_.size() >= std::max<size_t>(1, p_.max_tokens)) tokens_.erase(tokens_.begin());  // oldest first
+  tokens_.push_back(o);
+  it->next_challenge_ns = now + it->retry_ns;
+  it->retry_ns = std::min(2 * it->retry_ns, std::max(p_.max_retry_ns, p_.first_retry_ns));
+  challenged_any_ = true;
+  last_challenge_ns_ = now;
+  ++c_.challenges_sent;
+  return o.token;
+}
+
+std::optional<PathAddress> PathValidator::on_response(std::span<const uint8_t> token, int64_t now) {
+  if (token.size() != kPathTokenBytes) {
+    ++c_.responses_unmatched;
+    return std::nullopt;
+  }
+  // Compare against every live token (constant time each): no early exit
+  // that would tell which one came close.
+  const Outstanding* match = nullptr;
+  for (const Outstanding& o : tokens_) {
+    if (equal_constant_time(o.token, token) && now <= o.expires_ns) match = &o;
+  }
+  if (!match) {
+    ++c_.responses_unmatched;
+    return std::nullopt;
+  }
+  peer_ = match->addr;
+  peer_seen_ns_ = now;
+  candidates_.clear();
+  tokens_.clear();
+  ++c_.validated;
+  return peer_;
+}
+
+}  // namespace hemm::net
