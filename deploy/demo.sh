@@ -121,7 +121,8 @@ haptic_run() {
   set +e
   "$bin/hemm-operator" --config "$cfg/operator.pbtxt" --session-port "$port" --stream-port "$stream" \
     --script "$script" --log "$dir/servo.csv" --duration "$secs_run" --log-level warn \
-    --station-json "$dir/station.json" "${op_view[@]/VIEW_DIR/$dir}" >"$dir/operator.txt" 2>"$dir/operator.log"
+    --station-json "$dir/station.json" --record "$dir/session.rec" "${op_view[@]/VIEW_DIR/$dir}" \
+    >"$dir/operator.txt" 2>"$dir/operator.log"
   local rc=$?
   set -e
   kill -INT "$robot" 2>/dev/null || true
@@ -136,6 +137,9 @@ haptic_run() {
     exit "$rc"
   fi
   grep -E "steps touching|collision guard" "$dir/robot.txt" || true
+  # The whole session replayed from its recording as fast as it goes: the
+  # forces tick for tick against the recorded ones.
+  "$bin/hemm-operator" --replay "$dir/session.rec" --replay-speed 0 --replay-json "$dir/replay.json" --log-level warn
   "$bin/hemm-truth" --scene "$root/deploy/scenes/home.xml" --log "$dir/servo.csv.world.csv" \
     --csv "$dir/truth.csv" --json "$dir/truth.json"
   /usr/bin/python3 "$root/deploy/plots/plot_run.py" "$dir/servo.csv" --out "$dir" --title "$name" \
@@ -147,4 +151,5 @@ haptic_run nav-to-goal-300ms nav-to-goal 30 300    # closed-loop navigation at 3
 
 echo
 echo "demo: outputs in $out (PNG plots in $out/nav-to-wall, $out/probe-cylinder, $out/nav-to-goal-300ms;"
-echo "      the live views' pictures in <run>/operator_view/ and <run>/robot_view/)"
+echo "      the live views' pictures in <run>/operator_view/ and <run>/robot_view/, each session's recording"
+echo "      in <run>/session.rec and its replay's result in <run>/replay.json)"

@@ -17,6 +17,7 @@
 #include <atomic>
 #include <cctype>
 #include <csignal>
+#include <chrono>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -29,12 +30,17 @@
 #include "common/net/crypto.h"
 #include "common/net/exit_codes.h"
 #include "common/net/station_cli.h"
+#include "common/net/session_connection.h"
 #include "common/net/station_control.h"
 #include "config_operator.pb.h"
 #include "operator/bimanual/bimanual_config.h"
 #include "operator/bimanual/bimanual_scripts.h"
 #include "operator/bimanual/bimanual_session.h"
+#include <google/protobuf/text_format.h>
+
 #include "operator/client/operator_client.h"
+#include "operator/record/session_recording.h"
+#include "operator/record/session_replay.h"
 #include "operator/station/demo_scripts.h"
 #include "operator/station/operator_station.h"
 #ifdef HEMM_OPERATOR_HAVE_VPS
@@ -134,6 +140,50 @@ int run_vps(const config::OperatorConfig& cfg, const std::string& config_path, c
   return net::kExitOk;
 }
 
+// --replay of a session recording: no link; the model and the servo task
+// rebuilt from the file (operator/record/session_replay.h), optionally seen
+// in the live view.
+int replay_recording(const std::string& path, double speed, const std::string& json_path
+#ifdef HEMM_WITH_VIEW
+                     ,
+                     const view::ViewOptions& view_opts
+#endif
+) {
+  op::Recording rec;
+  const std::optional<std::string> broke = op::load_recording(path, &rec);
+  if (broke && rec.records == 0) {
+    std::cerr << "hemm-operator: " << *broke << "\n";
+    return net::kExitUsage;
+  }
+  if (broke) std::cerr << "hemm-operator: " << *broke << "; replaying the readable part\n";
+  op::SessionReplayOptions ro;
+  ro.speed = speed;
+#ifdef HEMM_WITH_VIEW
+  std::unique_ptr<op::OperatorLiveView> live_view;
+  if (view_opts.enabled()) {
+    live_view = std::make_unique<op::OperatorLiveView>(view_opts, op::LiveViewLinks{});
+    op::ViewFeed& feed = live_view->feed();
+    ro.on_snapshot = [&feed](const op::OperatorModelSnapshot& s) { feed.on_snapshot(s); };
+    ro.ticks = &feed.ticks();
+    live_view->start();
+  }
+#endif
+  const op::SessionReplayResult r = op::replay_session(rec, ro);
+#ifdef HEMM_WITH_VIEW
+  if (live_view) live_view->stop();
+#endif
+  std::cout << "replay: ticks=" << r.ticks << " model_steps=" << r.steps << " ticks_missing=" << r.ticks_missing
+            << " force_mismatches=" << r.force_mismatches << " max_force_error_N=" << r.max_force_error_N
+            << " mode_mismatches=" << r.mode_mismatches << " recorded_s=" << r.recorded_s << " wall_s=" << r.wall_s
+            << (r.stopped.empty() ? "" : " stopped=\"" + r.stopped + "\"") << "\n";
+  std::string error;
+  if (!json_path.empty() && !net::write_text_file(json_path, op::to_json(r), &error)) {
+    std::cerr << "hemm-operator: " << error << "\n";
+    return net::kExitInternal;
+  }
+  return broke ? net::kExitUsage : net::kExitOk;
+}
+
 int run(int argc, char** argv) {
   CLI::App app{"hemm-operator: the operator station of hemm (authenticated session, 1 kHz haptic servo loop with "
                "the virtual proxy on the local model, commands to the robot, link statistics). A config with a vps block "
@@ -183,7 +233,21 @@ int run(int argc, char** argv) {
                  "nav-to-goal state) as JSON to this file at exit");
   app.add_option("--log", servo_log,
                  "1 kHz servo CSV log (also FILE.world.csv per tick in W, FILE.map.csv: the final map)");
-  app.add_option("--replay", replay_file, "replay this device trajectory CSV (overrides device.type/replay_file)");
+  app.add_option("--replay", replay_file,
+                 "replay this device trajectory CSV (overrides device.type/replay_file), or a session recording "
+                 "made with --record: then no robot is contacted; the local model is rebuilt from the recorded "
+                 "inputs and the recorded hand drives the servo task, whose forces are compared with the recorded "
+                 "ones tick for tick (exit 2 if the file is truncated or corrupt, after replaying what it holds)");
+  std::string record_path, replay_json;
+  double replay_speed = 1.0;
+  app.add_option("--record", record_path,
+                 "record the session to this file (length-delimited protobuf, proto/record.proto): every servo "
+                 "tick, model step, stream message received and sent, session frame sent");
+  app.add_option("--replay-speed", replay_speed,
+                 "with --replay of a recording: recorded seconds per second (1 real time; 0 as fast as possible)")
+      ->check(CLI::NonNegativeNumber);
+  app.add_option("--replay-json", replay_json,
+                 "with --replay of a recording: write the replay's result (ticks, force error, times) as JSON here");
   net::StationControlOptions control_options;
   net::add_station_control_options(app, "hemm-operator", &control_options);
   std::string device_type, bimanual_hands;
@@ -215,6 +279,17 @@ int run(int argc, char** argv) {
     return net::kExitUsage;
   }
 #endif
+  if (!replay_file.empty() && op::looks_like_recording(replay_file)) {
+    if (!net::setup_station_logging("operator", log_level)) {
+      std::cerr << "hemm-operator: bad --log-level '" << log_level << "'\n";
+      return net::kExitUsage;
+    }
+#ifdef HEMM_WITH_VIEW
+    return replay_recording(replay_file, replay_speed, replay_json, view_opts);
+#else
+    return replay_recording(replay_file, replay_speed, replay_json);
+#endif
+  }
   std::vector<Eigen::Vector2d> goal_route;
   for (const std::string& g : goal_args) {
     const auto p = parse_goal(g);
@@ -348,6 +423,32 @@ int run(int argc, char** argv) {
     spdlog::error("event=station_failed error=\"{}\"", e.what());
     return net::kExitUsage;
   }
+  std::unique_ptr<op::SessionRecorder> recorder;
+  if (!record_path.empty()) {
+    rec::Header h;
+    h.set_start_ns(net::steady_now_ns());
+    h.set_servo_period_ns(so.servo.period_ns);
+    h.set_initial_mode(static_cast<std::uint32_t>(station->task().params().initial_mode));
+    h.set_script(so.device == "sim-omni" ? so.script : so.device);
+    h.set_end_effectors(station->device().limits().end_effectors);
+    google::protobuf::TextFormat::PrintToString(cfg, h.mutable_config_text());
+    try {
+      recorder = std::make_unique<op::SessionRecorder>(record_path, h);
+    } catch (const std::exception& e) {
+      std::cerr << "hemm-operator: --record: " << e.what() << "\n";
+      return net::kExitUsage;
+    }
+    op::SessionRecorder* r = recorder.get();
+    op::OperatorStation::SessionTaps taps;
+    taps.on_step = [r](const op::ModelThread::StepInputs& in, const op::OperatorModelSnapshot& s) {
+      r->model_step(in, s.version);
+    };
+    taps.ticks = &r->ticks();
+    taps.on_stream = [r](std::int64_t t, bool out, const wire::StreamMessage& m) { r->stream(t, out, m); };
+    taps.on_session = [r](std::int64_t t, bool out, const wire::SessionFrame& f) { r->session(t, out, f); };
+    station->attach_session_taps(std::move(taps));
+    recorder->start();
+  }
 #ifdef HEMM_WITH_VIEW
   std::unique_ptr<op::OperatorLiveView> live_view;  // the view thread: started after the station
   if (view_opts.enabled())
@@ -462,6 +563,12 @@ int run(int argc, char** argv) {
   keys.stop();
   if (control) control->stop();
   station->stop();
+  if (recorder) {
+    recorder->stop();
+    spdlog::info("event=recorded file=\"{}\" records={} ticks_dropped={} write_failed={}", record_path,
+                 recorder->records(), recorder->ticks_dropped(), recorder->write_failed());
+    if (recorder->write_failed()) std::cerr << "hemm-operator: writing " << record_path << " failed\n";
+  }
 #ifdef HEMM_WITH_VIEW
   if (live_view) live_view->stop();  // after a last picture of the final state
 #endif

@@ -101,10 +101,23 @@ void ModelThread::take_state(const RobotStateSample& s, bool next) {
 
 void ModelThread::step(std::int64_t now_ns) {
   const std::int64_t offset = offset_ns_.load();
+  const std::int64_t delay = delay_ns_.load();  // one value for the whole step
+  if (step_tap_) {
+    tapped_.now_ns = now_ns;
+    tapped_.offset_ns = offset;
+    tapped_.delay_ns = delay;
+    tapped_.commands.clear();
+    tapped_.state.reset();
+    tapped_.scans.clear();
+  }
   SentCommand c;
-  while (commands_.try_pop(c)) history_.push(c);
+  while (commands_.try_pop(c)) {
+    history_.push(c);
+    if (step_tap_) tapped_.commands.push_back(c);
+  }
   wire::RobotState ws;
   if (state_box_.take(ws)) {
+    if (step_tap_) tapped_.state = ws;
     RobotStateSample s;
     if (auto e = state_from_wire(ws, offset, &s)) {
       states_rejected_.fetch_add(1);
@@ -117,6 +130,7 @@ void ModelThread::step(std::int64_t now_ns) {
   mapping::RangeScan2D scan;
   localizer_.begin_step();
   while (scans_.try_pop(m)) {
+    if (step_tap_) tapped_.scans.push_back(m);
     std::optional<std::string> e = scan_from_wire(*m, offset, &scan);
     const std::uint64_t epoch = m->frame_epoch();
     m.reset();  // the ring slot keeps a copy of the pointer until overwritten; drop ours now
@@ -202,6 +216,10 @@ void ModelThread::step(std::int64_t now_ns) {
   snap->map = mapping::build_snapshot(p_.map, map_);
   snap->segments = map_.segments.size();
   if (observer_) observer_(*snap);
+  if (step_tap_) {
+    step_tap_(tapped_, *snap);
+    tapped_.scans.clear();  // the scans' memory is not kept here
+  }
   channel_.publish(std::move(snap));  // also frees what the servo retired
   snapshots_.fetch_add(1);
   freed_.store(channel_.freed_by_collect());

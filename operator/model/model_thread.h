@@ -37,8 +37,10 @@
 #include <functional>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "common/mapping/local_map.h"
 #include "operator/model/pose_prediction.h"
@@ -123,6 +125,17 @@ class ModelThread {
   // published (the live view copies what it draws). Set before start().
   using SnapshotObserver = std::function<void(const OperatorModelSnapshot&)>;
   void set_snapshot_observer(SnapshotObserver f) { observer_ = std::move(f); }
+  // Called on the model thread after each step with what the step took (the
+  // session recorder keeps it: submitting these inputs and stepping at
+  // now_ns reproduces the snapshot). Set before start().
+  struct StepInputs {
+    std::int64_t now_ns = 0, offset_ns = 0, delay_ns = 0;
+    std::vector<SentCommand> commands;
+    std::optional<wire::RobotState> state;
+    std::vector<std::shared_ptr<const wire::RangeScan>> scans;
+  };
+  using StepTap = std::function<void(const StepInputs&, const OperatorModelSnapshot&)>;
+  void set_step_tap(StepTap f) { step_tap_ = std::move(f); }
 
   void start();
   void stop();  // idempotent; joins
@@ -170,6 +183,8 @@ class ModelThread {
   std::uint64_t version_ = 0;
   std::string last_error_;
   SnapshotObserver observer_;
+  StepTap step_tap_;
+  StepInputs tapped_;  // reused
 
   std::atomic<std::uint64_t> scans_in_{0}, scans_rejected_{0}, scans_dropped_{0}, states_in_{0},
       states_rejected_{0}, commands_dropped_{0}, snapshots_{0}, freed_{0}, resyncs_{0}, old_epoch_dropped_{0};

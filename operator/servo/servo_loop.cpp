@@ -192,6 +192,24 @@ void ServoLoop::stop() {
   }
 }
 
+void prepare_tick_output(const device::DeviceSample& sample, std::uint64_t tick, TickOutput& out) noexcept {
+  const device::EndEffectorSample& ee0 = sample.ee[0];
+  out.command = device::DeviceCommand{};
+  out.setpoint.t_ns = sample.t_ns;
+  out.setpoint.tick = tick;
+  out.setpoint.position_H = ee0.position_H;
+  out.setpoint.orientation_H = ee0.orientation_H;
+  out.setpoint.velocity_H = ee0.velocity_H;
+  out.setpoint.buttons = ee0.handle.buttons;
+  out.setpoint.mode = 0;
+  out.publish_setpoint = true;
+  for (int i = 0; i < sample.end_effectors; ++i) {
+    const Eigen::Vector3d& p = sample.ee[static_cast<std::size_t>(i)].position_H;
+    out.points[static_cast<std::size_t>(i)] = RenderPoints{p, p};
+  }
+  out.mode = 0;
+}
+
 void ServoLoop::thread_main() noexcept {
   go_.wait(false, std::memory_order_acquire);
   if (config_.prefault_stack) prefault_stack();
@@ -218,21 +236,7 @@ void ServoLoop::thread_main() noexcept {
     const ModelSnapshot* snap = snapshots_.acquire();
     const ModelSnapshot& model = snap != nullptr ? *snap : empty_snapshot_;
 
-    const device::EndEffectorSample& ee0 = sample.ee[0];
-    out.command = device::DeviceCommand{};
-    out.setpoint.t_ns = wake;
-    out.setpoint.tick = tick;
-    out.setpoint.position_H = ee0.position_H;
-    out.setpoint.orientation_H = ee0.orientation_H;
-    out.setpoint.velocity_H = ee0.velocity_H;
-    out.setpoint.buttons = ee0.handle.buttons;
-    out.setpoint.mode = 0;
-    out.publish_setpoint = true;
-    for (int i = 0; i < end_effectors_; ++i) {
-      const Eigen::Vector3d& p = sample.ee[static_cast<std::size_t>(i)].position_H;
-      out.points[static_cast<std::size_t>(i)] = RenderPoints{p, p};
-    }
-    out.mode = 0;
+    prepare_tick_output(sample, tick, out);
     task_.tick(sample, model, out);
     device_.write(out.command);
     if (out.publish_setpoint) setpoints_.put(out.setpoint);

@@ -70,6 +70,10 @@ struct TickOutput {
   std::uint32_t mode = 0;                                       // logged
 };
 
+// The TickOutput the loop hands the task each tick, reset as described above
+// (replays of recorded sessions start each tick from the same).
+void prepare_tick_output(const device::DeviceSample& sample, std::uint64_t tick, TickOutput& out) noexcept;
+
 class ServoTask {
  public:
   virtual ~ServoTask() = default;

@@ -194,8 +194,16 @@ OperatorStation::OperatorStation(asio::io_context& io, OperatorClient& client, c
   task_ = std::make_unique<OperatorServoTask>(tp, world_log_.get(), view_.get());
   loop_ = std::make_unique<servo::ServoLoop>(*device_, *task_, channel_, o.servo, servo_log_.get());
   sender_ = std::make_unique<CommandSender>(
-      io_, task_->setpoints(), [this](const wire::StreamMessage& m) { return client_.streams().send(m); },
-      [this](const wire::SessionFrame& f) { client_.send_session_frame(f); }, model_.get(),
+      io_, task_->setpoints(),
+      [this](const wire::StreamMessage& m) {
+        if (taps_.on_stream) taps_.on_stream(steady_now_ns(), true, m);
+        return client_.streams().send(m);
+      },
+      [this](const wire::SessionFrame& f) {
+        if (taps_.on_session) taps_.on_session(steady_now_ns(), true, f);
+        client_.send_session_frame(f);
+      },
+      model_.get(),
       CommandSenderParams{o.command_rate_hz, 100'000'000}, [] { return steady_now_ns(); },
       [this] { return client_.link_up(); });
 }
@@ -209,15 +217,24 @@ void OperatorStation::attach_view(ModelThread::SnapshotObserver on_snapshot,
   task_->set_view_outputs(ticks, presses);
 }
 
+void OperatorStation::attach_session_taps(SessionTaps taps) {
+  if (started_) throw std::logic_error("OperatorStation::attach_session_taps after start()");
+  taps_ = std::move(taps);
+  model_->set_step_tap(taps_.on_step);
+  task_->set_tick_tap(taps_.ticks);
+}
+
 servo::RealtimeStatus OperatorStation::start() {
   if (started_) throw std::logic_error("OperatorStation already started");
   started_ = true;
   client_.streams().on(wire::StreamMessage::kRobotState,
-                       [this](const net::DatagramHeader&, int64_t, const wire::StreamMessage& m) {
+                       [this](const net::DatagramHeader&, int64_t recv_ns, const wire::StreamMessage& m) {
+                         if (taps_.on_stream) taps_.on_stream(recv_ns, false, m);
                          model_->submit_state(m.robot_state());
                        });
   client_.streams().on(wire::StreamMessage::kRangeScan,
-                       [this](const net::DatagramHeader&, int64_t, const wire::StreamMessage& m) {
+                       [this](const net::DatagramHeader&, int64_t recv_ns, const wire::StreamMessage& m) {
+                         if (taps_.on_stream) taps_.on_stream(recv_ns, false, m);
                          model_->submit_scan(std::make_shared<const wire::RangeScan>(m.range_scan()));
                        });
   client_.on_session_frame(wire::SessionFrame::kAck, [this](const wire::SessionFrame& f) { on_ack(f.ack()); });

@@ -120,6 +120,18 @@ class OperatorStation {
   // thread's snapshots, the servo task's per-tick record and button presses.
   void attach_view(ModelThread::SnapshotObserver on_snapshot, servo::LatestMailbox<StationLogRecord>* ticks,
                    std::atomic<std::uint32_t>* presses);
+  // The session recorder's taps (operator/record), before start(): every
+  // model step's inputs, every servo tick, every stream message received
+  // (robot state, scans) and sent (commands), every session frame sent; the
+  // stream and session taps are called on the network thread with the local
+  // time.
+  struct SessionTaps {
+    ModelThread::StepTap on_step;
+    ServoTickTap* ticks = nullptr;
+    std::function<void(std::int64_t t_ns, bool outgoing, const wire::StreamMessage&)> on_stream;
+    std::function<void(std::int64_t t_ns, bool outgoing, const wire::SessionFrame&)> on_session;
+  };
+  void attach_session_taps(SessionTaps taps);
   // The servo loop's timing, readable from any thread while it runs.
   const servo::TimingStats& servo_stats() const { return loop_->stats(); }
 
@@ -148,6 +160,7 @@ class OperatorStation {
   std::unique_ptr<servo::ServoLoop> loop_;
   std::unique_ptr<CommandSender> sender_;
   asio::steady_timer link_timer_;
+  SessionTaps taps_;
   struct PendingAck {
     bool engaged = false;
     Reply done;

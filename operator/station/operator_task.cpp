@@ -247,6 +247,15 @@ void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelS
     if (log_ != nullptr) log_->push(r);
     if (view_ticks_ != nullptr) view_ticks_->put(r);
   }
+  if (tick_tap_ != nullptr) {
+    tap_record_.tick = out.setpoint.tick;
+    tap_record_.in = in;
+    tap_record_.model_version = model.version;
+    tap_record_.command = out.command;
+    tap_record_.view_presses = pressed;
+    tap_record_.mode = out.mode;
+    tick_tap_->push(tap_record_);
+  }
 }
 
 }  // namespace hemm::op

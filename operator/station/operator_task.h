@@ -65,6 +65,7 @@
 #include "operator/servo/csv_logger.h"
 #include "operator/servo/latest_mailbox.h"
 #include "operator/servo/servo_loop.h"
+#include "operator/servo/spsc_ring.h"
 #include "wire.pb.h"
 
 namespace hemm::op {
@@ -115,6 +116,28 @@ using StationLogger = servo::CsvLogger<StationLogRecord>;
 inline StationLogger make_station_logger(std::size_t capacity = 8192) {
   return StationLogger(capacity, station_log_header(), &format_station_log_record);
 }
+
+// One servo tick as the session recorder keeps it (operator/record): what
+// the task read, the snapshot version it rendered with, the wrench it
+// commanded, the view's key presses it took. Fixed size: copied into a
+// preallocated ring on the servo thread.
+struct ServoTickRecord {
+  std::uint64_t tick = 0;
+  device::DeviceSample in;
+  std::uint64_t model_version = 0;
+  device::DeviceCommand command;
+  std::uint32_t view_presses = 0;
+  std::uint32_t mode = 0;
+};
+// The servo thread's side of the recorder: a full ring drops the record and counts it.
+struct ServoTickTap {
+  explicit ServoTickTap(std::size_t capacity) : ring(capacity) {}
+  void push(const ServoTickRecord& r) noexcept {
+    if (!ring.try_push(r)) dropped.fetch_add(1, std::memory_order_relaxed);
+  }
+  servo::SpscRing<ServoTickRecord> ring;
+  std::atomic<std::uint64_t> dropped{0};
+};
 
 // What the operator sees on the station's display, for a SIMULATED operator
 // that closes the loop (the "nav-to-goal" hand, demo_scripts.h): the robot
@@ -190,6 +213,9 @@ class OperatorServoTask final : public servo::ServoTask {
     view_ticks_ = ticks;
     view_presses_ = presses;
   }
+  // For the session recorder (before the servo starts; may be null): one
+  // ServoTickRecord per tick.
+  void set_tick_tap(ServoTickTap* tap) noexcept { tick_tap_ = tap; }
 
  private:
   void switch_to(math::Mode next, const Eigen::Vector3d& p_B) noexcept;
@@ -222,6 +248,8 @@ class OperatorServoTask final : public servo::ServoTask {
   OperatorView* view_;
   servo::LatestMailbox<StationLogRecord>* view_ticks_ = nullptr;
   std::atomic<std::uint32_t>* view_presses_ = nullptr;
+  ServoTickTap* tick_tap_ = nullptr;
+  ServoTickRecord tap_record_;  // filled in place (no large stack copy per tick)
 };
 
 }  // namespace hemm::op

@@ -73,10 +73,14 @@ LiveViewLinks station_view_links(OperatorClient& client, OperatorStation& statio
 }
 
 OperatorLiveView::OperatorLiveView(const view::ViewOptions& o, OperatorStation& station, LiveViewLinks links)
-    : o_(o), station_(station), links_(std::move(links)) {
-  if (!o_.enabled()) throw std::invalid_argument("OperatorLiveView: neither a window nor PNGs asked for");
-  station_.attach_view([this](const OperatorModelSnapshot& s) { feed_.on_snapshot(s); }, &feed_.ticks(),
+    : OperatorLiveView(o, std::move(links)) {
+  servo_stats_ = &station.servo_stats();
+  station.attach_view([this](const OperatorModelSnapshot& s) { feed_.on_snapshot(s); }, &feed_.ticks(),
                        &feed_.presses());
+}
+
+OperatorLiveView::OperatorLiveView(const view::ViewOptions& o, LiveViewLinks links) : o_(o), links_(std::move(links)) {
+  if (!o_.enabled()) throw std::invalid_argument("OperatorLiveView: neither a window nor PNGs asked for");
 }
 
 OperatorLiveView::~OperatorLiveView() { stop(); }
@@ -129,8 +133,8 @@ void OperatorLiveView::run(const std::atomic<bool>& stop) {
   hooks.draw = [&](view::MujocoWindow& win, std::int64_t now, view::Image* capture) {
     feed_.take_model(vm);
     while (feed_.take_tick(tick)) have_tick = true;
-    if (now >= next_health) {
-      health = meter.update(station_.servo_stats(), now);
+    if (servo_stats_ != nullptr && now >= next_health) {
+      health = meter.update(*servo_stats_, now);
       next_health = now + 500'000'000;
     }
     if (have_tick) view::aim_camera(win, cam_mode, Eigen::Vector3d(tick.robot[0], tick.robot[1], 0.0));
@@ -140,8 +144,9 @@ void OperatorLiveView::run(const std::atomic<bool>& stop) {
     in.model = &vm;
     in.tick = have_tick ? &tick : nullptr;
     in.link = links_.link_stats ? &link : nullptr;
-    in.servo = &health;
-    in.now_ns = now;
+    in.servo = servo_stats_ != nullptr ? &health : nullptr;
+    // Ages against the clock the stamps come from: a replay's is the recorded ticks'.
+    in.now_ns = servo_stats_ == nullptr && have_tick ? tick.t_ns : now;
     in.estop_requested = estop_requested;
     dropped_.fetch_add(win.render(prims.items(), make_operator_overlay(in), capture), std::memory_order_relaxed);
   };

@@ -51,6 +51,9 @@ class OperatorLiveView {
  public:
   // Attaches the view's feed to the station: call before station.start().
   OperatorLiveView(const view::ViewOptions& o, OperatorStation& station, LiveViewLinks links);
+  // Without a station (a replayed session): the caller fills feed(); no
+  // servo loop's health is shown, and ages are taken at the newest tick's time.
+  OperatorLiveView(const view::ViewOptions& o, LiveViewLinks links);
   ~OperatorLiveView();
   OperatorLiveView(const OperatorLiveView&) = delete;
   OperatorLiveView& operator=(const OperatorLiveView&) = delete;
@@ -59,12 +62,13 @@ class OperatorLiveView {
   // Joins the thread, after a last picture (view_last.png) when writing PNGs.
   void stop();
   LiveViewStats stats() const;
+  ViewFeed& feed() noexcept { return feed_; }
 
  private:
   void run(const std::atomic<bool>& stop);
 
   view::ViewOptions o_;
-  OperatorStation& station_;
+  const servo::TimingStats* servo_stats_ = nullptr;  // the station's servo loop, if any
   LiveViewLinks links_;
   ViewFeed feed_;
   view::ViewLoopCounters counters_;

@@ -58,6 +58,10 @@ TEST(ViewFeed, TickWithTheViewAttachedNeverAllocatesAndPublishesTheLogRecord) {
   auto log = ho::make_station_logger(256);  // not started: the ring fills, then drops are counted
   ho::OperatorServoTask task(ho::OperatorTaskParams{}, &log);
   task.set_view_outputs(&feed.ticks(), &feed.presses());
+  // The session recorder's tap too (operator/record): nobody drains it here,
+  // so it fills and then counts drops, without allocating either way.
+  ho::ServoTickTap tap(1024);
+  task.set_tick_tap(&tap);
   const auto snap = wall_snapshot({0, 0, hm::kPi / 2});
   std::int64_t t = 0;
   for (int i = 0; i < 10; ++i) tick(task, *snap, t += 1'000'000, H(0.001, 0, 0));  // warm up
@@ -71,6 +75,11 @@ TEST(ViewFeed, TickWithTheViewAttachedNeverAllocatesAndPublishesTheLogRecord) {
   const std::uint64_t allocs = hemm::test::counted_allocations() - before;
   hemm::test::count_allocations_on_this_thread(false);
   EXPECT_EQ(allocs, 0u);
+  EXPECT_EQ(tap.dropped.load(), 10u + 3000u - tap.ring.capacity());
+  ho::ServoTickRecord first;
+  ASSERT_TRUE(tap.ring.try_pop(first));
+  EXPECT_EQ(first.model_version, 7u);
+  EXPECT_EQ(first.in.ee[0].position_H, H(0.001, 0, 0));
 
   // The mailbox holds the last tick's record: the task's own state.
   ho::StationLogRecord r;

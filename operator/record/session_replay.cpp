@@ -1,0 +1,113 @@
+#include "operator/record/session_replay.h"
+
+#include <chrono>
+#include <cinttypes>
+#include <cmath>
+#include <cstdio>
+#include <memory>
+#include <stdexcept>
+#include <thread>
+
+namespace hemm::op {
+namespace {
+
+std::int64_t steady_now_ns() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
+
+// Hands the model exactly what the recorded step took, then steps it.
+void apply_step(const rec::ModelStep& s, ModelThread& model) {
+  for (const rec::SentCommand& c : s.commands()) model.record_command(SentCommand{c.t_ns(), c.v(), c.omega()});
+  if (s.has_state()) model.submit_state(s.state());
+  for (const wire::RangeScan& scan : s.scans()) model.submit_scan(std::make_shared<const wire::RangeScan>(scan));
+  model.set_clock_offset(s.clock_offset_ns());
+  model.set_command_delay(s.command_delay_ns());
+  model.step(s.now_ns());
+}
+
+}  // namespace
+
+SessionReplayResult replay_session(const Recording& rec, const SessionReplayOptions& o) {
+  if (!(o.speed >= 0.0) || !std::isfinite(o.speed)) throw std::invalid_argument("replay speed must be >= 0");
+  SessionReplayResult r;
+  const int ees = rec.header.end_effectors();
+  servo::ModelChannel channel;
+  ModelThread model(channel, ModelThreadParams{});
+  if (o.on_snapshot) model.set_snapshot_observer(o.on_snapshot);
+  OperatorTaskParams tp;
+  tp.proxy.period = static_cast<double>(rec.header.servo_period_ns()) * 1e-9;
+  tp.initial_mode = static_cast<math::Mode>(rec.header.initial_mode());
+  OperatorView view;
+  OperatorServoTask task(tp, nullptr, &view);
+  std::atomic<std::uint32_t> presses{0};
+  task.set_view_outputs(o.ticks, &presses);
+  task.on_servo_start();
+
+  const servo::ModelSnapshot empty;
+  ServoTickRecord t;
+  servo::TickOutput out;
+  std::size_t next_step = 0;
+  const std::int64_t wall0 = steady_now_ns();
+  const std::int64_t rec0 = rec.ticks.empty() ? 0 : rec.ticks.front().t_ns();
+  std::uint64_t prev_tick = 0;
+  for (std::size_t i = 0; i < rec.ticks.size(); ++i) {
+    if (o.stop != nullptr && o.stop->load(std::memory_order_relaxed)) {
+      r.stopped = "stopped";
+      break;
+    }
+    const rec::ServoTick& pt = rec.ticks[i];
+    if (auto e = from_proto(pt, ees, &t)) {  // load_recording checked it; a Recording built otherwise may not be
+      r.stopped = *e;
+      break;
+    }
+    while (next_step < rec.steps.size() && rec.steps[next_step].version() <= t.model_version)
+      apply_step(rec.steps[next_step++], model);
+    r.steps = next_step;
+    const servo::ModelSnapshot* snap = channel.acquire();
+    const servo::ModelSnapshot& m = snap != nullptr ? *snap : empty;
+    if (m.version != t.model_version) {
+      r.stopped = "tick " + std::to_string(t.tick) + " rendered with model version " +
+                  std::to_string(t.model_version) + ", the recorded steps reach version " + std::to_string(m.version);
+      break;
+    }
+    if (o.speed > 0.0) {
+      const auto due = wall0 + static_cast<std::int64_t>(static_cast<double>(t.in.t_ns - rec0) / o.speed);
+      std::this_thread::sleep_until(std::chrono::steady_clock::time_point(std::chrono::nanoseconds(due)));
+    }
+    if (i > 0 && t.tick > prev_tick + 1) r.ticks_missing += t.tick - prev_tick - 1;
+    prev_tick = t.tick;
+    presses.store(t.view_presses, std::memory_order_relaxed);
+    servo::prepare_tick_output(t.in, t.tick, out);
+    task.tick(t.in, m, out);
+    double err = 0.0;
+    for (int k = 0; k < ees; ++k) {
+      const auto kk = static_cast<std::size_t>(k);
+      err = std::max(err, (out.command.ee[kk].force_H - t.command.ee[kk].force_H).norm());
+    }
+    if (!(err <= 1e-9)) ++r.force_mismatches;
+    if (!(err <= r.max_force_error_N)) {
+      r.max_force_error_N = err;
+      r.max_error_tick = t.tick;
+    }
+    if (out.mode != t.mode) ++r.mode_mismatches;
+    ++r.ticks;
+    r.recorded_s = static_cast<double>(t.in.t_ns - rec0) * 1e-9;
+  }
+  task.on_servo_stop();
+  r.wall_s = static_cast<double>(steady_now_ns() - wall0) * 1e-9;
+  return r;
+}
+
+std::string to_json(const SessionReplayResult& r) {
+  char buf[1024];
+  std::snprintf(buf, sizeof buf,
+                "{\n  \"ticks\": %" PRIu64 ",\n  \"model_steps\": %" PRIu64 ",\n  \"ticks_missing\": %" PRIu64
+                ",\n  \"force_mismatches\": %" PRIu64 ",\n  \"max_force_error_N\": %.17g,\n  \"max_error_tick\": %" PRIu64
+                ",\n  \"mode_mismatches\": %" PRIu64 ",\n  \"recorded_s\": %.9g,\n  \"wall_s\": %.9g,\n  \"complete\": %s\n}\n",
+                r.ticks, r.steps, r.ticks_missing, r.force_mismatches, r.max_force_error_N, r.max_error_tick,
+                r.mode_mismatches, r.recorded_s, r.wall_s, r.stopped.empty() ? "true" : "false");
+  return buf;
+}
+
+}  // namespace hemm::op
