@@ -14,6 +14,7 @@
 #include <spdlog/spdlog.h>
 
 #include <asio.hpp>
+#include <google/protobuf/text_format.h>
 #include <atomic>
 #include <cctype>
 #include <csignal>
@@ -36,8 +37,6 @@
 #include "operator/bimanual/bimanual_config.h"
 #include "operator/bimanual/bimanual_scripts.h"
 #include "operator/bimanual/bimanual_session.h"
-#include <google/protobuf/text_format.h>
-
 #include "operator/client/operator_client.h"
 #include "operator/record/session_recording.h"
 #include "operator/record/session_replay.h"
@@ -129,6 +128,38 @@ int run_vps(const config::OperatorConfig& cfg, const std::string& config_path, c
 }
 #endif
 
+std::atomic<bool> g_bimanual_stop{false};
+extern "C" void on_bimanual_signal(int) { g_bimanual_stop.store(true); }
+
+// The SIMULATED bimanual interface in the servo loop against its local
+// environment: no robot, no link (DeviceConfig.type "sim-bimanual").
+int run_bimanual(const config::OperatorConfig& cfg, const std::string& hands, double duration_s,
+                 const std::string& servo_log, const std::string& station_json) {
+  op::BimanualSessionOptions o;
+  try {
+    o.setup = op::bimanual_setup(cfg.device().bimanual());
+  } catch (const std::exception& e) {
+    std::cerr << "hemm-operator: bad config: device.bimanual: " << e.what() << "\n";
+    return net::kExitUsage;
+  }
+  if (!hands.empty()) o.setup.script = hands;
+  o.servo.period_ns = 1'000'000'000LL / cfg.servo().rate_hz();
+  o.servo.realtime = cfg.servo().realtime_priority();
+  o.servo.lock_memory = cfg.servo().realtime_priority();
+  o.setup.sim.plant.control_period_s = static_cast<double>(o.servo.period_ns) * 1e-9;
+  o.log_path = servo_log;
+  o.duration_s = duration_s;
+  std::signal(SIGINT, on_bimanual_signal);
+  std::signal(SIGTERM, on_bimanual_signal);
+  op::BimanualSessionSummary s;
+  try {
+    s = op::run_bimanual_session(o, &g_bimanual_stop, [](const servo::RealtimeStatus& rt) {
+      for (const auto& w : rt.warnings) spdlog::warn("event=servo_realtime warning=\"{}\"", w);
+      spdlog::info("event=station_started device=sim-bimanual fifo={} memory_locked={}", rt.fifo, rt.memory_locked);
+    });
+  } catch (const std::exception& e) {
+    std::cerr << "hemm-operator: " << e.what() << "\n";
+    spdlog::error("event=station_failed error=\"{}\"", e.what());
     return net::kExitUsage;
   }
   std::cout << op::to_string(s) << std::flush;

@@ -328,10 +328,9 @@ std::optional<std::string> LiveVoxmap::snapshot(vps::Voxmap* out) const {
           if (t == vps::kBlockEmpty) {
             t = static_cast<std::int32_t>(vm.blocks.size());
             vps::VoxelBlock blk;
-            blk.sdf.fill(far_out);
-            blk.layer.fill(vps::kLayerFarOutside);
-            blk.flags.fill(0);
+            for (vps::Voxel& vx : blk.v) vx = vps::Voxel{far_out, {0, 0, 0}, vps::kLayerFarOutside, 0};
             vm.blocks.push_back(blk);
+            vm.sheet_of_block.push_back(-1);  // point clouds carry no sheets
             best.emplace_back();
             best.back().fill(std::numeric_limits<float>::infinity());
             cheb.emplace_back();
@@ -356,7 +355,12 @@ std::optional<std::string> LiveVoxmap::snapshot(vps::Voxmap* out) const {
           const auto dist = static_cast<float>(std::abs(sd));
           if (dist < best[bi][static_cast<std::size_t>(vi)]) {
             best[bi][static_cast<std::size_t>(vi)] = dist;
-            vm.blocks[bi].sdf[static_cast<std::size_t>(vi)] = static_cast<float>(sd);
+            vps::Voxel& vx = vm.blocks[bi].v[static_cast<std::size_t>(vi)];
+            vx.sdf = static_cast<float>(sd);
+            // Over the patch the field's gradient is its normal; beyond its
+            // rim it bends round the edge: there the engine interpolates.
+            for (int a = 0; a < 3; ++a) vx.grad[a] = static_cast<std::int16_t>(std::lround(n[a] * vps::kGradScale));
+            vx.flags = lateral > s ? vps::kFlagNoGradient : std::uint8_t{0};
           }
         }
       }
@@ -368,7 +372,7 @@ std::optional<std::string> LiveVoxmap::snapshot(vps::Voxmap* out) const {
       const std::int8_t ch = cheb[bi][vi];
       if (ch == std::numeric_limits<std::int8_t>::max()) continue;
       if (ch == 0) ++vm.surface_voxels;
-      blk.layer[vi] = static_cast<std::int8_t>(blk.sdf[vi] < 0.0f ? -ch : ch);
+      blk.v[vi].layer = static_cast<std::int8_t>(blk.v[vi].sdf < 0.0f ? -ch : ch);
     }
   }
   // Coarse block distance to the nearest block with surface voxels
@@ -404,6 +408,10 @@ std::optional<std::string> LiveVoxmap::snapshot(vps::Voxmap* out) const {
       }
     }
   }
+  // The engine culls on a lower bound in voxels: a block c blocks away has
+  // at least c - 1 whole blocks between, plus one voxel.
+  for (std::uint8_t& c : vm.coarse)
+    if (c != 0) c = static_cast<std::uint8_t>(std::min(255, (c - 1) * vps::kBlockDim + 1));
   *out = std::move(vm);
   return std::nullopt;
 }

@@ -182,7 +182,6 @@ void ModelThread::step(std::int64_t now_ns) {
   snap->stamp_ns = now_ns;
   snap->version = ++version_;
   snap->have_state = have_state_;
-  const std::int64_t delay = delay_ns_.load();
   if (resyncing_) {
     snap->T_W_R = frozen_pose_;  // v = omega = 0: held where the old robot was last seen
     snap->state = state_;

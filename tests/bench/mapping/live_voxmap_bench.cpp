@@ -79,7 +79,8 @@ void BM_LiveVoxmap(benchmark::State& state) {
     for (const Eigen::Vector2d& xy : {Eigen::Vector2d(1.0, 0.0), Eigen::Vector2d(0.93, 0.08), Eigen::Vector2d(1.06, -0.09)}) {
       vps::PairResult r;
       const Eigen::Isometry3d T{Eigen::Translation3d(xy.x(), xy.y(), ht::kTableTop + 0.05 - 0.01)};
-      vps::evaluate_pair(vm, Eigen::Isometry3d::Identity(), Eigen::Vector3d::Zero(), ps, T, vps::ContactParams{}, &r);
+      vps::evaluate_pair(vm, Eigen::Isometry3d::Identity(), Eigen::Vector3d::Zero(), ps, T, vps::ContactParams{}, nullptr,
+                         &r);
       const double ref = ht::cap_force(vps::ContactParams{}.stiffness, 0.05, 0.01);
       const double e = (r.on_shell.force - Eigen::Vector3d(0, 0, ref)).norm() / ref;
       err_sum += e;

@@ -55,7 +55,7 @@ struct Tool {
     vps::PairResult r;
     const Eigen::Isometry3d T_W_P{Eigen::Translation3d(centre)};
     vps::evaluate_pair(vm, Eigen::Isometry3d::Identity(), Eigen::Vector3d::Zero(), ps, T_W_P, vps::ContactParams{},
-                       &r);
+                       nullptr, &r);
     return r;
   }
 };
