@@ -41,6 +41,7 @@ class Reader {
   }
   bool bytes(void* p, std::size_t n) {
     if (n_ - pos_ < n) return false;
+    if (n == 0) return true;  // an empty vector's data() may be null: memcpy must not see it
     std::memcpy(p, d_ + pos_, n);
     pos_ += n;
     return true;
