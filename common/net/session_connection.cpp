@@ -5,10 +5,6 @@
 
 namespace hemm::net {
 
-int64_t steady_now_ns() {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch())
-      .count();
-}
 
 SessionConnection::SessionConnection(asio::ip::tcp::socket socket, size_t max_frame_bytes)
     : socket_(std::move(socket)),

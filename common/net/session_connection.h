@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "common/clock/steady_clock.h"
 #include "common/net/framing.h"
 #include "common/net/handshake.h"
 
@@ -82,7 +83,6 @@ class SessionConnection : public std::enable_shared_from_this<SessionConnection>
   std::string peer_;
 };
 
-// Steady-clock nanoseconds (the time base of all wire time stamps).
-int64_t steady_now_ns();
+using hemm::steady_now_ns;  // the time base of all wire time stamps
 
 }  // namespace hemm::net

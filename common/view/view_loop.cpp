@@ -7,12 +7,10 @@
 
 #include <spdlog/spdlog.h>
 
+#include "common/clock/steady_clock.h"
+
 namespace hemm::view {
 
-std::int64_t view_now_ns() {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch())
-      .count();
-}
 
 namespace {
 
@@ -20,7 +18,7 @@ void run_view_loop(MujocoWindow& win, const ViewOptions& o, std::optional<PngSeq
                    const std::atomic<bool>& stop, const ViewLoopHooks& hooks, ViewLoopCounters& counters) {
   Image image;
   const auto frame_ns = static_cast<std::int64_t>(1e9 / o.fps);
-  std::int64_t next_frame = view_now_ns();
+  std::int64_t next_frame = steady_now_ns();
   bool window_open = o.window;
   auto write = [&](bool last, std::int64_t now) {
     const auto e =
@@ -33,7 +31,7 @@ void run_view_loop(MujocoWindow& win, const ViewOptions& o, std::optional<PngSeq
     }
   };
   while (!stop.load(std::memory_order_relaxed)) {
-    const std::int64_t now = view_now_ns();
+    const std::int64_t now = steady_now_ns();
     if (window_open) {
       win.poll();
       for (int key : win.take_keys())
@@ -58,7 +56,7 @@ void run_view_loop(MujocoWindow& win, const ViewOptions& o, std::optional<PngSeq
     std::this_thread::sleep_until(std::chrono::steady_clock::time_point(std::chrono::nanoseconds(wake)));
   }
   if (pngs) {
-    const std::int64_t now = view_now_ns();
+    const std::int64_t now = steady_now_ns();
     hooks.draw(win, now, &image);
     counters.frames.fetch_add(1, std::memory_order_relaxed);
     write(true, now);

@@ -13,6 +13,7 @@
 #include <string>
 #include <thread>
 
+#include "common/clock/steady_clock.h"
 #include "common/view/mujoco_window.h"
 #include "common/view/png_sequence.h"
 #include "common/view/view_options.h"
@@ -51,7 +52,7 @@ CameraMode initial_camera_mode(const ViewOptions& o);  // free with --view-top, 
 CameraMode next_camera_mode(CameraMode m);             // the c key
 void aim_camera(MujocoWindow& win, CameraMode m, const Eigen::Vector3d& target);
 
-std::int64_t view_now_ns();  // steady clock
+using hemm::steady_now_ns;
 
 // The thread a station's live view runs on (operator/view, robot_side/view
 // start and stop it; this library starts none by itself). The body runs at

@@ -5,12 +5,10 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "common/clock/steady_clock.h"
+
 namespace hemm::op {
 namespace {
-std::int64_t steady_now_ns() {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch())
-      .count();
-}
 }  // namespace
 
 ModelThread::ModelThread(servo::ModelChannel& channel, const ModelThreadParams& p)

@@ -8,13 +8,11 @@
 #include <stdexcept>
 #include <thread>
 
+#include "common/clock/steady_clock.h"
+
 namespace hemm::op {
 namespace {
 
-std::int64_t steady_now_ns() {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch())
-      .count();
-}
 
 // Hands the model exactly what the recorded step took, then steps it.
 void apply_step(const rec::ModelStep& s, ModelThread& model) {

@@ -9,6 +9,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include "common/clock/steady_clock.h"
 #include "common/config/config.h"
 #include "common/net/station_cli.h"
 #include "operator/device/replay_device.h"
@@ -23,10 +24,6 @@ namespace {
 // allows for round trips of seconds (the link's own limit is 2 s).
 constexpr std::chrono::milliseconds kAckTimeout{5000};
 
-std::int64_t steady_now_ns() {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch())
-      .count();
-}
 }  // namespace
 
 std::string to_string(const OperatorStationSummary& s) {

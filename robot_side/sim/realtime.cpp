@@ -6,10 +6,6 @@
 
 namespace hemm::robot {
 
-int64_t steady_now_ns() {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch())
-      .count();
-}
 
 PacingStats step_realtime(SimulatedRobot& robot, int n_steps) {
   PacingStats st;

@@ -5,11 +5,12 @@
 
 #include <cstdint>
 
+#include "common/clock/steady_clock.h"
 #include "robot_side/sim/simulated_robot.h"
 
 namespace hemm::robot {
 
-int64_t steady_now_ns();
+using hemm::steady_now_ns;
 
 struct PacingStats {
   int steps = 0;

@@ -17,6 +17,8 @@
 #include <thread>
 #include <vector>
 
+#include "common/clock/steady_clock.h"
+
 namespace hemm::net::relay {
 namespace {
 
@@ -24,11 +26,6 @@ using asio::ip::tcp;
 using asio::ip::udp;
 using Bytes = std::vector<std::uint8_t>;
 
-std::int64_t now_ns() {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(
-             std::chrono::steady_clock::now().time_since_epoch())
-      .count();
-}
 
 asio::ip::address to_address(const HostPort& hp) {
   if (hp.host == "localhost") return asio::ip::address_v4::loopback();
@@ -82,7 +79,7 @@ class Scheduler {
   void fire() {
     for (;;) {
       if (heap_.empty()) break;
-      const std::int64_t now = now_ns();
+      const std::int64_t now = steady_now_ns();
       if (heap_.front().due > now) break;
       std::pop_heap(heap_.begin(), heap_.end(), Later{});
       Item item = std::move(heap_.back());
@@ -346,7 +343,7 @@ struct Relay::Impl {
                                                               std::size_t n) {
         p.reading = false;
         if (self->closed) return;
-        const std::int64_t t = now_ns();
+        const std::int64_t t = steady_now_ns();
         if (ec) {
           if (ec != asio::error::eof) {
             self->close();
@@ -451,7 +448,7 @@ struct Relay::Impl {
           return;
         }
         if (!ec) {
-          const std::int64_t t = now_ns();
+          const std::int64_t t = steady_now_ns();
           const ImpairmentDecision d =
               r.decide(r.cfg.down, Transport::kDatagram, r.udp_down, t, n);
           if (d.copies > 0) {
@@ -501,7 +498,7 @@ struct Relay::Impl {
         asio::buffer(udp_buf), udp_sender, [this](const asio::error_code& ec, std::size_t n) {
           if (stopped || ec == asio::error::operation_aborted) return;
           if (!ec) {
-            const std::int64_t t = now_ns();
+            const std::int64_t t = steady_now_ns();
             if (auto client = udp_client_for(udp_sender)) {
               const ImpairmentDecision d = decide(cfg.up, Transport::kDatagram, udp_up, t, n);
               if (d.copies > 0) {
@@ -559,7 +556,7 @@ Relay::Relay(const RelayConfig& cfg) : impl_(std::make_unique<Impl>()) {
     m.udp_listen->bind(listen);
     m.udp_listen->non_blocking(true);
   }
-  m.start_ns = now_ns();
+  m.start_ns = steady_now_ns();
   impairment_reset(cfg.up, m.tcp_up, mix_seed(cfg.seed, 0), m.start_ns);
   impairment_reset(cfg.down, m.tcp_down, mix_seed(cfg.seed, 1), m.start_ns);
   impairment_reset(cfg.up, m.udp_up, mix_seed(cfg.seed, 2), m.start_ns);
