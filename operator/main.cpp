@@ -71,10 +71,33 @@ std::optional<Eigen::Vector2d> parse_goal(const std::string& s) {
   return Eigen::Vector2d(x, y);
 }
 
-#ifdef HEMM_OPERATOR_HAVE_VPS
-std::atomic<bool> g_vps_stop{false};
-extern "C" void on_vps_signal(int) { g_vps_stop.store(true); }
+// The servo loop's period and real-time wishes from the config (one place for
+// every runner: the networked station, the VPS scene, the bimanual device).
+servo::ServoConfig servo_config(const config::OperatorConfig& cfg) {
+  servo::ServoConfig c;
+  c.period_ns = 1'000'000'000LL / cfg.servo().rate_hz();
+  c.realtime = cfg.servo().realtime_priority();
+  c.lock_memory = cfg.servo().realtime_priority();
+  return c;
+}
 
+// SIGINT/SIGTERM end a local run (VPS scene or bimanual device) between ticks.
+std::atomic<bool> g_local_stop{false};
+extern "C" void on_local_signal(int) { g_local_stop.store(true); }
+
+// A local run's end: its summary on stdout and, if asked, as JSON.
+template <typename Summary>
+int finish_local_run(const Summary& s, const std::string& station_json) {
+  std::cout << op::to_string(s) << std::flush;
+  std::string error;
+  if (!station_json.empty() && !net::write_text_file(station_json, op::to_json(s), &error)) {
+    std::cerr << "hemm-operator: --station-json: " << error << "\n";
+    return net::kExitInternal;
+  }
+  return net::kExitOk;
+}
+
+#ifdef HEMM_OPERATOR_HAVE_VPS
 // The VPS scene of the config's `vps` block with the device in the servo
 // loop: no robot, no link.
 int run_vps(const config::OperatorConfig& cfg, const std::string& config_path, const std::string& replay_file,
@@ -97,19 +120,17 @@ int run_vps(const config::OperatorConfig& cfg, const std::string& config_path, c
     std::cerr << "hemm-operator: " << e.what() << "\n";
     return net::kExitUsage;
   }
-  o.servo.period_ns = 1'000'000'000LL / cfg.servo().rate_hz();
-  o.servo.realtime = cfg.servo().realtime_priority();
-  o.servo.lock_memory = cfg.servo().realtime_priority();
+  o.servo = servo_config(cfg);
   o.log_path = servo_log;
   o.duration_s = duration_s;
   // Scripted hands end: by default the run covers their path and half a second of holding.
   if (o.duration_s <= 0 && !cfg.vps().hands().empty())
     o.duration_s = (cfg.vps().hands() == "peg-in-hole" ? vps::kPegInHoleDuration : vps::kAssemblyDuration) + 0.5;
-  std::signal(SIGINT, on_vps_signal);
-  std::signal(SIGTERM, on_vps_signal);
+  std::signal(SIGINT, on_local_signal);
+  std::signal(SIGTERM, on_local_signal);
   op::VpsSessionSummary s;
   try {
-    s = op::run_vps_session(*dev, model, o, &g_vps_stop, [&](const servo::RealtimeStatus& rt) {
+    s = op::run_vps_session(*dev, model, o, &g_local_stop, [&](const servo::RealtimeStatus& rt) {
       for (const auto& w : rt.warnings) spdlog::warn("event=servo_realtime warning=\"{}\"", w);
       spdlog::info("event=station_started device={} vps_objects={} fifo={}", dev->name(), model->object_count,
                    rt.fifo);
@@ -118,18 +139,9 @@ int run_vps(const config::OperatorConfig& cfg, const std::string& config_path, c
     std::cerr << "hemm-operator: " << e.what() << "\n";
     return net::kExitUsage;
   }
-  std::cout << op::to_string(s) << std::flush;
-  std::string error;
-  if (!station_json.empty() && !net::write_text_file(station_json, op::to_json(s), &error)) {
-    std::cerr << "hemm-operator: --station-json: " << error << "\n";
-    return net::kExitInternal;
-  }
-  return net::kExitOk;
+  return finish_local_run(s, station_json);
 }
 #endif
-
-std::atomic<bool> g_bimanual_stop{false};
-extern "C" void on_bimanual_signal(int) { g_bimanual_stop.store(true); }
 
 // The SIMULATED bimanual interface in the servo loop against its local
 // environment: no robot, no link (DeviceConfig.type "sim-bimanual").
@@ -143,17 +155,15 @@ int run_bimanual(const config::OperatorConfig& cfg, const std::string& hands, do
     return net::kExitUsage;
   }
   if (!hands.empty()) o.setup.script = hands;
-  o.servo.period_ns = 1'000'000'000LL / cfg.servo().rate_hz();
-  o.servo.realtime = cfg.servo().realtime_priority();
-  o.servo.lock_memory = cfg.servo().realtime_priority();
+  o.servo = servo_config(cfg);
   o.setup.sim.plant.control_period_s = static_cast<double>(o.servo.period_ns) * 1e-9;
   o.log_path = servo_log;
   o.duration_s = duration_s;
-  std::signal(SIGINT, on_bimanual_signal);
-  std::signal(SIGTERM, on_bimanual_signal);
+  std::signal(SIGINT, on_local_signal);
+  std::signal(SIGTERM, on_local_signal);
   op::BimanualSessionSummary s;
   try {
-    s = op::run_bimanual_session(o, &g_bimanual_stop, [](const servo::RealtimeStatus& rt) {
+    s = op::run_bimanual_session(o, &g_local_stop, [](const servo::RealtimeStatus& rt) {
       for (const auto& w : rt.warnings) spdlog::warn("event=servo_realtime warning=\"{}\"", w);
       spdlog::info("event=station_started device=sim-bimanual fifo={} memory_locked={}", rt.fifo, rt.memory_locked);
     });
@@ -162,13 +172,7 @@ int run_bimanual(const config::OperatorConfig& cfg, const std::string& hands, do
     spdlog::error("event=station_failed error=\"{}\"", e.what());
     return net::kExitUsage;
   }
-  std::cout << op::to_string(s) << std::flush;
-  std::string error;
-  if (!station_json.empty() && !net::write_text_file(station_json, op::to_json(s), &error)) {
-    std::cerr << "hemm-operator: --station-json: " << error << "\n";
-    return net::kExitInternal;
-  }
-  return net::kExitOk;
+  return finish_local_run(s, station_json);
 }
 
 // --replay of a session recording: no link; the model and the servo task
@@ -439,9 +443,7 @@ int run(int argc, char** argv) {
                  "[100, 1000]\n";
     return net::kExitUsage;
   }
-  so.servo.period_ns = 1'000'000'000LL / cfg.servo().rate_hz();
-  so.servo.realtime = cfg.servo().realtime_priority();
-  so.servo.lock_memory = cfg.servo().realtime_priority();
+  so.servo = servo_config(cfg);
   so.task.proxy.period = static_cast<double>(so.servo.period_ns) * 1e-9;
 
   asio::io_context io;
