@@ -292,6 +292,11 @@ TEST(LinkSecurityTest, IdleConnectionFloodNeitherLocksOutTheOperatorNorFloodsThe
 // flood cost tens of accept errors, not hundreds of thousands. Afterwards
 // the operator still gets in.
 TEST(LinkSecurityTest, AcceptErrorsBackOffWhileTheRobotIsOutOfFileDescriptors) {
+#ifdef HEMM_SANITIZE
+  // The sanitizer runtime probes memory through a pipe (its vptr check among
+  // others): in a process with no descriptors left it reports false errors.
+  GTEST_SKIP() << "descriptor exhaustion is tested in uninstrumented builds only";
+#endif
   Rig r;
   r.start_robot(30);
   const auto fd_count = [&] {
