@@ -19,6 +19,7 @@
 #include "common/net/station_cli.h"
 #include "common/net/station_control.h"
 #include "config_robot.pb.h"
+#include "report.pb.h"
 #include "robot_side/server/robot_server.h"
 #include "robot_side/station/robot_station.h"
 #ifdef HEMM_WITH_VIEW
@@ -30,15 +31,11 @@ namespace {
 
 using namespace hemm;
 
-// The link statistics' JSON object with a "robot" object added.
-std::string with_robot_json(std::string link_json, const robot::RobotStationStatistics& rs) {
-  const size_t close = link_json.rfind('}');
-  if (close == std::string::npos) return link_json;
-  std::string out = link_json.substr(0, close);
-  while (!out.empty() && (out.back() == '\n' || out.back() == ' ')) out.pop_back();
-  std::string robot = robot::to_json(rs);
-  while (!robot.empty() && robot.back() == '\n') robot.pop_back();
-  return out + ",\n  \"robot\": " + robot + "\n}\n";
+// The link statistics with the robot station's counters as its "robot" object.
+std::string stats_json_text(const net::LinkStatistics& link, const robot::RobotStationStatistics& rs) {
+  report::Link r = net::to_report(link);
+  *r.mutable_robot() = robot::to_report(rs);
+  return config::to_json(r);
 }
 
 int run(int argc, char** argv) {
@@ -237,7 +234,7 @@ int run(int argc, char** argv) {
   const net::LinkStatistics st = server.statistics();
   const robot::RobotStationStatistics rs = station.statistics();
   std::cout << net::to_summary(st) << robot::to_summary(rs) << std::flush;
-  if (!stats_json.empty() && !net::write_text_file(stats_json, with_robot_json(net::to_json(st), rs), &error)) {
+  if (!stats_json.empty() && !net::write_text_file(stats_json, stats_json_text(st, rs), &error)) {
     std::cerr << "hemm-robot: " << error << "\n";
     return net::kExitInternal;
   }

@@ -232,15 +232,15 @@ std::string resolve_relative_to(const std::string& config_path, const std::strin
   return (std::filesystem::path(config_path).parent_path() / p).lexically_normal().string();
 }
 
-std::string to_json(const google::protobuf::Message& report) {
+std::string to_json(const google::protobuf::Message& report, JsonLayout layout) {
   google::protobuf::util::JsonPrintOptions o;
-  o.add_whitespace = true;
+  o.add_whitespace = layout == JsonLayout::kIndented;
   o.always_print_primitive_fields = true;
   o.preserve_proto_field_names = true;
   std::string out;
   if (const auto st = google::protobuf::util::MessageToJsonString(report, &out, o); !st.ok())
     throw std::runtime_error("cannot print " + report.GetTypeName() + " as JSON: " + st.ToString());
-  return out;  // add_whitespace ends it with a newline
+  return out;  // add_whitespace ends it with a newline, its absence with none
 }
 
 }  // namespace hemm::config

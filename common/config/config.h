@@ -54,9 +54,12 @@ std::optional<ConfigError> load_robot_config(const std::string& path, RobotConfi
 std::optional<ConfigError> load_operator_config(const std::string& path, OperatorConfig* out);
 
 // A run report (proto/report.proto) as JSON, printed by protobuf: the proto
-// field names, every field (zeros too), indented, ending in a newline.
-// Throws std::runtime_error if protobuf cannot print it.
-std::string to_json(const google::protobuf::Message& report);
+// field names, every field (zeros too). kIndented: one field a line, ending
+// in a newline (files); kOneLine: no whitespace, no newline (log lines).
+// This is the tree's one JSON printer. Throws std::runtime_error if protobuf
+// cannot print it.
+enum class JsonLayout { kIndented, kOneLine };
+std::string to_json(const google::protobuf::Message& report, JsonLayout layout = JsonLayout::kIndented);
 
 // Resolves `path` relative to the directory of `config_path` (absolute paths
 // are returned unchanged; an empty path stays empty).

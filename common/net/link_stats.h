@@ -9,6 +9,10 @@
 #include "common/net/path_validation.h"
 #include "common/net/stream_receiver.h"
 
+namespace hemm::report {
+class Link;  // report.pb.h
+}
+
 namespace hemm::net {
 
 struct LinkStatistics {
@@ -32,8 +36,11 @@ struct LinkStatistics {
   PathCounters path;              // robot: path validation of the operator's address
 };
 
+// The statistics as the report message proto/report.proto's Link (no robot
+// object); to_json prints it (config::to_json).
+report::Link to_report(const LinkStatistics& s);
 std::string to_json(const LinkStatistics& s);
-// One line of key=value fields.
+// One line of key=value fields: the report's fields, in its order.
 std::string to_log_fields(const LinkStatistics& s);
 // A human-readable multi-line summary.
 std::string to_summary(const LinkStatistics& s);

@@ -2,27 +2,17 @@
 
 #include <chrono>
 #include <cmath>
-#include <cstdio>
 #include <sstream>
 #include <thread>
 
+#include "common/config/config.h"
 #include "operator/bimanual/bimanual_scripts.h"
 #include "operator/bimanual/bimanual_task.h"
+#include "report.pb.h"
 
 namespace hemm::op {
 
 namespace hb = hemm::device::bimanual;
-
-namespace {
-
-std::string num(double v) {
-  if (!std::isfinite(v)) return "null";
-  char buf[40];
-  std::snprintf(buf, sizeof buf, "%.9g", v);
-  return buf;
-}
-
-}  // namespace
 
 std::string to_string(const BimanualSessionSummary& s) {
   std::ostringstream o;
@@ -39,29 +29,32 @@ std::string to_string(const BimanualSessionSummary& s) {
   return o.str();
 }
 
-std::string to_json(const BimanualSessionSummary& s) {
-  auto hist = [](const servo::HistogramSummary& h) {
-    return "{\"count\": " + std::to_string(h.count) + ", \"median\": " + num(h.median_us) + ", \"p99\": " +
-           num(h.p99_us) + ", \"max\": " + num(h.max_us) + ", \"mean\": " + num(h.mean_us) + "}";
-  };
-  std::ostringstream o;
-  o << "{\n  \"timing\": {\"ticks\": " << s.timing.ticks << ", \"misses\": " << s.timing.misses
-    << ", \"overruns\": " << s.timing.overruns << ", \"late_wakes\": " << s.timing.late_wakes
-    << ", \"skipped_periods\": " << s.timing.skipped_periods << ",\n    \"period_us\": " << hist(s.timing.period)
-    << ",\n    \"wake_latency_us\": " << hist(s.timing.wake_latency) << ",\n    \"compute_us\": " << hist(s.timing.compute)
-    << "},\n  \"bimanual\": {\"script\": \"" << s.script << "\", \"sim_time_s\": " << num(s.sim_time_s)
-    << ", \"writes\": " << s.counters.writes << ", \"nonfinite_commands\": " << s.counters.nonfinite_commands
-    << ", \"missing_input_commands\": " << s.counters.missing_input_commands
-    << ", \"limited_commands\": " << s.counters.limited_commands
-    << ", \"disabled_commands\": " << s.counters.disabled_commands << ",\n    \"min_arm_arm_m\": " << num(s.min_arm_arm_m)
-    << ", \"min_arm_table_m\": " << num(s.min_arm_table_m) << ", \"arm_arm_contact_steps\": " << s.arm_arm_contact_steps
-    << ", \"arm_table_contact_steps\": " << s.arm_table_contact_steps << ",\n    \"right\": {\"enabled\": "
-    << (s.enabled[0] ? "true" : "false") << ", \"attached\": " << (s.attached[0] ? "true" : "false")
-    << "}, \"left\": {\"enabled\": " << (s.enabled[1] ? "true" : "false")
-    << ", \"attached\": " << (s.attached[1] ? "true" : "false") << "}},\n  \"logs\": {\"servo_written\": "
-    << s.log_written << ", \"servo_dropped\": " << s.log_dropped << "}\n}\n";
-  return o.str();
+report::BimanualSession to_report(const BimanualSessionSummary& s) {
+  report::BimanualSession r;
+  servo::fill(r.mutable_timing(), s.timing);
+  report::Bimanual& b = *r.mutable_bimanual();
+  b.set_script(s.script);
+  b.set_sim_time_s(s.sim_time_s);
+  b.set_writes(s.counters.writes);
+  b.set_nonfinite_commands(s.counters.nonfinite_commands);
+  b.set_missing_input_commands(s.counters.missing_input_commands);
+  b.set_limited_commands(s.counters.limited_commands);
+  b.set_disabled_commands(s.counters.disabled_commands);
+  // Infinite until the first step measured them: left out, not "Infinity".
+  if (std::isfinite(s.min_arm_arm_m)) b.set_min_arm_arm_m(s.min_arm_arm_m);
+  if (std::isfinite(s.min_arm_table_m)) b.set_min_arm_table_m(s.min_arm_table_m);
+  b.set_arm_arm_contact_steps(s.arm_arm_contact_steps);
+  b.set_arm_table_contact_steps(s.arm_table_contact_steps);
+  b.mutable_right()->set_enabled(s.enabled[0]);
+  b.mutable_right()->set_attached(s.attached[0]);
+  b.mutable_left()->set_enabled(s.enabled[1]);
+  b.mutable_left()->set_attached(s.attached[1]);
+  r.mutable_logs()->set_servo_written(s.log_written);
+  r.mutable_logs()->set_servo_dropped(s.log_dropped);
+  return r;
 }
+
+std::string to_json(const BimanualSessionSummary& s) { return config::to_json(to_report(s)); }
 
 BimanualSessionSummary run_bimanual_session(const BimanualSessionOptions& o, const std::atomic<bool>* stop,
                                             void (*on_started)(const servo::RealtimeStatus&)) {

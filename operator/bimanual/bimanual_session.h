@@ -14,6 +14,10 @@
 #include "operator/device/bimanual/simulated_bimanual_device.h"
 #include "operator/servo/servo_loop.h"
 
+namespace hemm::report {
+class BimanualSession;  // report.pb.h
+}
+
 namespace hemm::op {
 
 struct BimanualSessionOptions {
@@ -38,6 +42,8 @@ struct BimanualSessionSummary {
 };
 
 std::string to_string(const BimanualSessionSummary& s);
+// As proto/report.proto's BimanualSession, and that printed (config::to_json).
+report::BimanualSession to_report(const BimanualSessionSummary& s);
 std::string to_json(const BimanualSessionSummary& s);
 
 // Runs until the duration has passed on the wall clock or *stop becomes true

@@ -1,14 +1,14 @@
 #include "operator/record/session_replay.h"
 
 #include <chrono>
-#include <cinttypes>
 #include <cmath>
-#include <cstdio>
 #include <memory>
 #include <stdexcept>
 #include <thread>
 
 #include "common/clock/steady_clock.h"
+#include "common/config/config.h"
+#include "report.pb.h"
 
 namespace hemm::op {
 namespace {
@@ -97,15 +97,22 @@ SessionReplayResult replay_session(const Recording& rec, const SessionReplayOpti
   return r;
 }
 
-std::string to_json(const SessionReplayResult& r) {
-  char buf[1024];
-  std::snprintf(buf, sizeof buf,
-                "{\n  \"ticks\": %" PRIu64 ",\n  \"model_steps\": %" PRIu64 ",\n  \"ticks_missing\": %" PRIu64
-                ",\n  \"force_mismatches\": %" PRIu64 ",\n  \"max_force_error_N\": %.17g,\n  \"max_error_tick\": %" PRIu64
-                ",\n  \"mode_mismatches\": %" PRIu64 ",\n  \"recorded_s\": %.9g,\n  \"wall_s\": %.9g,\n  \"complete\": %s\n}\n",
-                r.ticks, r.steps, r.ticks_missing, r.force_mismatches, r.max_force_error_N, r.max_error_tick,
-                r.mode_mismatches, r.recorded_s, r.wall_s, r.stopped.empty() ? "true" : "false");
-  return buf;
+report::SessionReplay to_report(const SessionReplayResult& r) {
+  report::SessionReplay j;
+  j.set_ticks(r.ticks);
+  j.set_model_steps(r.steps);
+  j.set_ticks_missing(r.ticks_missing);
+  j.set_force_mismatches(r.force_mismatches);
+  j.set_max_force_error_n(r.max_force_error_N);
+  j.set_max_error_tick(r.max_error_tick);
+  j.set_mode_mismatches(r.mode_mismatches);
+  j.set_recorded_s(r.recorded_s);
+  j.set_wall_s(r.wall_s);
+  j.set_complete(r.stopped.empty());
+  j.set_stopped(r.stopped);
+  return j;
 }
+
+std::string to_json(const SessionReplayResult& r) { return config::to_json(to_report(r)); }
 
 }  // namespace hemm::op

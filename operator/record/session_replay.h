@@ -21,6 +21,10 @@
 
 #include "operator/record/session_recording.h"
 
+namespace hemm::report {
+class SessionReplay;  // report.pb.h
+}
+
 namespace hemm::op {
 
 struct SessionReplayOptions {
@@ -51,6 +55,8 @@ struct SessionReplayResult {
 // reference a model version its steps do not reach ends there (stopped says so).
 SessionReplayResult replay_session(const Recording& rec, const SessionReplayOptions& o);
 
+// As proto/report.proto's SessionReplay, and that printed (config::to_json).
+report::SessionReplay to_report(const SessionReplayResult& r);
 std::string to_json(const SessionReplayResult& r);
 
 }  // namespace hemm::op

@@ -3,6 +3,8 @@
 #include <cmath>
 #include <cstdio>
 
+#include "report.pb.h"
+
 namespace hemm::servo {
 
 double LatencyHistogram::mean_ns() const noexcept {
@@ -68,6 +70,27 @@ std::string to_string(const TimingSummary& s) {
                 s.wake_latency.p99_us, s.wake_latency.max_us, s.compute.median_us, s.compute.p99_us,
                 s.compute.max_us, s.period.median_us, s.period.p99_us, s.period.max_us);
   return buf;
+}
+
+namespace {
+void fill(report::LatencyHistogram* j, const HistogramSummary& h) {
+  j->set_count(h.count);
+  j->set_median(h.median_us);
+  j->set_p99(h.p99_us);
+  j->set_max(h.max_us);
+  j->set_mean(h.mean_us);
+}
+}  // namespace
+
+void fill(report::ServoTiming* t, const TimingSummary& s) {
+  t->set_ticks(s.ticks);
+  t->set_misses(s.misses);
+  t->set_overruns(s.overruns);
+  t->set_late_wakes(s.late_wakes);
+  t->set_skipped_periods(s.skipped_periods);
+  fill(t->mutable_period_us(), s.period);
+  fill(t->mutable_wake_latency_us(), s.wake_latency);
+  fill(t->mutable_compute_us(), s.compute);
 }
 
 }  // namespace hemm::servo

@@ -11,6 +11,10 @@
 #include <cstdint>
 #include <string>
 
+namespace hemm::report {
+class ServoTiming;  // report.pb.h
+}
+
 namespace hemm::servo {
 
 class LatencyHistogram {
@@ -73,5 +77,8 @@ HistogramSummary summarize(const LatencyHistogram& h);
 TimingSummary summarize(const TimingStats& s);
 // One line for logs: "ticks=... misses=... wake median/p99/max=... us ...".
 std::string to_string(const TimingSummary& s);
+// The summary as the "timing" object of the operator's run reports
+// (proto/report.proto's ServoTiming).
+void fill(report::ServoTiming* out, const TimingSummary& s);
 
 }  // namespace hemm::servo

@@ -56,27 +56,9 @@ std::string to_string(const OperatorStationSummary& s) {
   return o.str();
 }
 
-namespace {
-void fill(report::LatencyHistogram* j, const servo::HistogramSummary& h) {
-  j->set_count(h.count);
-  j->set_median(h.median_us);
-  j->set_p99(h.p99_us);
-  j->set_max(h.max_us);
-  j->set_mean(h.mean_us);
-}
-}  // namespace
-
 report::OperatorStation to_report(const OperatorStationSummary& s) {
   report::OperatorStation r;
-  report::ServoTiming& t = *r.mutable_timing();
-  t.set_ticks(s.timing.ticks);
-  t.set_misses(s.timing.misses);
-  t.set_overruns(s.timing.overruns);
-  t.set_late_wakes(s.timing.late_wakes);
-  t.set_skipped_periods(s.timing.skipped_periods);
-  fill(t.mutable_period_us(), s.timing.period);
-  fill(t.mutable_wake_latency_us(), s.timing.wake_latency);
-  fill(t.mutable_compute_us(), s.timing.compute);
+  servo::fill(r.mutable_timing(), s.timing);
   report::LocalModel& m = *r.mutable_model();
   m.set_scans_in(s.model.scans_in);
   m.set_scans_rejected(s.model.scans_rejected);

@@ -6,6 +6,9 @@
 #include <stdexcept>
 #include <thread>
 
+#include "common/config/config.h"
+#include "report.pb.h"
+
 namespace hemm::op {
 
 VpsSessionSummary run_vps_session(device::HapticDevice& device, std::shared_ptr<const VpsLocalModel> model,
@@ -83,41 +86,40 @@ std::string to_string(const VpsSessionSummary& s) {
   return o.str();
 }
 
-std::string to_json(const VpsSessionSummary& s) {
-  std::ostringstream o;
-  o.precision(9);
-  auto arr = [&](const double* v, int n) {
-    o << "[";
-    for (int i = 0; i < n; ++i) o << (i ? "," : "") << v[i];
-    o << "]";
-  };
-  o << "{\"device\":\"" << s.device << "\",\"end_effectors\":" << s.end_effectors << ",\"objects\":" << s.objects
-    << ",\"model_bytes\":" << s.model_bytes << ",\"ticks\":" << s.timing.ticks << ",\"misses\":" << s.timing.misses
-    << ",\"overruns\":" << s.timing.overruns << ",\"period_median_us\":" << s.timing.period.median_us
-    << ",\"period_p99_us\":" << s.timing.period.p99_us << ",\"compute_median_us\":" << s.timing.compute.median_us
-    << ",\"compute_p99_us\":" << s.timing.compute.p99_us << ",\"vps_median_us\":" << s.vps_compute.median_us
-    << ",\"vps_p99_us\":" << s.vps_compute.p99_us << ",\"vps_max_us\":" << s.vps_compute.max_us
-    << ",\"max_work\":" << s.stats.max_work << ",\"max_penetration_m\":";
-  arr(s.stats.max_penetration, 3);
-  o << ",\"energy_J\":";
-  arr(s.stats.energy_J, 2);
-  o << ",\"max_energy_J\":";
-  arr(s.stats.max_energy_J, 2);
-  o << ",\"max_force_N\":";
-  arr(s.stats.max_force_N, 2);
-  o << ",\"coupling_k\":";
-  arr(s.coupling_k, 2);
-  o << ",\"coupling_b\":";
-  arr(s.coupling_b, 2);
-  o << ",\"final_rel_01_m\":";
-  arr(s.final_rel_01.data(), 3);
-  o << ",\"final_object0_W\":";
-  arr(s.final_object_W[0].data(), 3);
-  o << ",\"final_object1_W\":";
-  arr(s.final_object_W[1].data(), 3);
-  o << ",\"log_written\":" << s.log_written << ",\"log_dropped\":" << s.log_dropped << "}\n";
-  return o.str();
+report::VpsSession to_report(const VpsSessionSummary& s) {
+  report::VpsSession r;
+  auto arr = [](google::protobuf::RepeatedField<double>* out, const double* v, int n) { out->Add(v, v + n); };
+  r.set_device(s.device);
+  r.set_end_effectors(s.end_effectors);
+  r.set_objects(s.objects);
+  r.set_model_bytes(s.model_bytes);
+  r.set_ticks(s.timing.ticks);
+  r.set_misses(s.timing.misses);
+  r.set_overruns(s.timing.overruns);
+  r.set_period_median_us(s.timing.period.median_us);
+  r.set_period_p99_us(s.timing.period.p99_us);
+  r.set_compute_median_us(s.timing.compute.median_us);
+  r.set_compute_p99_us(s.timing.compute.p99_us);
+  r.set_vps_median_us(s.vps_compute.median_us);
+  r.set_vps_p99_us(s.vps_compute.p99_us);
+  r.set_vps_max_us(s.vps_compute.max_us);
+  r.set_max_work(s.stats.max_work);
+  arr(r.mutable_max_penetration_m(), s.stats.max_penetration, 3);
+  arr(r.mutable_energy_j(), s.stats.energy_J, 2);
+  arr(r.mutable_max_energy_j(), s.stats.max_energy_J, 2);
+  arr(r.mutable_max_force_n(), s.stats.max_force_N, 2);
+  arr(r.mutable_coupling_k(), s.coupling_k, 2);
+  arr(r.mutable_coupling_b(), s.coupling_b, 2);
+  arr(r.mutable_final_rel_01_m(), s.final_rel_01.data(), 3);
+  arr(r.mutable_final_object0_w(), s.final_object_W[0].data(), 3);
+  arr(r.mutable_final_object1_w(), s.final_object_W[1].data(), 3);
+  r.set_log_written(s.log_written);
+  r.set_log_dropped(s.log_dropped);
+  r.set_log_failed(s.log_failed);
+  return r;
 }
+
+std::string to_json(const VpsSessionSummary& s) { return config::to_json(to_report(s)); }
 
 device::Trajectory scene_hands_trajectory(const std::string& scene, double rate_hz) {
   const bool peg = scene == "peg-in-hole";

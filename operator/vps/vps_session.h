@@ -14,6 +14,10 @@
 #include "operator/servo/servo_loop.h"
 #include "operator/vps/vps_task.h"
 
+namespace hemm::report {
+class VpsSession;  // report.pb.h
+}
+
 namespace hemm::op {
 
 struct VpsSessionOptions {
@@ -46,6 +50,8 @@ VpsSessionSummary run_vps_session(device::HapticDevice& device, std::shared_ptr<
                                   const std::function<void(const servo::RealtimeStatus&)>& on_start = {});
 
 std::string to_string(const VpsSessionSummary& s);
+// As proto/report.proto's VpsSession, and that printed (config::to_json).
+report::VpsSession to_report(const VpsSessionSummary& s);
 std::string to_json(const VpsSessionSummary& s);
 
 // The SIMULATED scripted hands of the paper's scenes (scenes.h) as a

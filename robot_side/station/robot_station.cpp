@@ -141,8 +141,6 @@ report::RobotStation to_report(const RobotStationStatistics& s) {
   return r;
 }
 
-std::string to_json(const RobotStationStatistics& s) { return config::to_json(to_report(s)); }
-
 std::string to_log_fields(const RobotStationStatistics& s) {
   std::ostringstream os;
   os << "sim_steps=" << s.sim_steps << " late_steps=" << s.late_steps << " resyncs=" << s.resyncs

@@ -97,10 +97,9 @@ struct RobotStationStatistics {
   uint32_t safety = 0;                   // newest state's SafetyFlags
 };
 
-// The statistics as a report message (proto/report.proto) and as its JSON
-// (protobuf's printer, see config::to_json; ends with a newline).
+// The statistics as a report message (proto/report.proto); hemm-robot's
+// --stats-json prints it as the link report's "robot" object.
 report::RobotStation to_report(const RobotStationStatistics& s);
-std::string to_json(const RobotStationStatistics& s);
 // key=value fields on one line.
 std::string to_log_fields(const RobotStationStatistics& s);
 // A human-readable multi-line summary (ends with a newline).

@@ -13,9 +13,11 @@
 #include <iostream>
 #include <optional>
 
+#include "common/config/config.h"
 #include "common/haptics/proxy/virtual_proxy.h"
 #include "robot_side/truth/scene_slice.h"
 #include "robot_side/truth/truth_eval.h"
+#include "report.pb.h"
 
 namespace {
 
@@ -149,14 +151,15 @@ int run(int argc, char** argv) {
   if (!json_path.empty()) {
     std::ofstream f(json_path);
     if (!f) return usage_error(json_path + ": cannot write");
-    const double nan = std::nan("");
-    f << robot::to_json(r, {{"height_m", height},
-                            {"geoms_sliced", static_cast<double>(slice.included.size())},
-                            {"geoms_skipped", static_cast<double>(slice.skipped.size())},
-                            {"truncated_lines", static_cast<double>(log.truncated_lines)},
-                            {"contact_threshold_n", contact_threshold},
-                            {"from_s", from_s ? *from_s : nan},
-                            {"to_s", to_s ? *to_s : nan}});
+    report::Truth j = robot::to_report(r);
+    j.set_height_m(height);
+    j.set_geoms_sliced(slice.included.size());
+    j.set_geoms_skipped(slice.skipped.size());
+    j.set_truncated_lines(log.truncated_lines);
+    j.set_contact_threshold_n(contact_threshold);
+    if (from_s) j.set_from_s(*from_s);
+    if (to_s) j.set_to_s(*to_s);
+    f << config::to_json(j);
     if (!f) return usage_error(json_path + ": write failed");
   }
   return kExitOk;

@@ -9,6 +9,7 @@
 #include <utility>
 
 #include "common/math/frames.h"
+#include "report.pb.h"
 
 namespace hemm::robot {
 namespace {
@@ -72,14 +73,6 @@ math::Pose2 interpolate(const std::vector<Sample>& s, std::int64_t t) {
           math::wrap_angle(a.pose.theta + u * dth)};
 }
 
-void put(std::string& out, const char* key, double v, bool last = false) {
-  char buf[160];
-  if (std::isfinite(v))
-    std::snprintf(buf, sizeof buf, "  \"%s\": %.9g%s\n", key, v, last ? "" : ",");
-  else
-    std::snprintf(buf, sizeof buf, "  \"%s\": null%s\n", key, last ? "" : ",");
-  out += buf;
-}
 
 }  // namespace
 
@@ -282,34 +275,32 @@ TruthReport evaluate_against_truth(const std::vector<WorldLogRow>& rows, const h
   return rep;
 }
 
-std::string to_json(const TruthReport& r, const std::vector<std::pair<std::string, double>>& extra) {
-  std::string out = "{\n";
-  const double nan = std::nan("");
-  // Null only when nothing was evaluated; contact statistics over no contact
-  // ticks are 0 (contact_ticks says so), which keeps no-contact runs parseable.
-  const bool any = r.ticks > 0;
-  put(out, "rows", static_cast<double>(r.rows));
-  put(out, "window_rows", static_cast<double>(r.window_rows));
-  put(out, "ticks", static_cast<double>(r.ticks));
-  put(out, "skipped_before_truth", static_cast<double>(r.skipped_before_truth));
-  put(out, "skipped_invalid", static_cast<double>(r.skipped_invalid));
-  put(out, "held_after_truth", static_cast<double>(r.held_after_truth));
-  put(out, "truth_samples", static_cast<double>(r.truth_samples));
-  put(out, "truth_max_gap_s", r.truth_max_gap_s);
-  put(out, "rms_n", any ? r.rms_n : nan);
-  put(out, "max_n", any ? r.max_n : nan);
-  put(out, "max_t_s", any ? r.max_t_s : nan);
-  put(out, "contact_ticks", static_cast<double>(r.contact_ticks));
-  put(out, "contact_rms_n", any ? r.contact_rms_n : nan);
-  put(out, "contact_max_n", any ? r.contact_max_n : nan);
-  put(out, "mean_force_rendered_n", any ? r.mean_force_rendered_n : nan);
-  put(out, "mean_force_truth_n", any ? r.mean_force_truth_n : nan);
-  put(out, "pose_error_mean_m", any ? r.pose_error_mean_m : nan);
-  put(out, "pose_error_max_m", any ? r.pose_error_max_m : nan);
-  put(out, "heading_error_max_rad", any ? r.heading_error_max_rad : nan, extra.empty());
-  for (std::size_t i = 0; i < extra.size(); ++i) put(out, extra[i].first.c_str(), extra[i].second, i + 1 == extra.size());
-  out += "}\n";
-  return out;
+report::Truth to_report(const TruthReport& r) {
+  report::Truth j;
+  j.set_rows(r.rows);
+  j.set_window_rows(r.window_rows);
+  j.set_ticks(r.ticks);
+  j.set_skipped_before_truth(r.skipped_before_truth);
+  j.set_skipped_invalid(r.skipped_invalid);
+  j.set_held_after_truth(r.held_after_truth);
+  j.set_truth_samples(r.truth_samples);
+  j.set_truth_max_gap_s(r.truth_max_gap_s);
+  j.set_contact_ticks(r.contact_ticks);
+  // Left out when nothing was evaluated; contact statistics over no contact
+  // ticks are 0 (contact_ticks says so), which keeps no-contact runs readable.
+  if (r.ticks > 0) {
+    j.set_rms_n(r.rms_n);
+    j.set_max_n(r.max_n);
+    j.set_max_t_s(r.max_t_s);
+    j.set_contact_rms_n(r.contact_rms_n);
+    j.set_contact_max_n(r.contact_max_n);
+    j.set_mean_force_rendered_n(r.mean_force_rendered_n);
+    j.set_mean_force_truth_n(r.mean_force_truth_n);
+    j.set_pose_error_mean_m(r.pose_error_mean_m);
+    j.set_pose_error_max_m(r.pose_error_max_m);
+    j.set_heading_error_max_rad(r.heading_error_max_rad);
+  }
+  return j;
 }
 
 }  // namespace hemm::robot

@@ -31,6 +31,10 @@
 #include "common/haptics/proxy/reference_scene.h"
 #include "common/haptics/proxy/virtual_proxy.h"
 
+namespace hemm::report {
+class Truth;  // report.pb.h
+}
+
 namespace hemm::robot {
 
 // The columns of a world-log row that the evaluation uses (W frame).
@@ -103,9 +107,10 @@ struct TruthReport {
 TruthReport evaluate_against_truth(const std::vector<WorldLogRow>& rows, const haptics::ExactScene& scene,
                                    const haptics::ProxyModel& proxy_model, const TruthOptions& options = {});
 
-// The report's numbers as one flat JSON object (force and pose numbers are
-// null when no tick was evaluated; contact numbers are 0 without contact),
-// followed by `extra` (e.g. the slice height); keys are not escaped.
-std::string to_json(const TruthReport& r, const std::vector<std::pair<std::string, double>>& extra = {});
+// The report's numbers as proto/report.proto's Truth (force and pose numbers
+// left out when no tick was evaluated; contact numbers are 0 without
+// contact). The run's own fields (height_m, from_s, ...) are the caller's to
+// set; config::to_json prints it.
+report::Truth to_report(const TruthReport& r);
 
 }  // namespace hemm::robot

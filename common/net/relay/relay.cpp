@@ -18,6 +18,8 @@
 #include <vector>
 
 #include "common/clock/steady_clock.h"
+#include "common/config/config.h"
+#include "report.pb.h"
 
 namespace hemm::net::relay {
 namespace {
@@ -97,14 +99,18 @@ class Scheduler {
   std::int64_t armed_ns_ = kNever;
 };
 
-void append_counters(std::ostringstream& os, const ImpairmentCounters& c) {
-  os << "{\"received\":" << c.received << ",\"forwarded\":" << c.forwarded
-     << ",\"dropped_random\":" << c.dropped_random << ",\"dropped_burst\":" << c.dropped_burst
-     << ",\"dropped_outage\":" << c.dropped_outage << ",\"dropped_rate\":" << c.dropped_rate
-     << ",\"duplicated\":" << c.duplicated << ",\"reordered\":" << c.reordered
-     << ",\"held_outage\":" << c.held_outage << ",\"bytes\":" << c.bytes_forwarded
-     << ",\"bytes_received\":" << c.bytes_received
-     << ",\"bytes_forwarded\":" << c.bytes_forwarded << "}";
+void fill(report::RelayDirection* r, const ImpairmentCounters& c) {
+  r->set_received(c.received);
+  r->set_forwarded(c.forwarded);
+  r->set_dropped_random(c.dropped_random);
+  r->set_dropped_burst(c.dropped_burst);
+  r->set_dropped_outage(c.dropped_outage);
+  r->set_dropped_rate(c.dropped_rate);
+  r->set_duplicated(c.duplicated);
+  r->set_reordered(c.reordered);
+  r->set_held_outage(c.held_outage);
+  r->set_bytes_received(c.bytes_received);
+  r->set_bytes_forwarded(c.bytes_forwarded);
 }
 
 void text_counters(std::ostringstream& os, const char* name, const ImpairmentCounters& c) {
@@ -180,27 +186,29 @@ std::string validate(const RelayConfig& cfg) {
   return {};
 }
 
+report::Relay to_report(const RelayStats& s) {
+  report::Relay r;
+  fill(r.mutable_tcp()->mutable_up(), s.tcp_up);
+  fill(r.mutable_tcp()->mutable_down(), s.tcp_down);
+  fill(r.mutable_udp()->mutable_up(), s.udp_up);
+  fill(r.mutable_udp()->mutable_down(), s.udp_down);
+  report::RelayCounters& c = *r.mutable_relay();
+  c.set_tcp_connections(s.tcp_connections);
+  c.set_tcp_connections_rejected(s.tcp_connections_rejected);
+  c.set_tcp_connect_failures(s.tcp_connect_failures);
+  c.set_udp_clients(s.udp_clients);
+  c.set_udp_clients_rejected(s.udp_clients_rejected);
+  c.set_send_errors(s.send_errors);
+  report::RelayTiming& t = *r.mutable_timing();
+  t.set_samples(s.timing.samples);
+  t.set_median_us(s.timing.median_us);
+  t.set_p99_us(s.timing.p99_us);
+  t.set_max_us(s.timing.max_us);
+  return r;
+}
+
 std::string stats_to_json(const RelayStats& s) {
-  std::ostringstream os;
-  os << "{\"tcp\":{\"up\":";
-  append_counters(os, s.tcp_up);
-  os << ",\"down\":";
-  append_counters(os, s.tcp_down);
-  os << "},\"udp\":{\"up\":";
-  append_counters(os, s.udp_up);
-  os << ",\"down\":";
-  append_counters(os, s.udp_down);
-  os << "},\"relay\":{\"tcp_connections\":" << s.tcp_connections
-     << ",\"tcp_connections_rejected\":" << s.tcp_connections_rejected
-     << ",\"tcp_connect_failures\":" << s.tcp_connect_failures
-     << ",\"udp_clients\":" << s.udp_clients
-     << ",\"udp_clients_rejected\":" << s.udp_clients_rejected
-     << ",\"send_errors\":" << s.send_errors << "}";
-  os.precision(3);
-  os << std::fixed << ",\"timing\":{\"samples\":" << s.timing.samples
-     << ",\"median_us\":" << s.timing.median_us << ",\"p99_us\":" << s.timing.p99_us
-     << ",\"max_us\":" << s.timing.max_us << "}}";
-  return os.str();
+  return config::to_json(to_report(s), config::JsonLayout::kOneLine);
 }
 
 std::string stats_to_text(const RelayStats& s) {

@@ -27,6 +27,10 @@
 
 #include "common/net/relay/impairment.h"
 
+namespace hemm::report {
+class Relay;  // report.pb.h
+}
+
 namespace hemm::net::relay {
 
 struct HostPort {
@@ -71,7 +75,9 @@ struct RelayStats {
   TimingStats timing;
 };
 
-// {"tcp":{"up":{...},"down":{...}},"udp":{"up":{...},"down":{...}},"relay":{...},"timing":{...}}
+// The statistics as proto/report.proto's Relay, and that printed on one line
+// (config::to_json): {"tcp":{"up":{...},"down":{...}},"udp":{...},"relay":{...},"timing":{...}}
+report::Relay to_report(const RelayStats& stats);
 std::string stats_to_json(const RelayStats& stats);
 // Human-readable multi-line summary.
 std::string stats_to_text(const RelayStats& stats);

@@ -2,8 +2,12 @@
 // on this machine's clock: the 1 kHz servo loop holds its period (median,
 // misses) with two arms' controllers and the MuJoCo plant in every tick; a
 // bad device.bimanual block or --hands without the device is a usage error
-// (exit 2) with the field named.
+// (exit 2) with the field named. Its --station-json is proto/report.proto's
+// BimanualSession and reads back into it.
 #include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
 
 #include <chrono>
 #include <cstdio>
@@ -11,6 +15,9 @@
 #include <string>
 #include <vector>
 
+#include "operator/bimanual/bimanual_session.h"
+#include "report.pb.h"
+#include "tests/common/config/report_json.h"
 #include "tests/integration/link/child_process.h"
 
 namespace {
@@ -88,4 +95,39 @@ TEST(BimanualSession, BadConfigsAreUsageErrors) {
   r = run(d, {"--device", "sim-bimanual", "--script", "idle", "--duration", "1"});
   EXPECT_EQ(r.rc, 2);
   EXPECT_NE(r.err.find("takes --hands"), std::string::npos) << r.err;
+}
+
+TEST(BimanualSessionJson, ReadsBackIntoTheBimanualSessionReport) {
+  hemm::op::BimanualSessionSummary s;
+  s.timing.ticks = 4000;
+  s.timing.misses = 2;
+  s.timing.period.median_us = 1000.25;
+  s.timing.compute.p99_us = 1.0 / 3.0;  // the old writer kept 9 digits
+  s.counters.writes = 3999;
+  s.counters.limited_commands = 17;
+  s.sim_time_s = 4.0;
+  s.min_arm_arm_m = 0.0425;
+  s.min_arm_table_m = std::numeric_limits<double>::infinity();  // never measured
+  s.arm_table_contact_steps = 5;
+  s.enabled = {true, false};
+  s.attached = {false, true};
+  s.log_written = 4000;
+  s.script = "features";
+  const std::string json = hemm::op::to_json(s);
+  const auto r = hemm::test::read_report_json<hemm::report::BimanualSession>(json);
+  EXPECT_EQ(r.timing().ticks(), 4000u);
+  EXPECT_EQ(r.timing().misses(), 2u);
+  EXPECT_EQ(r.timing().period_us().median(), 1000.25);
+  EXPECT_EQ(r.timing().compute_us().p99(), 1.0 / 3.0);
+  EXPECT_EQ(r.bimanual().script(), "features");
+  EXPECT_EQ(r.bimanual().writes(), 3999u);
+  EXPECT_EQ(r.bimanual().limited_commands(), 17u);
+  EXPECT_EQ(r.bimanual().min_arm_arm_m(), 0.0425);
+  EXPECT_FALSE(r.bimanual().has_min_arm_table_m());  // left out, not "Infinity"
+  EXPECT_EQ(json.find("Infinity"), std::string::npos) << json;
+  EXPECT_EQ(r.bimanual().arm_table_contact_steps(), 5u);
+  EXPECT_TRUE(r.bimanual().right().enabled());
+  EXPECT_FALSE(r.bimanual().left().enabled());
+  EXPECT_TRUE(r.bimanual().left().attached());
+  EXPECT_EQ(r.logs().servo_written(), 4000u);
 }

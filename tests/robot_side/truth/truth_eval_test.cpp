@@ -9,7 +9,10 @@
 
 #include <gtest/gtest.h>
 
+#include "common/config/config.h"
 #include "common/math/frames.h"
+#include "report.pb.h"
+#include "tests/common/config/report_json.h"
 
 namespace hemm::robot {
 namespace {
@@ -315,19 +318,47 @@ TEST(WorldLogFile, BadFilesGiveClearErrors) {
   EXPECT_EQ(log.truncated_lines, 77u);
 }
 
-TEST(TruthEval, JsonHasTheFlatKeys) {
+TEST(TruthEval, JsonReadsBackIntoTheTruthReport) {
   TruthReport r;
+  r.rows = 12000;
   r.ticks = 10;
+  r.contact_ticks = 4;
   r.rms_n = 0.25;
-  const std::string j = to_json(r, {{"height_m", 0.3}});
-  for (const char* k : {"\"ticks\": 10", "\"rms_n\": 0.25", "\"max_n\"", "\"contact_ticks\": 0",
-                        "\"contact_rms_n\": 0,", "\"mean_force_truth_n\": 0,", "\"pose_error_mean_m\"",
-                        "\"height_m\": 0.3\n}"})
-    EXPECT_NE(j.find(k), std::string::npos) << k << "\n" << j;
-  // Nothing evaluated: the numbers are undefined, not zero.
-  const std::string none = to_json(TruthReport{});
-  EXPECT_NE(none.find("\"rms_n\": null"), std::string::npos) << none;
-  EXPECT_NE(none.find("\"pose_error_max_m\": null"), std::string::npos) << none;
+  r.max_n = 1.0 / 3.0;  // the old writer kept 9 digits
+  r.max_t_s = 7.5;
+  r.pose_error_max_m = 0.0125;
+  report::Truth j = to_report(r);
+  j.set_height_m(0.3);  // hemm-truth's run fields, set by the caller
+  j.set_from_s(2.0);
+  const report::Truth t = test::read_report_json<report::Truth>(config::to_json(j));
+  EXPECT_EQ(t.rows(), 12000u);
+  EXPECT_EQ(t.ticks(), 10u);
+  EXPECT_EQ(t.contact_ticks(), 4u);
+  ASSERT_TRUE(t.has_rms_n());
+  EXPECT_EQ(t.rms_n(), 0.25);
+  EXPECT_EQ(t.max_n(), 1.0 / 3.0);
+  EXPECT_EQ(t.max_t_s(), 7.5);
+  EXPECT_EQ(t.pose_error_max_m(), 0.0125);
+  ASSERT_TRUE(t.has_contact_rms_n());  // evaluated: contact numbers are there (0 here)
+  EXPECT_EQ(t.contact_rms_n(), 0.0);
+  EXPECT_EQ(t.height_m(), 0.3);
+  ASSERT_TRUE(t.has_from_s());
+  EXPECT_EQ(t.from_s(), 2.0);
+  EXPECT_FALSE(t.has_to_s());  // not given: absent, not NaN
+}
+
+TEST(TruthEval, NothingEvaluatedLeavesTheNumbersOut) {
+  // A mean or maximum over no ticks has no value: absent from the JSON (a
+  // reader's lookup fails) rather than 0 or a "NaN" string.
+  const std::string json = config::to_json(to_report(TruthReport{}));
+  const report::Truth t = test::read_report_json<report::Truth>(json);
+  EXPECT_FALSE(t.has_rms_n());
+  EXPECT_FALSE(t.has_max_n());
+  EXPECT_FALSE(t.has_pose_error_max_m());
+  EXPECT_FALSE(t.has_heading_error_max_rad());
+  EXPECT_EQ(json.find("rms_n"), std::string::npos) << json;
+  EXPECT_EQ(json.find("NaN"), std::string::npos) << json;
+  EXPECT_NE(json.find("\"ticks\": \"0\""), std::string::npos) << json;  // counts are there, zeros too
 }
 
 }  // namespace
