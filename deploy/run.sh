@@ -136,9 +136,10 @@ case "$mode" in
     configure_asan
     build "$builds/asan"
     # Wall-clock tests run here too, their timing-only assertions skipped by
-    # the tests themselves; the end-to-end runs labelled `realtime` (a robot
-    # that must arrive, a view beside a 1 kHz servo, all on two cores) need
-    # uninstrumented code to keep real time and run in the release pass only.
+    # the tests themselves; the long end-to-end runs labelled `realtime` (a
+    # robot that must arrive in time, a view beside the 1 kHz servo) run in
+    # the release pass only: CI time, and most of their code paths are covered here
+    # by the other loopback tests.
     ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
       run_tests "$builds/asan" skip-realtime
     passed=0; failed=0
