@@ -5,10 +5,11 @@
 #include <limits>
 
 #include <Eigen/Eigenvalues>
-#include <pcl/kdtree/kdtree_flann.h>
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
+#include <pcl/registration/correspondence_estimation.h>
 #include <pcl/registration/icp.h>
+#include <pcl/search/kdtree.h>
 #include <pcl/registration/transformation_estimation.h>
 
 namespace hemm::op {
@@ -94,6 +95,100 @@ class PointToLine2D final : public pcl::registration::TransformationEstimation<p
   }
 };
 
+// The nearest target point within a radius, in the plane: a uniform grid of
+// cells at least the radius wide (points counting-sorted into one index
+// array), so a query reads 3 x 3 cells and allocates nothing. PCL's k-d tree
+// query goes through FLANN, which opens an OpenMP region and allocates on
+// every query: a few microseconds each, and under AddressSanitizer enough to
+// starve the model thread on two cores.
+class NearestGrid2D {
+ public:
+  void build(const pcl::PointCloud<pcl::PointNormal>& c, double radius) {
+    n_ = 0;
+    if (c.empty()) return;
+    float x0 = c[0].x, y0 = c[0].y, x1 = x0, y1 = y0;
+    for (const auto& q : c) {
+      x0 = std::min(x0, q.x), x1 = std::max(x1, q.x);
+      y0 = std::min(y0, q.y), y1 = std::max(y1, q.y);
+    }
+    // Cells no smaller than the radius, and no more than ~4M of them.
+    const double ext = std::max(static_cast<double>(x1 - x0), static_cast<double>(y1 - y0));
+    cell_ = std::max(radius, ext / 2048.0);
+    x0_ = x0;
+    y0_ = y0;
+    nx_ = static_cast<int>((x1 - x0) / cell_) + 1;
+    ny_ = static_cast<int>((y1 - y0) / cell_) + 1;
+    start_.assign(static_cast<std::size_t>(nx_) * static_cast<std::size_t>(ny_) + 1, 0);
+    for (const auto& q : c) ++start_[cell_of(q.x, q.y) + 1];
+    for (std::size_t i = 1; i < start_.size(); ++i) start_[i] += start_[i - 1];
+    order_.resize(c.size());
+    fill_ = start_;
+    for (std::size_t i = 0; i < c.size(); ++i) order_[static_cast<std::size_t>(fill_[cell_of(c[i].x, c[i].y)]++)] = static_cast<int>(i);
+    cloud_ = &c;
+    n_ = c.size();
+  }
+  // The nearest point no farther than sqrt(max_d2) (radius <= the build's), or -1.
+  int nearest(float x, float y, double max_d2, double* d2_out) const {
+    if (n_ == 0 || !std::isfinite(x) || !std::isfinite(y)) return -1;
+    const int cx = static_cast<int>(std::floor((x - x0_) / cell_)), cy = static_cast<int>(std::floor((y - y0_) / cell_));
+    int best = -1;
+    double best_d2 = max_d2;
+    for (int j = std::max(0, cy - 1); j <= std::min(ny_ - 1, cy + 1); ++j)
+      for (int i = std::max(0, cx - 1); i <= std::min(nx_ - 1, cx + 1); ++i) {
+        const std::size_t cell = static_cast<std::size_t>(j) * static_cast<std::size_t>(nx_) + static_cast<std::size_t>(i);
+        for (int k = start_[cell]; k < start_[cell + 1]; ++k) {
+          const auto& q = (*cloud_)[static_cast<std::size_t>(order_[static_cast<std::size_t>(k)])];
+          const double dx = q.x - x, dy = q.y - y, d2 = dx * dx + dy * dy;
+          if (d2 <= best_d2) {
+            best_d2 = d2;
+            best = order_[static_cast<std::size_t>(k)];
+          }
+        }
+      }
+    if (best >= 0 && d2_out) *d2_out = best_d2;
+    return best;
+  }
+
+ private:
+  std::size_t cell_of(float x, float y) const {
+    const int i = std::clamp(static_cast<int>((x - x0_) / cell_), 0, nx_ - 1);
+    const int j = std::clamp(static_cast<int>((y - y0_) / cell_), 0, ny_ - 1);
+    return static_cast<std::size_t>(j) * static_cast<std::size_t>(nx_) + static_cast<std::size_t>(i);
+  }
+  const pcl::PointCloud<pcl::PointNormal>* cloud_ = nullptr;
+  std::size_t n_ = 0;
+  double cell_ = 1.0;
+  float x0_ = 0.0f, y0_ = 0.0f;
+  int nx_ = 0, ny_ = 0;
+  std::vector<int> start_, fill_, order_;
+};
+
+// PCL's correspondence step of the ICP loop, answered by the grid (built
+// once per scan over the target).
+class GridCorrespondences final
+    : public pcl::registration::CorrespondenceEstimationBase<pcl::PointNormal, pcl::PointNormal> {
+ public:
+  explicit GridCorrespondences(const NearestGrid2D* grid) : grid_(grid) { corr_name_ = "GridCorrespondences"; }
+  void determineCorrespondences(pcl::Correspondences& out, double max_distance) override {
+    out.clear();
+    if (!input_) return;
+    const double max_d2 = max_distance * max_distance;
+    out.reserve(input_->size());
+    for (std::size_t i = 0; i < input_->size(); ++i) {
+      double d2 = 0.0;
+      const int j = grid_->nearest((*input_)[i].x, (*input_)[i].y, max_d2, &d2);
+      if (j >= 0) out.emplace_back(static_cast<int>(i), j, static_cast<float>(d2));
+    }
+  }
+  void determineReciprocalCorrespondences(pcl::Correspondences& out, double max_distance) override {
+    determineCorrespondences(out, max_distance);  // not used: reciprocal matching is off
+  }
+  Ptr clone() const override { return Ptr(new GridCorrespondences(*this)); }
+
+ private:
+  const NearestGrid2D* grid_;
+};
+
 pcl::PointNormal point_normal(double x, double y, const Vector2d& n) {
   pcl::PointNormal q;
   q.x = static_cast<float>(x);
@@ -111,7 +206,6 @@ pcl::PointNormal point_normal(double x, double y, const Vector2d& n) {
 struct RegistrationTarget::Impl {
   pcl::PointCloud<pcl::PointXYZ>::Ptr cloud{new pcl::PointCloud<pcl::PointXYZ>};
   std::vector<Vector2d> normals;
-  pcl::KdTreeFLANN<pcl::PointXYZ> tree;
 };
 
 RegistrationTarget::RegistrationTarget() : impl_(std::make_unique<Impl>()) {}
@@ -138,7 +232,6 @@ void RegistrationTarget::build(const mapping::LocalMap& map, std::int64_t before
       impl_->normals.push_back(s.normal);
     }
   }
-  if (!impl_->cloud->empty()) impl_->tree.setInputCloud(impl_->cloud);
 }
 
 std::size_t RegistrationTarget::size() const { return impl_->cloud->size(); }
@@ -151,19 +244,19 @@ struct Fit {
   Eigen::Matrix2d nnT = Eigen::Matrix2d::Zero();  // mean n n^T over inliers
 };
 
-// Point-to-line residuals of the scan points (already moved) against the target.
-Fit check_fit(const RegistrationParams& p, const pcl::PointCloud<pcl::PointXYZ>& pts,
-              const RegistrationTarget::Impl& t) {
+// Point-to-line residuals of the scan points (already moved) against the
+// target, both relative to the sensor.
+Fit check_fit(const RegistrationParams& p, const pcl::PointCloud<pcl::PointNormal>& pts,
+              const pcl::PointCloud<pcl::PointNormal>& tgt, const NearestGrid2D& grid) {
   Fit f;
-  std::vector<int> idx(1);
-  std::vector<float> d2(1);
   double sum = 0.0;
   int inliers = 0;
   const double max2 = p.max_correspondence * p.max_correspondence;
-  for (const pcl::PointXYZ& q : pts) {
-    if (t.tree.nearestKSearch(q, 1, idx, d2) < 1 || d2[0] > max2) continue;
-    const pcl::PointXYZ& m = (*t.cloud)[static_cast<std::size_t>(idx[0])];
-    const Vector2d& n = t.normals[static_cast<std::size_t>(idx[0])];
+  for (const pcl::PointNormal& q : pts) {
+    const int j = grid.nearest(q.x, q.y, max2, nullptr);
+    if (j < 0) continue;
+    const pcl::PointNormal& m = tgt[static_cast<std::size_t>(j)];
+    const Vector2d n(m.normal_x, m.normal_y);
     const double r = n.dot(Vector2d(q.x - m.x, q.y - m.y));
     sum += r * r;
     f.nnT += n * n.transpose();
@@ -225,8 +318,13 @@ RegistrationResult register_scan(const RegistrationParams& p, const mapping::Ran
     r.reason = "too few map points in range";
     return r;
   }
+  NearestGrid2D grid;
+  grid.build(*tgt_o, p.max_correspondence);
   pcl::IterativeClosestPoint<pcl::PointNormal, pcl::PointNormal> icp;
   icp.setTransformationEstimation(std::make_shared<PointToLine2D>());
+  icp.setCorrespondenceEstimation(std::make_shared<GridCorrespondences>(&grid));
+  // The grid answers every query: PCL's own k-d tree of the target is never built.
+  icp.setSearchMethodTarget(std::make_shared<pcl::search::KdTree<pcl::PointNormal>>(), true);
   icp.setMaxCorrespondenceDistance(p.max_correspondence);
   icp.setMaximumIterations(p.max_iterations);
   icp.setTransformationEpsilon(1e-10);
@@ -242,10 +340,8 @@ RegistrationResult register_scan(const RegistrationParams& p, const mapping::Ran
   const Eigen::Matrix4f M = icp.getFinalTransformation();
   double yaw = std::atan2(static_cast<double>(M(1, 0)), static_cast<double>(M(0, 0)));
   Vector2d tr(M(0, 3), M(1, 3));
-  // The fit, on the points moved by the estimate (back in W).
-  pcl::PointCloud<pcl::PointXYZ> moved;
-  for (const auto& q : aligned) moved.push_back(pcl::PointXYZ(q.x + o.x(), q.y + o.y(), 0.0f));
-  const Fit f = check_fit(p, moved, t);
+  // The fit, on the points moved by the estimate.
+  const Fit f = check_fit(p, aligned, *tgt_o, grid);
   r.rms = f.rms;
   r.inlier_ratio = f.inlier_ratio;
   if (f.inlier_ratio < p.min_inlier_ratio) {
