@@ -24,7 +24,8 @@ struct ToolRun {
 };
 
 ToolRun run(const std::string& args) {
-  const std::string cmd = std::string(HEMM_BINARY_DIR) + "/bin/hemm-vps " + args + " 2>&1";
+  std::string cmd = HEMM_BINARY_DIR;
+  cmd.append("/bin/hemm-vps ").append(args).append(" 2>&1");
   ToolRun r{-1, {}};
   std::FILE* p = popen(cmd.c_str(), "r");
   if (p == nullptr) return r;
