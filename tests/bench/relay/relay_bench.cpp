@@ -16,6 +16,7 @@
 #include <thread>
 #include <vector>
 
+#include "common/clock/steady_clock.h"
 #include "common/net/relay/relay.h"
 
 namespace {
@@ -23,11 +24,7 @@ namespace {
 using namespace hemm::net::relay;
 constexpr std::int64_t kMs = 1'000'000;
 
-std::int64_t now_ns() {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(
-             std::chrono::steady_clock::now().time_since_epoch())
-      .count();
-}
+std::int64_t now_ns() { return hemm::steady_now_ns(); }
 
 DirectionImpairment everything() {
   DirectionImpairment cfg;

@@ -9,13 +9,12 @@
 #include <chrono>
 #include <deque>
 
+#include "common/clock/steady_clock.h"
+
 namespace hemm::test {
 namespace {
 
-int64_t now_ns() {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch())
-      .count();
-}
+int64_t now_ns() { return steady_now_ns(); }
 
 sockaddr_in loopback(int port) {
   sockaddr_in a{};

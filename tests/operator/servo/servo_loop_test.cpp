@@ -23,6 +23,7 @@
 #include <sys/syscall.h>
 #include <unistd.h>
 
+#include "common/clock/steady_clock.h"
 #include "operator/device/simulated_omni.h"
 #include "operator/servo/servo_loop.h"
 #include "tests/operator/servo/alloc_counter.h"
@@ -67,9 +68,7 @@ class WallTask final : public ServoTask {
 std::unique_ptr<const ModelSnapshot> make_wall(std::uint64_t version) {
   auto w = std::make_unique<WallSnapshot>();
   w->version = version;
-  w->stamp_ns = std::chrono::duration_cast<std::chrono::nanoseconds>(
-                    std::chrono::steady_clock::now().time_since_epoch())
-                    .count();
+  w->stamp_ns = hemm::steady_now_ns();
   w->wall_x = 0.02;
   w->stiffness = 500.0;
   return w;

@@ -27,6 +27,7 @@
 #include <thread>
 #include <vector>
 
+#include "common/clock/steady_clock.h"
 #include "common/net/relay/relay.h"
 #include "report.pb.h"
 #include "tests/common/config/report_json.h"
@@ -36,11 +37,7 @@ namespace {
 
 constexpr std::int64_t kMs = 1'000'000;
 
-std::int64_t now_ns() {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(
-             std::chrono::steady_clock::now().time_since_epoch())
-      .count();
-}
+std::int64_t now_ns() { return hemm::steady_now_ns(); }
 
 double median_ms(std::vector<std::int64_t> v) {
   if (v.empty()) return -1.0;
