@@ -9,8 +9,6 @@
 namespace hemm::kinematics {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
-
 bool finite(const Eigen::Ref<const Eigen::MatrixXd>& m) { return m.allFinite(); }
 
 Eigen::Isometry3d dh_transform(double theta, double d, double a, double alpha) {
@@ -175,8 +173,8 @@ Eigen::Isometry3d forward_kinematics(const Arm5Model& m, const Arm5Vector& q) {
 }
 
 std::array<DhRow, kArm5Dof> dh_table(const Arm5Model& m) {
-  const double h = kPi / 2;
-  return {{{0.0, 0.0, m.A1, h}, {0.0, 0.0, m.A2, 0.0}, {-h, 0.0, 0.0, h}, {kPi, -m.A4, 0.0, -h}, {h, 0.0, m.A5, h}}};
+  const double h = std::numbers::pi / 2;
+  return {{{0.0, 0.0, m.A1, h}, {0.0, 0.0, m.A2, 0.0}, {-h, 0.0, 0.0, h}, {std::numbers::pi, -m.A4, 0.0, -h}, {h, 0.0, m.A5, h}}};
 }
 
 Eigen::Isometry3d dh_forward_kinematics(const Arm5Model& m, const Arm5Vector& q) {
@@ -261,7 +259,7 @@ IkResult inverse_kinematics(const Arm5Model& model, const Arm5Target& target, co
     return r;
   }
   Arm5Target t = target;
-  t.tool_pitch = std::clamp(t.tool_pitch, -kPi / 2, kPi / 2);
+  t.tool_pitch = std::clamp(t.tool_pitch, -std::numbers::pi / 2, std::numbers::pi / 2);
   const auto score = [&](const IkResult& r) {
     return r.position_error_m * r.position_error_m + std::pow(options.pitch_weight_m * r.pitch_error_rad, 2) +
            std::pow(options.roll_weight_m * r.roll_error_rad, 2);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 
 #include "common/math/geometry2.h"
 
@@ -21,20 +22,20 @@ std::string validate(const RangeScan2D& s) {
   if (s.beam_angles.empty()) {
     if (!std::isfinite(s.angle_min) || !std::isfinite(s.angle_step) || !(s.angle_step > 0.0))
       return "scan: need finite angle_min and angle_step > 0";
-    if (std::abs(s.angle_min) > 4.0 * math::kPi ||
-        static_cast<double>(s.ranges.size()) * s.angle_step > 2.0 * math::kPi + 1e-6)
+    if (std::abs(s.angle_min) > 4.0 * std::numbers::pi ||
+        static_cast<double>(s.ranges.size()) * s.angle_step > 2.0 * std::numbers::pi + 1e-6)
       return "scan: beams span more than one turn";
   } else {
     if (s.beam_angles.size() != s.ranges.size()) return "scan: beam_angles and ranges differ in length";
     for (std::size_t i = 0; i < s.beam_angles.size(); ++i) {
-      if (!std::isfinite(s.beam_angles[i]) || std::abs(s.beam_angles[i]) > 4.0 * math::kPi)
+      if (!std::isfinite(s.beam_angles[i]) || std::abs(s.beam_angles[i]) > 4.0 * std::numbers::pi)
         return "scan: beam_angles not finite";
       if (i > 0 && !(s.beam_angles[i] > s.beam_angles[i - 1])) return "scan: beam_angles not ascending";
     }
-    if (s.beam_angles.back() - s.beam_angles.front() >= 2.0 * math::kPi) return "scan: beams span more than one turn";
+    if (s.beam_angles.back() - s.beam_angles.front() >= 2.0 * std::numbers::pi) return "scan: beams span more than one turn";
   }
   if (s.kind == SensorKind::kSonar) {
-    if (!std::isfinite(s.beam_width) || !(s.beam_width > 0.0) || s.beam_width > math::kPi)
+    if (!std::isfinite(s.beam_width) || !(s.beam_width > 0.0) || s.beam_width > std::numbers::pi)
       return "scan: sonar needs 0 < beam_width <= pi";
   } else if (!std::isfinite(s.beam_width) || s.beam_width < 0.0) {
     return "scan: beam_width must be finite and >= 0";
@@ -310,7 +311,7 @@ bool nearest_beam(const RangeScan2D& s, double beta, std::size_t& k, double& off
   const bool regular = s.beam_angles.empty();
   const double h0 = regular ? 0.5 * s.angle_step : (n > 1 ? 0.5 * (beam_angle(s, 1) - a0) : 0.0);
   double rel = math::wrap_angle(beta - a0);  // (-pi, pi]
-  if (rel < -h0) rel += 2.0 * math::kPi;      // [-h0, 2 pi - h0)
+  if (rel < -h0) rel += 2.0 * std::numbers::pi;      // [-h0, 2 pi - h0)
   if (regular) {
     const double x = std::floor(rel / s.angle_step + 0.5);
     if (x < 0.0 || x > static_cast<double>(n - 1)) return false;
@@ -400,7 +401,7 @@ bool sonar_sees_through(const MapParams& p, const RangeScan2D& s, double r_q, do
     const double gap = span - s.beam_width;
     if (span <= 0.0 || gap <= 0.0 || gap > p.sonar_max_gap) continue;
     double d = math::wrap_angle(beta - beam_angle(s, i));
-    if (d < 0.0) d += 2.0 * math::kPi;
+    if (d < 0.0) d += 2.0 * std::numbers::pi;
     if (d <= half || d >= span - half) continue;
     const double li = beam_limit(s, i), lj = beam_limit(s, j);
     if (li < 0.0 || lj < 0.0) continue;
@@ -502,7 +503,7 @@ std::size_t filter_scan_against_map(const MapParams& p, const LocalMap& map, Ran
     const Vector2d a = math::apply(T_S_W, seg.a), b = math::apply(T_S_W, seg.b);
     double ta = std::atan2(a.y(), a.x()), tb = std::atan2(b.y(), b.x());
     if (ta > tb) std::swap(ta, tb);
-    if (tb - ta > 0.5 * math::kPi) continue;  // behind the sensor or spanning its back
+    if (tb - ta > 0.5 * std::numbers::pi) continue;  // behind the sensor or spanning its back
     const double k0 = std::ceil((ta - scan.angle_min) / scan.angle_step);
     const double k1 = std::floor((tb - scan.angle_min) / scan.angle_step);
     if (k1 < 0.0 || k0 > static_cast<double>(n - 1)) continue;

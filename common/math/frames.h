@@ -2,19 +2,18 @@
 // Frames and rigid transforms. Naming follows the HEMM paper: T_A_B maps
 // points of frame B into frame A (p_A = T_A_B * p_B). SI units, radians.
 #include <cmath>
+#include <numbers>
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
 namespace hemm::math {
 
-constexpr double kPi = 3.14159265358979323846;
-
 // Wraps an angle to (-pi, pi].
 inline double wrap_angle(double a) {
   if (!std::isfinite(a)) return a;
-  a = std::remainder(a, 2.0 * kPi);  // [-pi, pi]
-  return a <= -kPi ? a + 2.0 * kPi : a;
+  a = std::remainder(a, 2.0 * std::numbers::pi);  // [-pi, pi]
+  return a <= -std::numbers::pi ? a + 2.0 * std::numbers::pi : a;
 }
 
 // Planar pose (x, y, theta): an element of SE(2). As T_A_B it maps points of

@@ -8,7 +8,7 @@
 // io_context's (network) thread; those three are safe from any thread.
 //
 // Other StreamMessage kinds are added by registering a handler with on();
-// a handler can publish into a NewestMailbox (mailbox.h) for another thread.
+// a handler can publish into a NewestMailbox (common/concurrency/newest_mailbox.h) for another thread.
 #pragma once
 
 #include <array>

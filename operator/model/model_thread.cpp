@@ -32,7 +32,7 @@ void ModelThread::submit_scan(std::shared_ptr<const wire::RangeScan> scan) {
   if (!scans_.try_push(std::move(scan))) scans_dropped_.fetch_add(1, std::memory_order_relaxed);
 }
 
-void ModelThread::submit_state(const wire::RobotState& state) { state_box_.put(state); }
+void ModelThread::submit_state(const wire::RobotState& state) { state_box_.publish(state); }
 
 void ModelThread::record_command(const SentCommand& c) {
   if (!commands_.try_push(c)) commands_dropped_.fetch_add(1, std::memory_order_relaxed);

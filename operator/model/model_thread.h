@@ -46,7 +46,7 @@
 #include "operator/model/pose_prediction.h"
 #include "operator/model/scan_convert.h"
 #include "operator/model/scan_registration.h"
-#include "operator/servo/latest_mailbox.h"
+#include "common/concurrency/newest_mailbox.h"
 #include "operator/servo/servo_loop.h"
 #include "operator/servo/spsc_ring.h"
 
@@ -150,7 +150,7 @@ class ModelThread {
   ModelThreadParams p_;
   servo::SpscRing<std::shared_ptr<const wire::RangeScan>> scans_;
   servo::SpscRing<SentCommand> commands_;
-  servo::LatestMailbox<wire::RobotState> state_box_;
+  NewestMailbox<wire::RobotState> state_box_;
   std::atomic<std::int64_t> offset_ns_{0}, delay_ns_{0};
 
   // Which robot (frame epoch) an input belongs to; routes it (resync).

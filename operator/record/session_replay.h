@@ -34,7 +34,7 @@ struct SessionReplayOptions {
   // Optional taps, as a live view attaches to a station (operator/view):
   // every snapshot the model publishes, every tick's W-frame record.
   ModelThread::SnapshotObserver on_snapshot;
-  servo::LatestMailbox<StationLogRecord>* ticks = nullptr;
+  NewestMailbox<StationLogRecord>* ticks = nullptr;
   const std::atomic<bool>* stop = nullptr;  // set: ends the replay early
 };
 

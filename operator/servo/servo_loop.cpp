@@ -13,14 +13,10 @@
 #include <cstring>
 #include <stdexcept>
 
+#include "common/clock/steady_clock.h"
+
 namespace hemm::servo {
 namespace {
-
-std::int64_t now_ns() noexcept {
-  timespec ts;
-  clock_gettime(CLOCK_MONOTONIC, &ts);  // vDSO: no kernel entry
-  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
-}
 
 void sleep_until(std::int64_t t_ns) noexcept {
   timespec ts;
@@ -220,14 +216,14 @@ void ServoLoop::thread_main() noexcept {
   device::DeviceSample sample;
   TickOutput out;
   ServoLogRecord rec;
-  std::int64_t deadline = now_ns();
+  std::int64_t deadline = steady_now_ns();
   std::int64_t prev_wake = -1;
   std::uint64_t tick = 0;
 
   while (!stop_.load(std::memory_order_acquire)) {
     deadline += period;
     sleep_until(deadline);
-    const std::int64_t wake = now_ns();
+    const std::int64_t wake = steady_now_ns();
     const std::int64_t latency = wake - deadline;
 
     device_.read(sample);
@@ -239,9 +235,9 @@ void ServoLoop::thread_main() noexcept {
     prepare_tick_output(sample, tick, out);
     task_.tick(sample, model, out);
     device_.write(out.command);
-    if (out.publish_setpoint) setpoints_.put(out.setpoint);
+    if (out.publish_setpoint) setpoints_.publish(out.setpoint);
 
-    const std::int64_t done = now_ns();
+    const std::int64_t done = steady_now_ns();
     if (log_ != nullptr) {
       rec.t_ns = wake;
       rec.tick = tick;

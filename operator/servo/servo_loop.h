@@ -23,7 +23,7 @@
 #include <vector>
 
 #include "operator/device/haptic_device.h"
-#include "operator/servo/latest_mailbox.h"
+#include "common/concurrency/newest_mailbox.h"
 #include "operator/servo/servo_log.h"
 #include "operator/servo/snapshot_channel.h"
 #include "operator/servo/timing_stats.h"
@@ -132,7 +132,7 @@ class ServoLoop {
   const TimingStats& stats() const noexcept { return *stats_; }
   TimingSummary summary() const { return summarize(*stats_); }
   // Consumer side (one thread, e.g. the network thread).
-  LatestMailbox<ServoSetpoint>& setpoints() noexcept { return setpoints_; }
+  NewestMailbox<ServoSetpoint>& setpoints() noexcept { return setpoints_; }
   // From the network side: copied into each log record.
   void set_link_stats(std::int64_t rtt_ns, std::int64_t offset_ns) noexcept {
     link_rtt_ns_.store(rtt_ns, std::memory_order_relaxed);
@@ -150,7 +150,7 @@ class ServoLoop {
   ServoLogger* log_;
   int end_effectors_;  // the device's, fixed for the loop's life
   std::unique_ptr<TimingStats> stats_;  // ~120 kB: on the heap, allocated here
-  LatestMailbox<ServoSetpoint> setpoints_;
+  NewestMailbox<ServoSetpoint> setpoints_;
   ModelSnapshot empty_snapshot_;
   std::atomic<std::int64_t> link_rtt_ns_{-1}, link_offset_ns_{0};
   std::atomic<bool> stop_{false};

@@ -4,7 +4,7 @@
 
 namespace hemm::op {
 
-CommandSender::CommandSender(asio::io_context& io, servo::LatestMailbox<StationSetpoint>& setpoints, SendStream send,
+CommandSender::CommandSender(asio::io_context& io, NewestMailbox<StationSetpoint>& setpoints, SendStream send,
                              SendSession send_session, ModelThread* model, const CommandSenderParams& p, Clock clock,
                              LinkUp link_up)
     : timer_(io),

@@ -44,7 +44,7 @@ class CommandSender {
   // Throws std::invalid_argument if rate_hz is outside [100, 1000]. model may
   // be null (no prediction history). link_up may be null (always up); while
   // it says down nothing is sent (counted as link_down, not as failures).
-  CommandSender(asio::io_context& io, servo::LatestMailbox<StationSetpoint>& setpoints, SendStream send,
+  CommandSender(asio::io_context& io, NewestMailbox<StationSetpoint>& setpoints, SendStream send,
                 SendSession send_session, ModelThread* model, const CommandSenderParams& p, Clock clock,
                 LinkUp link_up = nullptr);
   void start();
@@ -62,7 +62,7 @@ class CommandSender {
   void arm();
 
   asio::steady_timer timer_;
-  servo::LatestMailbox<StationSetpoint>& setpoints_;
+  NewestMailbox<StationSetpoint>& setpoints_;
   SendStream send_;
   SendSession send_session_;
   ModelThread* model_;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <stdexcept>
 
 namespace hemm::op {
@@ -17,7 +18,6 @@ double offset_for_fraction(double a, double dead_band, double saturation) {
   return a < 0.0 ? -m : m;
 }
 
-double wrap_angle(double a) { return std::remainder(a, 2.0 * math::kPi); }
 }  // namespace
 
 std::string validate(const NavGoalParams& p) {
@@ -44,11 +44,11 @@ NavHandTarget hand_target_for_goal(const OperatorView& view, const Eigen::Vector
     out.arrived = true;
     return out;
   }
-  double e = wrap_angle(std::atan2(d_W.y(), d_W.x()) - view.T_W_R.theta);
+  double e = math::wrap_angle(std::atan2(d_W.y(), d_W.x()) - view.T_W_R.theta);
   double dir = 1.0;
-  if (final_goal && std::abs(e) > 0.5 * math::kPi && dist < p.reverse_range) {
+  if (final_goal && std::abs(e) > 0.5 * std::numbers::pi && dist < p.reverse_range) {
     dir = -1.0;  // close behind: back up, steering the robot's back onto the goal
-    e = wrap_angle(e - math::kPi);
+    e = math::wrap_angle(e - std::numbers::pi);
   }
   out.heading_error = e;
   const double cut = std::clamp(1.0 - std::abs(e) / p.turn_in_place, 0.0, 1.0);

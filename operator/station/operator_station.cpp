@@ -190,7 +190,7 @@ OperatorStation::OperatorStation(asio::io_context& io, OperatorClient& client, c
 OperatorStation::~OperatorStation() { stop(); }
 
 void OperatorStation::attach_view(ModelThread::SnapshotObserver on_snapshot,
-                                  servo::LatestMailbox<StationLogRecord>* ticks, std::atomic<std::uint32_t>* presses) {
+                                  NewestMailbox<StationLogRecord>* ticks, std::atomic<std::uint32_t>* presses) {
   if (started_) throw std::logic_error("OperatorStation::attach_view after start()");
   model_->set_snapshot_observer(std::move(on_snapshot));
   task_->set_view_outputs(ticks, presses);

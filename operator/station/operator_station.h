@@ -118,7 +118,7 @@ class OperatorStation {
 
   // The live view's taps (operator/view), before start(): the model
   // thread's snapshots, the servo task's per-tick record and button presses.
-  void attach_view(ModelThread::SnapshotObserver on_snapshot, servo::LatestMailbox<StationLogRecord>* ticks,
+  void attach_view(ModelThread::SnapshotObserver on_snapshot, NewestMailbox<StationLogRecord>* ticks,
                    std::atomic<std::uint32_t>* presses);
   // The session recorder's taps (operator/record), before start(): every
   // model step's inputs, every servo tick, every stream message received

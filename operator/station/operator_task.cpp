@@ -194,7 +194,7 @@ void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelS
     sp.moves_robot = true;
   }
   last_ = sp;
-  setpoints_.put(sp);
+  setpoints_.publish(sp);
 
   const Eigen::Vector3d F_W = force_gain_ * proxy_.force_W;  // rendered
   const Eigen::Vector3d F_B = math::force_W_to_B(T_W_R_, F_W);
@@ -245,7 +245,7 @@ void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelS
       r.has_truth = st.has_truth ? 1 : 0;
     }
     if (log_ != nullptr) log_->push(r);
-    if (view_ticks_ != nullptr) view_ticks_->put(r);
+    if (view_ticks_ != nullptr) view_ticks_->publish(r);
   }
   if (tick_tap_ != nullptr) {
     tap_record_.tick = out.setpoint.tick;

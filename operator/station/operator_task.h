@@ -63,7 +63,7 @@
 #include "common/math/workspace_maps.h"
 #include "operator/model/model_thread.h"
 #include "operator/servo/csv_logger.h"
-#include "operator/servo/latest_mailbox.h"
+#include "common/concurrency/newest_mailbox.h"
 #include "operator/servo/servo_loop.h"
 #include "operator/servo/spsc_ring.h"
 #include "wire.pb.h"
@@ -188,7 +188,7 @@ class OperatorServoTask final : public servo::ServoTask {
   void tick(const device::DeviceSample& in, const servo::ModelSnapshot& model,
             servo::TickOutput& out) noexcept override;
 
-  servo::LatestMailbox<StationSetpoint>& setpoints() noexcept { return setpoints_; }
+  NewestMailbox<StationSetpoint>& setpoints() noexcept { return setpoints_; }
   // Servo-thread side (or after the loop stopped).
   math::Mode mode() const noexcept { return mode_; }
   const haptics::ProxyData& proxy() const noexcept { return proxy_; }
@@ -208,7 +208,7 @@ class OperatorServoTask final : public servo::ServoTask {
   // tick's record (the one the world log gets) is put into `ticks`, and
   // button bits set in `presses` (by the view's keys) are taken each tick as
   // button presses. Both are lock-free: a copy and an atomic exchange.
-  void set_view_outputs(servo::LatestMailbox<StationLogRecord>* ticks,
+  void set_view_outputs(NewestMailbox<StationLogRecord>* ticks,
                         std::atomic<std::uint32_t>* presses) noexcept {
     view_ticks_ = ticks;
     view_presses_ = presses;
@@ -243,10 +243,10 @@ class OperatorServoTask final : public servo::ServoTask {
   std::uint64_t holds_ = 0;
   std::uint64_t ticks_ = 0;
   StationSetpoint last_;
-  servo::LatestMailbox<StationSetpoint> setpoints_;
+  NewestMailbox<StationSetpoint> setpoints_;
   StationLogger* log_;
   OperatorView* view_;
-  servo::LatestMailbox<StationLogRecord>* view_ticks_ = nullptr;
+  NewestMailbox<StationLogRecord>* view_ticks_ = nullptr;
   std::atomic<std::uint32_t>* view_presses_ = nullptr;
   ServoTickTap* tick_tap_ = nullptr;
   ServoTickRecord tap_record_;  // filled in place (no large stack copy per tick)

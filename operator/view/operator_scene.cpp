@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdarg>
 #include <cstdio>
+#include <numbers>
 
 #include "wire.pb.h"
 
@@ -98,7 +99,7 @@ view::Overlay make_operator_overlay(const OverlayInputs& in) {
   const StationLogRecord* t = in.tick;
   if (t != nullptr) {
     row("mode", fmt("%s  (scale %.1f: W m per device m)", mode_name(t->mode), t->scale));
-    row("robot (predicted)", fmt("x %.2f  y %.2f  heading %.1f deg", t->robot[0], t->robot[1], t->robot[2] * 180.0 / math::kPi));
+    row("robot (predicted)", fmt("x %.2f  y %.2f  heading %.1f deg", t->robot[0], t->robot[1], t->robot[2] * 180.0 / std::numbers::pi));
     row("force", fmt("%.2f N  (contacts %d)", std::hypot(t->force_W[0], t->force_W[1]), t->contacts));
   } else {
     row("mode", "(no servo tick yet)");

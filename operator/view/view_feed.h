@@ -22,7 +22,7 @@
 
 #include "common/mapping/local_map.h"
 #include "operator/model/model_thread.h"
-#include "operator/servo/latest_mailbox.h"
+#include "common/concurrency/newest_mailbox.h"
 #include "operator/servo/timing_stats.h"
 #include "operator/station/operator_task.h"
 
@@ -49,7 +49,7 @@ class ViewFeed {
   // ---- model thread ----
   void on_snapshot(const OperatorModelSnapshot& s);
   // ---- servo thread (through OperatorServoTask::set_view_outputs) ----
-  servo::LatestMailbox<StationLogRecord>& ticks() noexcept { return ticks_; }
+  NewestMailbox<StationLogRecord>& ticks() noexcept { return ticks_; }
   std::atomic<std::uint32_t>& presses() noexcept { return presses_; }
   // ---- view thread ----
   void press(std::uint32_t buttons) noexcept { presses_.fetch_or(buttons, std::memory_order_relaxed); }
@@ -65,7 +65,7 @@ class ViewFeed {
   std::mutex mu_;  // model thread (try_lock only) and view thread
   ViewModel slot_;
   bool fresh_ = false;
-  servo::LatestMailbox<StationLogRecord> ticks_;
+  NewestMailbox<StationLogRecord> ticks_;
   std::atomic<std::uint32_t> presses_{0};
   std::atomic<std::uint64_t> copies_{0}, busy_{0};
 };

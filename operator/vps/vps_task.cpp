@@ -1,21 +1,15 @@
 #include "operator/vps/vps_task.h"
 
-#include <time.h>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <stdexcept>
 
+#include "common/clock/steady_clock.h"
+
 namespace hemm::op {
 
 namespace {
-
-std::int64_t now_ns() noexcept {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);  // vDSO: no system call
-  return static_cast<std::int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
-}
 
 Eigen::Isometry3d pose_of(const device::EndEffectorSample& s) {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
@@ -114,7 +108,7 @@ Eigen::Isometry3d VpsServoTask::object_pose(int k) const {
 
 void VpsServoTask::tick(const device::DeviceSample& in, const servo::ModelSnapshot& /*snapshot*/,
                         servo::TickOutput& out) noexcept {
-  const std::int64_t t0 = now_ns();
+  const std::int64_t t0 = steady_now_ns();
   const int n = std::min(objects_, in.end_effectors);
   // Where each end-effector wants its object's centre of mass (T_W_D), and how fast.
   std::array<Eigen::Isometry3d, device::kMaxEndEffectors> T_W_D, T_W_E;
@@ -211,7 +205,7 @@ void VpsServoTask::tick(const device::DeviceSample& in, const servo::ModelSnapsh
   rec.levels = data_.levels_completed;
   stats_.max_work = std::max(stats_.max_work, data_.work);
   ++stats_.ticks;
-  rec.vps_ns = now_ns() - t0;
+  rec.vps_ns = steady_now_ns() - t0;
   vps_ns_.record(rec.vps_ns);
   if (log_ != nullptr) log_->push(rec);
 }

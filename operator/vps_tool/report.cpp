@@ -24,7 +24,6 @@ namespace {
 using Clock = std::chrono::steady_clock;
 using vps::Wrench;
 
-constexpr double kPi = std::numbers::pi;
 constexpr double kStiffness = 1e7;  // pressure stiffness K (N/m^3); errors are relative, K only scales
 
 // CPU time of this thread: excludes the time the shared machine gives to others.
@@ -62,7 +61,7 @@ struct Truth {
 Truth report_pose(double t, const vps::AssemblyLayout& L) {
   const double R = L.boss_radius, RL = L.drill_ball_radius;
   const Eigen::Vector3d hb = L.tank_half;
-  const double mm = 1e-3, w = 2 * kPi;
+  const double mm = 1e-3, w = 2 * std::numbers::pi;
   const double pen_r = (1.75 + 1.25 * std::sin(w * 0.7 * t)) * mm;
   const double pen_l = (1.75 + 1.25 * std::cos(w * 0.9 * t)) * mm;
   const double pen_rl = (1.25 + 0.75 * std::sin(w * 1.1 * t)) * mm;

@@ -2,7 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numbers>
+
+#include "common/math/frames.h"
 
 namespace hemm::robot {
 namespace {
@@ -38,15 +39,9 @@ void integrate_odometry(const SkidSteerGeometry& g, const WheelSpeeds& measured,
   const double mid = o.theta + half;
   o.x += b.v * dt * chord * std::cos(mid);
   o.y += b.v * dt * chord * std::sin(mid);
-  o.theta = wrap_angle(o.theta + b.omega * dt);
+  o.theta = math::wrap_angle(o.theta + b.omega * dt);
   o.v = b.v;
   o.omega = b.omega;
-}
-
-double wrap_angle(double a) {
-  constexpr double kPi = std::numbers::pi;
-  a = std::remainder(a, 2 * kPi);
-  return a <= -kPi ? a + 2 * kPi : a;
 }
 
 }  // namespace hemm::robot

@@ -5,6 +5,8 @@
 
 #include <cstdint>
 
+#include "common/math/workspace_maps.h"
+
 namespace hemm::robot {
 
 struct BaseLimits {
@@ -38,11 +40,9 @@ struct BaseSetpoint {
 BaseSetpoint slew_setpoint(const BaseLimits& limits, const BaseSetpoint& current, double v_cmd, double omega_cmd,
                            double dt);
 
-// Left/right wheel surface speeds (m/s) for a body motion.
-struct WheelSpeeds {
-  double left = 0.0;
-  double right = 0.0;
-};
+// Left/right wheel surface speeds (m/s) for a body motion: the same type the
+// HEMM navigation map produces (common/math/workspace_maps.h).
+using math::WheelSpeeds;
 WheelSpeeds wheel_speeds(const SkidSteerGeometry& geometry, const BaseSetpoint& setpoint);
 // Inverse: the body motion the model predicts from wheel surface speeds.
 BaseSetpoint body_motion(const SkidSteerGeometry& geometry, const WheelSpeeds& wheels);
@@ -57,8 +57,5 @@ struct Odometry {
 };
 // Integrates one period of measured wheel speeds (exact arc for constant speeds).
 void integrate_odometry(const SkidSteerGeometry& geometry, const WheelSpeeds& measured, double dt, Odometry& odometry);
-
-// Wraps an angle to (-pi, pi].
-double wrap_angle(double a);
 
 }  // namespace hemm::robot

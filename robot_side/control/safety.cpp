@@ -12,11 +12,10 @@ namespace hemm::robot {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
-constexpr double kPi = std::numbers::pi;
-constexpr double kSectorWidth = 2.0 * kPi / kGuardSectors;
+constexpr double kSectorWidth = 2.0 * std::numbers::pi / kGuardSectors;
 
 int sector_of(double bearing) {
-  const int k = static_cast<int>(std::floor((bearing + kPi) / kSectorWidth));
+  const int k = static_cast<int>(std::floor((bearing + std::numbers::pi) / kSectorWidth));
   return std::clamp(k, 0, kGuardSectors - 1);
 }
 
@@ -66,8 +65,8 @@ int circle_crossings(const Box2& b, double r, double* out) {
 
 // An angle in (0, 2 pi].
 double positive_turn(double a) {
-  a = std::fmod(a, 2.0 * kPi);
-  if (a <= 0.0) a += 2.0 * kPi;
+  a = std::fmod(a, 2.0 * std::numbers::pi);
+  if (a <= 0.0) a += 2.0 * std::numbers::pi;
   return a;
 }
 
@@ -78,7 +77,7 @@ double known_corridor_length(const KnownFree& known, double X, double h, double 
   double L = kInf;
   for (int k = 0; k < kGuardSectors; ++k) {
     const double rho = known[static_cast<std::size_t>(k)];
-    const double a0 = -kPi + k * kSectorWidth;
+    const double a0 = -std::numbers::pi + k * kSectorWidth;
     for (double a : {a0, a0 + 0.5 * kSectorWidth, a0 + kSectorWidth}) {
       const double c = sign * std::cos(a), s = std::abs(std::sin(a));
       if (c <= 0.0 || X * s > h * c) continue;  // the bearing never enters the corridor
@@ -209,7 +208,7 @@ void add_known_free(std::span<const Eigen::Vector2d> ends, std::span<const uint8
     if (j >= n || j == i || !known[j]) continue;
     const double b = std::atan2(ends[j].y(), ends[j].x());
     const double d = math::wrap_angle(b - a);
-    if (std::abs(d) >= 0.5 * kPi) continue;  // not neighbours as seen from the centre
+    if (std::abs(d) >= 0.5 * std::numbers::pi) continue;  // not neighbours as seen from the centre
     mark_arc(d >= 0.0 ? a : b, std::abs(d), std::min(rho, ends[j].norm()), out);
   }
 }

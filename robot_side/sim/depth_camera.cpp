@@ -1,6 +1,7 @@
 #include "robot_side/sim/depth_camera.h"
 
 #include <cmath>
+#include <numbers>
 
 namespace hemm::robot {
 
@@ -10,7 +11,7 @@ mapping::DepthIntrinsics SimDepthCameraParams::intrinsics() const {
 
 std::optional<std::string> check_params(const SimDepthCameraParams& p) {
   if (p.width < 1 || p.width > 1024 || p.height < 1 || p.height > 1024) return "depth camera: size not in 1..1024";
-  if (!(p.hfov > 0.0 && p.hfov < 170.0 * 3.14159265358979323846 / 180.0)) return "depth camera: hfov not in (0, 170) deg";
+  if (!(p.hfov > 0.0 && p.hfov < 170.0 * std::numbers::pi / 180.0)) return "depth camera: hfov not in (0, 170) deg";
   if (!(p.range_min > 0.0 && p.range_min < p.range_max && p.range_max <= 100.0))
     return "depth camera: need 0 < range_min < range_max <= 100 m";
   if (!(p.sigma_0 >= 0.0 && p.sigma_2 >= 0.0 && p.sigma_0 < 1.0 && p.sigma_2 < 1.0))

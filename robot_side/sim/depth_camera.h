@@ -14,6 +14,7 @@
 #pragma once
 
 #include <cstdint>
+#include <numbers>
 #include <optional>
 #include <random>
 #include <string>
@@ -27,7 +28,7 @@ struct SimDepthCameraParams {
   std::string name = "depth";
   int width = 80;
   int height = 60;
-  double hfov = 60.0 * 3.14159265358979323846 / 180.0;  // rad; vfov follows from square pixels (46.8 deg)
+  double hfov = 60.0 * std::numbers::pi / 180.0;  // rad; vfov follows from square pixels (46.8 deg)
   double range_min = 0.2;   // m along the ray (ToF modules: 0.1-0.5 m)
   double range_max = 3.0;   // m along the ray
   // Range noise sigma(r) = sigma_0 + sigma_2 r^2 (m), the quadratic growth of

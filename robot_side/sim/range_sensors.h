@@ -7,6 +7,7 @@
 #pragma once
 
 #include <cstdint>
+#include <numbers>
 #include <random>
 #include <string>
 
@@ -25,7 +26,7 @@ class RayCaster {
 struct SimLaserParams {
   std::string name = "laser";
   int beams = 181;
-  double fov = 3.14159265358979323846;  // rad
+  double fov = std::numbers::pi;  // rad
   double range_min = 0.05;
   double range_max = 10.0;
   double sigma = 0.01;
@@ -42,7 +43,7 @@ struct SimLaserParams {
 struct SimSonarParams {
   std::string name = "sonar";
   int count = 16;
-  double cone = 15.0 * 3.14159265358979323846 / 180.0;  // rad, full angle
+  double cone = 15.0 * std::numbers::pi / 180.0;  // rad, full angle
   int rays_per_cone = 5;
   double range_min = 0.1;
   double range_max = 5.0;

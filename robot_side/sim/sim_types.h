@@ -10,16 +10,14 @@
 #include <Eigen/Geometry>
 
 #include "common/kinematics/arm5.h"
+#include "common/math/frames.h"
 #include "wire.pb.h"
 
 namespace hemm::robot {
 
-// Planar pose T_W_R: position (m) and heading (rad, CCW from +x).
-struct Pose2 {
-  double x = 0.0;
-  double y = 0.0;
-  double theta = 0.0;
-};
+// Planar pose T_W_R: position (m) and heading (rad, CCW from +x); the one
+// SE(2) type of the project.
+using math::Pose2;
 
 // What the operator asks for (see hemm.wire.Command).
 struct BaseArmCommand {

@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "common/config/config.h"
-#include "common/net/mailbox.h"
+#include "common/concurrency/newest_mailbox.h"
 #include "common/net/station_cli.h"
 #include "config_robot.pb.h"
 #include "report.pb.h"
@@ -57,7 +57,7 @@ struct TimedCommand {
 struct RobotStation::Shared {
   RobotServer* server = nullptr;
   asio::io_context* io = nullptr;
-  net::NewestMailbox<TimedCommand> commands;  // network thread -> simulation thread
+  NewestMailbox<TimedCommand> commands;  // network thread -> simulation thread
   std::mutex req_mu;
   std::vector<Request> requests;  // guarded by req_mu
   std::atomic<bool> stop{false};

@@ -321,7 +321,7 @@ std::optional<VpsError> build_pointshell(const mesh::TriangleMesh& mesh, const P
     double best_d2;
     Eigen::Vector3d point;
   };
-  const double cos_group = std::cos(35.0 * 3.14159265358979 / 180.0);
+  const double cos_group = std::cos(35.0 * std::numbers::pi / 180.0);
   std::vector<Group> groups;
   for (std::size_t i = 0; i < parts.size();) {
     const std::size_t k = parts[i].voxel;

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <numbers>
 #include <random>
 #include <stdexcept>
 #include <vector>
@@ -171,7 +172,7 @@ struct BimanualPlant::Impl {
     owner[static_cast<std::size_t>(id_of(m.get(), mjOBJ_GEOM, "table"))] = kOwnerStatic;
     owner[static_cast<std::size_t>(id_of(m.get(), mjOBJ_GEOM, "column"))] = kOwnerStatic;
     std::mt19937_64 phases(cfg.model_error.seed + 99);
-    std::uniform_real_distribution<double> ph(0.0, 2.0 * M_PI);
+    std::uniform_real_distribution<double> ph(0.0, 2.0 * std::numbers::pi);
     for (ArmSide side : {ArmSide::kRight, ArmSide::kLeft}) {
       const int a = index(side);
       Arm& A = arm[static_cast<std::size_t>(a)];

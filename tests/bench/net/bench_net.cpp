@@ -9,7 +9,7 @@
 #include "common/net/clock_sync.h"
 #include "common/net/datagram.h"
 #include "common/net/framing.h"
-#include "common/net/mailbox.h"
+#include "common/concurrency/newest_mailbox.h"
 #include "common/net/replay_window.h"
 #include "common/net/stream_receiver.h"
 

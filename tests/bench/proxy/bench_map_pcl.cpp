@@ -2,6 +2,7 @@
 // purpose-built versions (polyline spacing, midpoint grid), on the same
 // SIMULATED 10k-point room scan. PCL stays in this TU only.
 #include <benchmark/benchmark.h>
+#include <numbers>
 
 #include <algorithm>
 #include <cmath>
@@ -30,7 +31,7 @@ std::vector<Vector2d> room_points(int n) {
   std::normal_distribution<double> noise(0.0, 0.01);
   std::vector<Vector2d> pts;
   for (int i = 0; i < n; ++i) {
-    const double a = -math::kPi + 2 * math::kPi * i / n;
+    const double a = -std::numbers::pi + 2 * std::numbers::pi * i / n;
     const Vector2d u(std::cos(a), std::sin(a));
     if (auto r = haptics::raycast(world, {0.1, 0}, u, 10.0)) pts.push_back(Vector2d(0.1, 0) + (*r + noise(rng)) * u);
   }
@@ -129,7 +130,7 @@ RoomScan room_only(int n) {
   std::normal_distribution<double> noise(0.0, 0.01);
   RoomScan r;
   for (int i = 0; i < n; ++i) {
-    const double a = -math::kPi + 2 * math::kPi * i / n;
+    const double a = -std::numbers::pi + 2 * std::numbers::pi * i / n;
     const Vector2d u(std::cos(a), std::sin(a));
     const auto d = haptics::raycast(world, {0.1, 0}, u, 20.0);
     if (!d) continue;
@@ -169,7 +170,7 @@ void BM_PclNormalEstimation(benchmark::State& state) {
     err += angle_between(Vector2d(nn.normal_x, nn.normal_y), r.truth[i]);
     ++cnt;
   }
-  state.counters["mean_err_deg"] = cnt ? err / static_cast<double>(cnt) * 180.0 / math::kPi : -1.0;
+  state.counters["mean_err_deg"] = cnt ? err / static_cast<double>(cnt) * 180.0 / std::numbers::pi : -1.0;
 }
 BENCHMARK(BM_PclNormalEstimation)->Arg(181)->Arg(1000)->Arg(10000)->Unit(benchmark::kMicrosecond);
 
@@ -178,8 +179,8 @@ void BM_SegmentNormals(benchmark::State& state) {
   // The same points as a scan (ranges from the sensor at (0.1, 0)).
   mapping::RangeScan2D s;
   s.T_W_R = {0.1, 0.0, 0.0};
-  s.angle_min = -math::kPi;
-  s.angle_step = 2 * math::kPi / static_cast<double>(state.range(0));
+  s.angle_min = -std::numbers::pi;
+  s.angle_step = 2 * std::numbers::pi / static_cast<double>(state.range(0));
   s.range_min = 0.05;
   s.range_max = 20.0;
   for (const auto& p : r.pts) {
@@ -206,7 +207,7 @@ void BM_SegmentNormals(benchmark::State& state) {
     err += angle_between(seg.normal, r.truth[best]);
     ++cnt;
   }
-  state.counters["mean_err_deg"] = cnt ? err / static_cast<double>(cnt) * 180.0 / math::kPi : -1.0;
+  state.counters["mean_err_deg"] = cnt ? err / static_cast<double>(cnt) * 180.0 / std::numbers::pi : -1.0;
   state.counters["segments"] = static_cast<double>(segs.size());
 }
 BENCHMARK(BM_SegmentNormals)->Arg(181)->Arg(1000)->Arg(10000)->Unit(benchmark::kMicrosecond);

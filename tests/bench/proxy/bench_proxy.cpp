@@ -2,6 +2,7 @@
 // reach, and map update time (scan -> segments -> window -> snapshot) against
 // the number of scan points. All inputs are SIMULATED, generated analytically.
 #include <benchmark/benchmark.h>
+#include <numbers>
 
 #include <algorithm>
 #include <cmath>
@@ -96,8 +97,8 @@ mapping::RangeScan2D room_scan(int points, std::int64_t stamp, double yaw) {
   s.stamp_ns = stamp;
   s.T_W_R = {0.1, 0.0, yaw};
   s.kind = mapping::SensorKind::kLaser;
-  s.angle_step = 2.0 * math::kPi / points;
-  s.angle_min = -math::kPi;
+  s.angle_step = 2.0 * std::numbers::pi / points;
+  s.angle_min = -std::numbers::pi;
   s.range_min = 0.05;
   s.range_max = 10.0;
   std::mt19937 rng(static_cast<std::uint32_t>(points));
@@ -155,8 +156,8 @@ void BM_AddScan30Hz(benchmark::State& state) {
     std::mt19937 rng(static_cast<std::uint32_t>(k + 1));
     std::normal_distribution<double> noise(0.0, 0.01);
     mapping::RangeScan2D f = s;  // keep the front 181 beams (-90 .. +90 deg)
-    f.angle_min = -0.5 * math::kPi;
-    f.angle_step = math::kPi / 180.0;
+    f.angle_min = -0.5 * std::numbers::pi;
+    f.angle_step = std::numbers::pi / 180.0;
     f.ranges.assign(s.ranges.begin() + 90, s.ranges.begin() + 271);
     f.valid.assign(s.valid.begin() + 90, s.valid.begin() + 271);
     for (float& r : f.ranges) r += static_cast<float>(noise(rng));  // plus a fresh draw: ~1.4 cm in all

@@ -24,7 +24,6 @@ namespace {
 using namespace hemm::net::relay;
 constexpr std::int64_t kMs = 1'000'000;
 
-std::int64_t now_ns() { return hemm::steady_now_ns(); }
 
 DirectionImpairment everything() {
   DirectionImpairment cfg;
@@ -93,7 +92,7 @@ void BM_RelayUdpTimingAccuracy(benchmark::State& state) {
         if (n < 8) continue;
         std::int64_t sent = 0;
         std::memcpy(&sent, buf, 8);
-        one_way_error.push_back(now_ns() - sent - 20 * kMs);
+        one_way_error.push_back(hemm::steady_now_ns() - sent - 20 * kMs);
       }
     });
     int client = ::socket(AF_INET, SOCK_DGRAM, 0);
@@ -103,12 +102,12 @@ void BM_RelayUdpTimingAccuracy(benchmark::State& state) {
     r.sin_port = htons(relay.udp_listen_port());
     const int n = per_second * 2;  // two seconds of traffic
     const std::int64_t period = 1'000'000'000 / per_second;
-    const std::int64_t t0 = now_ns();
+    const std::int64_t t0 = hemm::steady_now_ns();
     for (int i = 0; i < n; ++i) {
       std::this_thread::sleep_until(std::chrono::steady_clock::time_point(
           std::chrono::nanoseconds(t0 + i * period)));
       char buf[64] = {};
-      const std::int64_t t = now_ns();
+      const std::int64_t t = hemm::steady_now_ns();
       std::memcpy(buf, &t, 8);
       ::sendto(client, buf, sizeof(buf), 0, reinterpret_cast<sockaddr*>(&r), sizeof(r));
     }

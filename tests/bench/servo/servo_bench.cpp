@@ -123,11 +123,11 @@ void BM_SnapshotPublishAndAcquire(benchmark::State& state) {
 BENCHMARK(BM_SnapshotPublishAndAcquire);
 
 void BM_SetpointMailboxPutTake(benchmark::State& state) {
-  servo::LatestMailbox<servo::ServoSetpoint> m;
+  NewestMailbox<servo::ServoSetpoint> m;
   servo::ServoSetpoint sp, out;
   for (auto _ : state) {
     ++sp.tick;
-    m.put(sp);
+    m.publish(sp);
     benchmark::DoNotOptimize(m.take(out));
   }
 }

@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <numbers>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -57,7 +58,7 @@ TEST(Arm5Kinematics, ClosedFormMatchesElementaryChainAndDhTable) {
   std::mt19937_64 rng(7);
   for (int k = 0; k < 2000; ++k) {
     Arm5Vector q;
-    for (int i = 0; i < 5; ++i) q(i) = std::uniform_real_distribution<double>(-M_PI, M_PI)(rng);
+    for (int i = 0; i < 5; ++i) q(i) = std::uniform_real_distribution<double>(-std::numbers::pi, std::numbers::pi)(rng);
     const Eigen::Isometry3d T = hk::forward_kinematics(m, q);
     const Eigen::Isometry3d Te = elementary_chain(m, q);
     const Eigen::Isometry3d Td = hk::dh_forward_kinematics(m, q);
@@ -211,7 +212,7 @@ TEST(Arm5InverseKinematics, DampedRatesAreBoundedAtSingularities) {
   const hk::Arm5Model m;
   const double lambda = 0.02;
   const Eigen::Vector3d v(0.2, 0.0, 0.0);  // along the stretched arm: singular direction
-  for (const Arm5Vector& q : {Arm5Vector::Zero().eval(), (Arm5Vector() << 0, 1.5707963, 0, 0, 0).finished()}) {
+  for (const Arm5Vector& q : {Arm5Vector::Zero().eval(), (Arm5Vector() << 0, std::numbers::pi / 2, 0, 0, 0).finished()}) {
     const Arm5Vector qd = hk::damped_rates(m, q, v, lambda);
     ASSERT_TRUE(qd.allFinite());
     EXPECT_LE(qd.norm(), v.norm() / (2 * lambda) + 1e-9);

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <numbers>
 #include <optional>
 #include <random>
 #include <set>
@@ -15,7 +16,6 @@ namespace hemm::mapping {
 namespace {
 
 using Eigen::Vector2d;
-using math::kPi;
 using math::Pose2;
 
 // Exact test geometry: thin segments and solid circles.
@@ -66,11 +66,11 @@ test::SynthScanSpec sonar_ring(double sigma = 0.0) {
   test::SynthScanSpec s;
   s.kind = SensorKind::kSonar;
   s.beams = 16;
-  s.angle_min = -kPi + kPi / 16;
-  s.angle_step = 2 * kPi / 16;
+  s.angle_min = -std::numbers::pi + std::numbers::pi / 16;
+  s.angle_step = 2 * std::numbers::pi / 16;
   s.range_min = 0.1;
   s.range_max = 5.0;
-  s.beam_width = 15.0 * kPi / 180.0;
+  s.beam_width = 15.0 * std::numbers::pi / 180.0;
   s.rays_per_cone = 9;
   s.sigma = sigma;
   return s;
@@ -205,7 +205,7 @@ TEST(LocalMap, SingleDropoutBridgedLongerGapsNot) {
     return false;
   };
   EXPECT_TRUE(covered(0.0));                              // beam 90 bridged
-  EXPECT_FALSE(covered(2.0 * std::tan(10.5 * kPi / 180)));  // between beams 100 and 101: a hole
+  EXPECT_FALSE(covered(2.0 * std::tan(10.5 * std::numbers::pi / 180)));  // between beams 100 and 101: a hole
 }
 
 TEST(LocalMap, SonarInterpolation) {
@@ -241,14 +241,14 @@ TEST(LocalMap, SonarInterpolation) {
   // The front sonars (axes at +-11.25 deg, cones 3.75 .. 18.75 deg) echo at
   // r = 1.5 / cos(3.75 deg); their arcs then stay within
   // r (1 - cos(18.75 deg)) ~ 8 cm in front of the wall.
-  const double r_front = 1.5 / std::cos(3.75 * kPi / 180);
+  const double r_front = 1.5 / std::cos(3.75 * std::numbers::pi / 180);
   for (const Segment2& seg : map.segments) {
     if (std::abs(seg.a.y()) < 0.45) {
-      EXPECT_GT(seg.a.x(), r_front * std::cos(18.75 * kPi / 180) - 1e-3);
+      EXPECT_GT(seg.a.x(), r_front * std::cos(18.75 * std::numbers::pi / 180) - 1e-3);
     }
   }
   // Neighbours whose ranges disagree (a post in front of one sonar) are not bridged.
-  world.circles.push_back({{0.6, std::tan(kPi / 16) * 0.6}, 0.05});
+  world.circles.push_back({{0.6, std::tan(std::numbers::pi / 16) * 0.6}, 0.05});
   LocalMap map2;
   const RangeScan2D s2 = test::synth_scan(world.rayfn(), Pose2{}, Pose2{}, 0, spec);
   ASSERT_EQ(add_scan(p, map2, s2), "");
@@ -422,7 +422,7 @@ TEST(LocalMap, DenseScanDownSampledStaysOnWall) {
   world.segs.push_back({{3, -5}, {3, 5}});
   test::SynthScanSpec spec = laser(0.002);
   spec.beams = 10000;
-  spec.angle_step = kPi / 9999;
+  spec.angle_step = std::numbers::pi / 9999;
   MapParams p;
   p.min_point_spacing = 0.05;
   LocalMap map;
@@ -438,7 +438,7 @@ TEST(LocalMap, NormalsOnDenseNoisyScanFromPolylineFit) {
   world.segs.push_back({{3, -5}, {3, 5}});
   test::SynthScanSpec spec = laser(0.01, 9);
   spec.beams = 2000;
-  spec.angle_step = kPi / 1999;
+  spec.angle_step = std::numbers::pi / 1999;
   auto mean_error_deg = [&](double window) {
     MapParams p;
     p.normal_window = window;
@@ -446,7 +446,7 @@ TEST(LocalMap, NormalsOnDenseNoisyScanFromPolylineFit) {
     EXPECT_EQ(add_scan(p, map, test::synth_scan(world.rayfn(), Pose2{}, Pose2{}, 0, spec)), "");
     double err = 0;
     for (const Segment2& s : map.segments) err += std::acos(std::min(1.0, -s.normal.x()));
-    return err / static_cast<double>(map.segments.size()) * 180.0 / kPi;
+    return err / static_cast<double>(map.segments.size()) * 180.0 / std::numbers::pi;
   };
   const double fitted = mean_error_deg(0.2), raw = mean_error_deg(0.0);
   std::printf("wall normals, sigma 1 cm, 2000 beams: PCA window 0.2 m %.2f deg, per-segment %.2f deg\n", fitted, raw);
@@ -456,7 +456,7 @@ TEST(LocalMap, NormalsOnDenseNoisyScanFromPolylineFit) {
 
 TEST(LocalMap, SnapshotQueryMatchesBruteForce) {
   std::mt19937 rng(3);
-  std::uniform_real_distribution<double> u(-8, 8), len(0.0, 1.5), ang(-kPi, kPi);
+  std::uniform_real_distribution<double> u(-8, 8), len(0.0, 1.5), ang(-std::numbers::pi, std::numbers::pi);
   LocalMap map;
   for (int i = 0; i < 3000; ++i) {
     Segment2 s;
@@ -611,7 +611,7 @@ TEST(RayClearing, OutOfViewIsKeptUntilTheWindowDropsIt) {
   const std::size_t front = map.segments.size();
   // The robot turns round: the 180 deg scan now sees only the wall at x = -3.
   for (int k = 1; k <= 10; ++k)
-    ASSERT_EQ(add_scan(p, map, test::synth_scan(world.rayfn(), Pose2{0, 0, kPi}, Pose2{}, k * kScanPeriodNs,
+    ASSERT_EQ(add_scan(p, map, test::synth_scan(world.rayfn(), Pose2{0, 0, std::numbers::pi}, Pose2{}, k * kScanPeriodNs,
                                                 laser(0.005, 1u + static_cast<std::uint32_t>(k)))), "");
   EXPECT_EQ(count_stamp(map, 0), front);
   for (const Segment2& s : map.segments) {
@@ -633,11 +633,11 @@ TEST(RayClearing, OutOfViewIsKeptUntilTheWindowDropsIt) {
 TEST(RayClearing, SilhouetteEdgeNotClearedByBeamPastIt) {
   Shapes world;
   world.segs.push_back({{3, -5}, {3, 5}});
-  const double w = 1.5 * std::tan(11.7 * kPi / 180);
+  const double w = 1.5 * std::tan(11.7 * std::numbers::pi / 180);
   add_box(world, {1.5, -w}, {1.7, w});
   test::SynthScanSpec fine = laser();
   fine.beams = 901;
-  fine.angle_step = kPi / 900;
+  fine.angle_step = std::numbers::pi / 900;
   MapParams p;
   LocalMap map;
   ASSERT_EQ(add_scan(p, map, test::synth_scan(world.rayfn(), Pose2{}, Pose2{}, 0, fine)), "");
@@ -669,7 +669,7 @@ TEST(RayClearing, SilhouetteEdgeNotClearedByBeamPastIt) {
   for (const Segment2& s : map.segments)
     if (on_box(s)) edge = std::max({edge, std::abs(s.a.y()), std::abs(s.b.y())});
   EXPECT_DOUBLE_EQ(edge, old_edge);
-  EXPECT_GT(old_edge, 1.5 * std::tan(11.5 * kPi / 180));  // past the last coarse box beam's cell
+  EXPECT_GT(old_edge, 1.5 * std::tan(11.5 * std::numbers::pi / 180));  // past the last coarse box beam's cell
 }
 
 // Both endpoints AND the midpoint must be seen through: a long chord (bridged
@@ -795,7 +795,7 @@ TEST(RayClearing, SonarClearsSonarOnlyAndLaserClearsLaserOnly) {
   int front_old = 0;
   for (const Segment2& s : map.segments) {
     const Vector2d m = 0.5 * (s.a + s.b);
-    front_old += s.stamp_ns == t3 && std::abs(std::atan2(m.y(), m.x())) < 30.0 * kPi / 180 ? 1 : 0;
+    front_old += s.stamp_ns == t3 && std::abs(std::atan2(m.y(), m.x())) < 30.0 * std::numbers::pi / 180 ? 1 : 0;
   }
   EXPECT_EQ(front_old, 0);
   EXPECT_LT(count_stamp(map, t3), count_stamp(map, t4));

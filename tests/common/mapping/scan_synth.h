@@ -3,6 +3,7 @@
 // against exact geometry (the caller supplies the ray cast).
 #include <cmath>
 #include <cstdint>
+#include <numbers>
 #include <optional>
 #include <random>
 
@@ -15,8 +16,8 @@ namespace hemm::test {
 struct SynthScanSpec {
   mapping::SensorKind kind = mapping::SensorKind::kLaser;
   int beams = 181;
-  double angle_min = -math::kPi / 2;
-  double angle_step = math::kPi / 180;
+  double angle_min = -std::numbers::pi / 2;
+  double angle_step = std::numbers::pi / 180;
   double range_min = 0.05;
   double range_max = 10.0;
   double sigma = 0.0;             // range noise, m

@@ -1,5 +1,6 @@
 #include "common/math/frames.h"
 
+#include <numbers>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -35,10 +36,10 @@ TEST(Frames, ComposeInverseRoundTrip) {
 }
 
 TEST(Frames, WrapAngle) {
-  EXPECT_NEAR(wrap_angle(3.0 * kPi), kPi, 1e-12);
-  EXPECT_NEAR(wrap_angle(-3.0 * kPi), kPi, 1e-12);
+  EXPECT_NEAR(wrap_angle(3.0 * std::numbers::pi), std::numbers::pi, 1e-12);
+  EXPECT_NEAR(wrap_angle(-3.0 * std::numbers::pi), std::numbers::pi, 1e-12);
   EXPECT_NEAR(wrap_angle(0.5), 0.5, 1e-15);
-  EXPECT_NEAR(wrap_angle(2.0 * kPi + 0.25), 0.25, 1e-12);
+  EXPECT_NEAR(wrap_angle(2.0 * std::numbers::pi + 0.25), 0.25, 1e-12);
 }
 
 TEST(Geometry2, ClosestPointOnSegment) {

@@ -1,6 +1,7 @@
 #include "common/math/workspace_maps.h"
 
 #include <gtest/gtest.h>
+#include <numbers>
 
 namespace hemm::math {
 namespace {
@@ -18,7 +19,7 @@ TEST(WorkspaceMaps, ExplorationScaleFollowsSensorRange) {
   const ExplorationMap e = make_exploration_map(kOmni, 10.0);
   const Eigen::Vector3d left_edge_B(0.0, 0.08, 0.0);
   EXPECT_NEAR((exploration_point_R(e, left_edge_B) - Eigen::Vector3d(0, 10, 0)).norm(), 0.0, 1e-12);
-  const Pose2 T_W_R{2.0, -1.0, kPi / 2};  // robot facing +y in W
+  const Pose2 T_W_R{2.0, -1.0, std::numbers::pi / 2};  // robot facing +y in W
   // R's +y (left) is W's -x when the robot faces +y.
   EXPECT_NEAR((exploration_point_W(e, T_W_R, left_edge_B) - Eigen::Vector3d(2.0 - 10.0, -1.0, 0)).norm(), 0.0,
               1e-9);
@@ -117,7 +118,7 @@ TEST(WorkspaceMaps, ReanchorKeepsSpringVectorAcrossSwitch) {
 }
 
 TEST(WorkspaceMaps, ForceIntoDeviceFrame) {
-  const Pose2 T_W_R{0, 0, kPi / 2};
+  const Pose2 T_W_R{0, 0, std::numbers::pi / 2};
   // A force along W's +x is along R's -y (the robot faces +y).
   const Eigen::Vector3d F_B = force_W_to_B(T_W_R, {1.0, 0.0, 0.0});
   EXPECT_NEAR((F_B - Eigen::Vector3d(0, -1, 0)).norm(), 0.0, 1e-12);

@@ -14,7 +14,6 @@
 namespace hemm::test {
 namespace {
 
-int64_t now_ns() { return steady_now_ns(); }
 
 sockaddr_in loopback(int port) {
   sockaddr_in a{};
@@ -84,7 +83,7 @@ void LinkTap::run() {
   const sockaddr_in server_udp = loopback(o_.server_udp_port);
   std::vector<uint8_t> buf(65536);
   while (!stop_.load()) {
-    const int64_t now = now_ns();
+    const int64_t now = hemm::steady_now_ns();
     while (!held.empty() && held.front().release_ns <= now) {
       ::sendto(udp_back_, held.front().bytes.data(), held.front().bytes.size(), 0,
                reinterpret_cast<const sockaddr*>(&server_udp), sizeof server_udp);
@@ -125,9 +124,9 @@ void LinkTap::run() {
         }
         {
           std::lock_guard<std::mutex> lk(mu_);
-          datagrams_.push_back({true, now_ns(), d});
+          datagrams_.push_back({true, hemm::steady_now_ns(), d});
         }
-        held.push_back({now_ns() + int64_t{o_.c2s_delay_ms} * 1'000'000, std::move(d)});
+        held.push_back({hemm::steady_now_ns() + int64_t{o_.c2s_delay_ms} * 1'000'000, std::move(d)});
       }
     }
     if (fds[2].revents & POLLIN) {
@@ -137,7 +136,7 @@ void LinkTap::run() {
                  sizeof client);
         ++s2c_forwarded_;
         std::lock_guard<std::mutex> lk(mu_);
-        datagrams_.push_back({false, now_ns(), std::vector<uint8_t>(buf.begin(), buf.begin() + n)});
+        datagrams_.push_back({false, hemm::steady_now_ns(), std::vector<uint8_t>(buf.begin(), buf.begin() + n)});
       }
     }
     if (fds[3].revents & POLLIN) {

@@ -20,6 +20,7 @@
 // OpenGL (llvmpipe, one thread) renders at a lowered priority.
 #include <gtest/gtest.h>
 #include <mujoco/mujoco.h>
+#include <numbers>
 #include <sys/stat.h>
 
 #include <Eigen/Core>
@@ -61,13 +62,13 @@ struct Camera {
     std::istringstream in(text);
     double lx, ly, lz, dist, az, el, fovy;
     if (!(in >> lx >> ly >> lz >> dist >> az >> el >> fovy)) return std::nullopt;
-    const double a = az * M_PI / 180, e = el * M_PI / 180;
+    const double a = az * std::numbers::pi / 180, e = el * std::numbers::pi / 180;
     Camera c;
     c.forward = Eigen::Vector3d(std::cos(e) * std::cos(a), std::cos(e) * std::sin(a), std::sin(e));
     c.up = Eigen::Vector3d(-std::sin(e) * std::cos(a), -std::sin(e) * std::sin(a), std::cos(e));
     c.right = c.forward.cross(c.up);
     c.pos = Eigen::Vector3d(lx, ly, lz) - dist * c.forward;
-    c.f_px = 0.5 * height / std::tan(0.5 * fovy * M_PI / 180);
+    c.f_px = 0.5 * height / std::tan(0.5 * fovy * std::numbers::pi / 180);
     c.width = width;
     c.height = height;
     return c;

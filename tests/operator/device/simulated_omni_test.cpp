@@ -4,6 +4,7 @@
 #include "operator/device/simulated_omni.h"
 
 #include <gtest/gtest.h>
+#include <numbers>
 
 #include <cmath>
 #include <limits>
@@ -42,7 +43,7 @@ TEST(SimulatedOmni, FreeHandFollowsStepTargetLikeTheClosedFormSpringDamper) {
   // Semi-implicit Euler with 8 sub-steps: O(h) error (0.11 % of A measured).
   EXPECT_LT(max_err, 0.003 * A);
   // Overshoot of an underdamped second-order system: exp(-pi zeta / sqrt(1 - zeta^2)).
-  EXPECT_NEAR(overshoot / A, std::exp(-M_PI * zeta / std::sqrt(1 - zeta * zeta)), 0.002);
+  EXPECT_NEAR(overshoot / A, std::exp(-std::numbers::pi * zeta / std::sqrt(1 - zeta * zeta)), 0.002);
   EXPECT_NEAR(d.position_H.x(), A, 1e-6 * A);
   EXPECT_NEAR(d.t_s, 2.0, 1e-9);
 }

@@ -5,6 +5,7 @@
 #include "operator/device/trajectory_csv.h"
 
 #include <gtest/gtest.h>
+#include <numbers>
 
 #include <algorithm>
 #include <cstdio>
@@ -195,7 +196,7 @@ TEST(TrajectoryCsv, ParsesVersion2WithTwoEndEffectorsAndTheirHandles) {
   EXPECT_EQ(s.end_effectors, 2);
   const EndEffectorSample& l = s.ee[0];
   EXPECT_EQ(l.position_H, Vector3d(-0.3, 0.1, 0));
-  EXPECT_NEAR(l.orientation_H.angularDistance(Eigen::Quaterniond(Eigen::AngleAxisd(M_PI / 2, Vector3d::UnitZ()))),
+  EXPECT_NEAR(l.orientation_H.angularDistance(Eigen::Quaterniond(Eigen::AngleAxisd(std::numbers::pi / 2, Vector3d::UnitZ()))),
               0.0, 1e-12);
   EXPECT_EQ(l.velocity_H, Vector3d(0.1, 0, -0.2));
   EXPECT_EQ(l.angular_velocity_H, Vector3d(0, 0, 1.5));

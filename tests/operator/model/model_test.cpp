@@ -1,6 +1,7 @@
 // Wire -> RangeScan2D conversion (validation, chunks, clock offset) and the
 // model thread's step (map, rejects, prediction, snapshots).
 #include <gtest/gtest.h>
+#include <numbers>
 
 #include <algorithm>
 #include <chrono>
@@ -28,7 +29,7 @@ hw::RangeScan wall_scan(double wall_x, hm::Pose2 T_W_R, std::int64_t stamp, std:
   m.mutable_t_w_r()->set_y(T_W_R.y);
   m.mutable_t_w_r()->set_theta(T_W_R.theta);
   m.mutable_t_r_s()->mutable_orientation()->set_w(1.0);
-  const double a0 = -hm::kPi / 3, step = hm::kPi / 180;
+  const double a0 = -std::numbers::pi / 3, step = std::numbers::pi / 180;
   m.set_angle_min(a0);
   m.set_angle_step(step);
   m.set_beam_count(121);
@@ -51,7 +52,7 @@ TEST(ScanFromWire, ConvertsChunksAndMapsTheClock) {
   hemm::mapping::RangeScan2D s;
   ASSERT_FALSE(ho::scan_from_wire(m, 1'000'000'000, &s));
   EXPECT_EQ(s.stamp_ns, 4'000'000'000);  // robot clock minus (robot - local)
-  EXPECT_NEAR(s.angle_min, -hm::kPi / 3 + 30 * hm::kPi / 180, 1e-12);
+  EXPECT_NEAR(s.angle_min, -std::numbers::pi / 3 + 30 * std::numbers::pi / 180, 1e-12);
   EXPECT_EQ(s.ranges.size(), 40u);
   EXPECT_NEAR(s.T_R_S.theta, yaw, 1e-12);
   EXPECT_NEAR(s.T_R_S.x, 0.2, 1e-12);

@@ -1,6 +1,7 @@
 // Pose prediction: exact unicycle arcs, and prediction under a synthetic link
 // delay against a simulated unicycle's truth.
 #include <gtest/gtest.h>
+#include <numbers>
 
 #include <cmath>
 #include <cstdio>
@@ -23,13 +24,13 @@ TEST(IntegrateUnicycle, ClosedForms) {
   EXPECT_NEAR(p.y, 2.0 + 1.0 * std::sin(0.5), 1e-12);
   EXPECT_NEAR(p.theta, 0.5, 1e-12);
   // Quarter circle of radius v / omega = 2 from the origin heading +x: ends at (2, 2) heading +y.
-  p = ho::integrate_unicycle({0, 0, 0}, 1.0, 0.5, hm::kPi);
+  p = ho::integrate_unicycle({0, 0, 0}, 1.0, 0.5, std::numbers::pi);
   EXPECT_NEAR(p.x, 2.0, 1e-12);
   EXPECT_NEAR(p.y, 2.0, 1e-12);
-  EXPECT_NEAR(p.theta, hm::kPi / 2, 1e-12);
+  EXPECT_NEAR(p.theta, std::numbers::pi / 2, 1e-12);
   // A full circle returns to the start; split into many steps it agrees too.
   hm::Pose2 q{0.3, -0.2, 1.0};
-  for (int i = 0; i < 1000; ++i) q = ho::integrate_unicycle(q, 0.7, 0.35, 2 * hm::kPi / 0.35 / 1000);
+  for (int i = 0; i < 1000; ++i) q = ho::integrate_unicycle(q, 0.7, 0.35, 2 * std::numbers::pi / 0.35 / 1000);
   EXPECT_NEAR(q.x, 0.3, 1e-9);
   EXPECT_NEAR(q.y, -0.2, 1e-9);
   EXPECT_NEAR(hm::wrap_angle(q.theta - 1.0), 0.0, 1e-9);

@@ -9,6 +9,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <numbers>
 
 #include <gtest/gtest.h>
 
@@ -112,8 +113,8 @@ TEST(ScanRegistration, RouteWithFourTurnsArrivesWithinTenCentimetresOfTheTrueGoa
     std::printf("seed %u: pose error after the route: odometry %.3f m / %.1f deg, registered %.3f m / %.1f deg; "
                 "true distance to the goal at arrival: odometry %.3f m, registered %.3f m; registrations "
                 "accepted %llu, rejected %llu, degenerate %llu, last rms %.4f m\n",
-                seed, without.est_error, without.heading_error * 180 / math::kPi, with.est_error,
-                with.heading_error * 180 / math::kPi, without.goal_true, with.goal_true,
+                seed, without.est_error, without.heading_error * 180 / std::numbers::pi, with.est_error,
+                with.heading_error * 180 / std::numbers::pi, without.goal_true, with.goal_true,
                 static_cast<unsigned long long>(with.stats.accepted),
                 static_cast<unsigned long long>(with.stats.rejected),
                 static_cast<unsigned long long>(with.stats.degenerate), with.stats.last_rms);

@@ -4,9 +4,10 @@
 // nothing); and a session recorded from a model thread and a servo task
 // replays to the same forces bit for bit, while a changed recorded force is
 // caught.
-#include <gtest/gtest.h>
 #include <google/protobuf/io/zero_copy_stream_impl_lite.h>
 #include <google/protobuf/util/delimited_message_util.h>
+#include <gtest/gtest.h>
+#include <numbers>
 
 #include <cmath>
 #include <cstdio>
@@ -72,7 +73,7 @@ hw::RangeScan wall_ahead(double d, double robot_x, std::int64_t stamp, std::uint
   m.set_sensor_name("laser");
   m.mutable_t_w_r()->set_x(robot_x);
   m.mutable_t_r_s()->mutable_orientation()->set_w(1.0);
-  const double a0 = -M_PI / 4, step = M_PI / 180;
+  const double a0 = -std::numbers::pi / 4, step = std::numbers::pi / 180;
   m.set_angle_min(a0);
   m.set_angle_step(step);
   m.set_beam_count(91);

@@ -16,6 +16,7 @@
 
 #include <cmath>
 #include <cstdint>
+#include <numbers>
 #include <vector>
 
 #include "operator/device/haptic_device.h"
@@ -24,7 +25,7 @@ namespace hemm::test {
 
 class TwoHandDevice final : public device::HapticDevice {
  public:
-  static constexpr double kW = 2.0 * M_PI;  // rad/s
+  static constexpr double kW = 2.0 * std::numbers::pi;  // rad/s
   static constexpr double kRadius = 0.05;   // m
   static constexpr double kBob = 0.03;      // m
   static constexpr std::uint64_t kDisabledFrom = 300, kDisabledTo = 400;

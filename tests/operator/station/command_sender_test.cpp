@@ -15,7 +15,7 @@ namespace {
 
 struct Fixture {
   asio::io_context io;
-  hemm::servo::LatestMailbox<ho::StationSetpoint> box;
+  hemm::NewestMailbox<ho::StationSetpoint> box;
   std::vector<hw::Command> sent;
   std::vector<hw::SessionFrame> frames;
   bool fail = false;
@@ -52,7 +52,7 @@ TEST(CommandSender, DeadmanModeFramesAndHistory) {
   f.sender.send_once();
   EXPECT_TRUE(f.sent.empty());  // nothing from the servo yet
 
-  f.box.put(nav(f.now, 0.4, 0.1));
+  f.box.publish(nav(f.now, 0.4, 0.1));
   f.sender.send_once();
   ASSERT_EQ(f.sent.size(), 1u);
   EXPECT_TRUE(f.sent[0].deadman());
@@ -79,7 +79,7 @@ TEST(CommandSender, DeadmanModeFramesAndHistory) {
   ho::StationSetpoint e;
   e.t_ns = f.now;
   e.mode = hm::Mode::kExploration;
-  f.box.put(e);
+  f.box.publish(e);
   f.sender.send_once();
   EXPECT_FALSE(f.sent.back().deadman());
   ASSERT_EQ(f.frames.size(), 2u);
@@ -92,7 +92,7 @@ TEST(CommandSender, DeadmanModeFramesAndHistory) {
   m.arm_target_R = {0.4, 0.1, 0.3};
   m.arm_valid = true;
   m.moves_robot = true;
-  f.box.put(m);
+  f.box.publish(m);
   f.sender.send_once();
   EXPECT_TRUE(f.sent.back().deadman());
   EXPECT_DOUBLE_EQ(f.sent.back().arm_target().x(), 0.4);
@@ -114,7 +114,7 @@ TEST(CommandSender, DeadmanModeFramesAndHistory) {
 // back the session hears the mode again.
 TEST(CommandSender, LinkDownSendsNothingAndRepeatsTheModeAfterwards) {
   Fixture f;
-  f.box.put(nav(f.now, 0.4, 0.1));
+  f.box.publish(nav(f.now, 0.4, 0.1));
   f.sender.send_once();
   ASSERT_EQ(f.sent.size(), 1u);
   ASSERT_EQ(f.frames.size(), 1u);
@@ -136,11 +136,11 @@ TEST(CommandSender, LinkDownSendsNothingAndRepeatsTheModeAfterwards) {
 TEST(CommandSender, DeviceEStopGoesAsAnEStopFrameWithARequestId) {
   Fixture f;
   ho::StationSetpoint sp = nav(f.now, 0.4, 0.1);
-  f.box.put(sp);
+  f.box.publish(sp);
   f.sender.send_once();
   ASSERT_EQ(f.frames.size(), 1u);  // the mode
   sp.estop_presses = 1;
-  f.box.put(sp);
+  f.box.publish(sp);
   f.sender.send_once();
   ASSERT_EQ(f.frames.size(), 2u);
   ASSERT_TRUE(f.frames[1].has_estop());
@@ -151,7 +151,7 @@ TEST(CommandSender, DeviceEStopGoesAsAnEStopFrameWithARequestId) {
   EXPECT_EQ(f.frames.size(), 2u);
   f.up = false;
   sp.estop_presses = 2;
-  f.box.put(sp);
+  f.box.publish(sp);
   f.sender.send_once();
   EXPECT_EQ(f.frames.size(), 2u);
   f.up = true;
@@ -177,7 +177,7 @@ TEST(CommandSender, SentCommandsDriveThePrediction) {
   st.set_stamp_ns(f.now);
   st.mutable_t_w_r_odom()->set_theta(0.0);
   f.model.submit_state(st);
-  f.box.put(nav(f.now, 0.4, 0.0));
+  f.box.publish(nav(f.now, 0.4, 0.0));
   f.sender.send_once();  // v = 0.4 from f.now (delay 0)
   f.model.step(f.now + 1'000'000'000);
   const auto* snap = static_cast<const ho::OperatorModelSnapshot*>(f.channel.acquire());
@@ -187,7 +187,7 @@ TEST(CommandSender, SentCommandsDriveThePrediction) {
 
 TEST(CommandSender, RateOnTheIoContext) {
   Fixture f;
-  f.box.put(nav(f.now, 0.1, 0.0));
+  f.box.publish(nav(f.now, 0.1, 0.0));
   f.sender.start();
   const auto t0 = std::chrono::steady_clock::now();
   f.io.run_for(std::chrono::milliseconds(500));
@@ -201,7 +201,7 @@ TEST(CommandSender, RateOnTheIoContext) {
 
 TEST(CommandSender, RejectsRatesOutsideTheWireContract) {
   asio::io_context io;
-  hemm::servo::LatestMailbox<ho::StationSetpoint> box;
+  hemm::NewestMailbox<ho::StationSetpoint> box;
   auto send = [](const hw::StreamMessage&) { return true; };
   auto clock = [] { return std::int64_t{0}; };
   EXPECT_THROW(ho::CommandSender(io, box, send, nullptr, nullptr, ho::CommandSenderParams{50.0, 0}, clock),

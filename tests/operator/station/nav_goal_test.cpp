@@ -9,6 +9,7 @@
 // station summary's JSON. Simulated time only: nothing sleeps.
 #include <google/protobuf/util/json_util.h>
 #include <gtest/gtest.h>
+#include <numbers>
 
 #include <cmath>
 #include <cstdio>
@@ -67,7 +68,7 @@ TEST(HandTarget, GoalLeftOrRightTurnsTheRightWayFirst) {
   // Left (+y in W for a robot heading +x): counter-clockwise, stylus to the left (-x_H).
   ho::NavHandTarget t = ho::hand_target_for_goal(view_at(0, 0, 0), {0, 2}, p);
   EXPECT_LT(t.position_H.x(), -p.nav.dead_band);
-  EXPECT_NEAR(t.heading_error, hm::kPi / 2, 1e-12);
+  EXPECT_NEAR(t.heading_error, std::numbers::pi / 2, 1e-12);
   hm::BaseCommand c = command_for(p, t.position_H);
   EXPECT_NEAR(c.omega, p.omega_cruise, 1e-9);  // k * pi/2 > cruise: capped
   EXPECT_EQ(c.v, 0.0);                         // 90 deg > turn_in_place: no forward push
@@ -88,16 +89,16 @@ TEST(HandTarget, GoalLeftOrRightTurnsTheRightWayFirst) {
 TEST(HandTarget, FramesFollowTheRobotsHeading) {
   const ho::NavGoalParams p;
   // Robot at (1, 1) heading +y: a goal at (1, 3) is straight ahead, (3, 1) is to its right.
-  ho::NavHandTarget t = ho::hand_target_for_goal(view_at(1, 1, hm::kPi / 2), {1, 3}, p);
+  ho::NavHandTarget t = ho::hand_target_for_goal(view_at(1, 1, std::numbers::pi / 2), {1, 3}, p);
   hm::BaseCommand c = command_for(p, t.position_H);
   EXPECT_NEAR(c.v, p.v_cruise, 1e-9);
   EXPECT_NEAR(c.omega, 0.0, 1e-9);
-  t = ho::hand_target_for_goal(view_at(1, 1, hm::kPi / 2), {3, 1}, p);
+  t = ho::hand_target_for_goal(view_at(1, 1, std::numbers::pi / 2), {3, 1}, p);
   c = command_for(p, t.position_H);
   EXPECT_LT(c.omega, 0.0);
   // Heading wraps: theta = 3 pi and theta = pi are the same robot.
-  const ho::NavHandTarget a = ho::hand_target_for_goal(view_at(0, 0, 3 * hm::kPi), {-1, 0.5}, p);
-  const ho::NavHandTarget b = ho::hand_target_for_goal(view_at(0, 0, hm::kPi), {-1, 0.5}, p);
+  const ho::NavHandTarget a = ho::hand_target_for_goal(view_at(0, 0, 3 * std::numbers::pi), {-1, 0.5}, p);
+  const ho::NavHandTarget b = ho::hand_target_for_goal(view_at(0, 0, std::numbers::pi), {-1, 0.5}, p);
   EXPECT_TRUE(a.position_H.isApprox(b.position_H, 1e-9));
 }
 
@@ -237,17 +238,17 @@ TEST(NavGoalHand, MovesTheStylusAtBoundedSpeedAndFollowsTheRoute) {
   EXPECT_LT(command_for(p, prev).omega, 0.0);
   EXPECT_FALSE(hand.arrived());
   // At the last goal: arrived, stylus back to the centre, first arrival time kept.
-  *view = view_at(1.0, -1.97, -hm::kPi / 2);
+  *view = view_at(1.0, -1.97, -std::numbers::pi / 2);
   for (int i = 1; i <= 2000; ++i) prev = hand.at(4.0 + i * dt).position_H;
   EXPECT_TRUE(hand.arrived());
   EXPECT_EQ(prev, Eigen::Vector3d::Zero());
   EXPECT_NEAR(hand.first_arrival_s(), 4.001, 1e-9);
   EXPECT_EQ(hand.arrivals(), 1u);
   // Drifts away beyond the tolerance: drives again; back: a second arrival.
-  *view = view_at(1.0, -1.6, -hm::kPi / 2);
+  *view = view_at(1.0, -1.6, -std::numbers::pi / 2);
   hand.at(6.001);
   EXPECT_FALSE(hand.arrived());
-  *view = view_at(1.0, -2.0, -hm::kPi / 2);
+  *view = view_at(1.0, -2.0, -std::numbers::pi / 2);
   hand.at(6.002);
   EXPECT_TRUE(hand.arrived());
   EXPECT_EQ(hand.arrivals(), 2u);

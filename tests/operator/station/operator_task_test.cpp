@@ -2,6 +2,7 @@
 // switching without force jumps, navigation force rising toward a wall (and
 // the command stopping the robot short of it), and no allocation on tick.
 #include <gtest/gtest.h>
+#include <numbers>
 
 #include <cmath>
 #include <vector>
@@ -77,7 +78,7 @@ TEST(Exploration, WallAheadOfATurnedRobotPushesTheStylusBack) {
   // Robot at (1, 1) heading +y; wall y = 2 in W (1 m ahead). Exploration scale 50.
   ho::OperatorTaskParams p;
   Runner r(p);
-  const auto snap = wall_snapshot({-1, 2}, {3, 2}, {0, -1}, {1, 1, hm::kPi / 2});
+  const auto snap = wall_snapshot({-1, 2}, {3, 2}, {0, -1}, {1, 1, std::numbers::pi / 2});
   // Stylus forward 20.4 mm -> 1.02 m ahead: 0.02 + probe radius 0.03 = 0.05 m past the proxy's stop.
   const double xb = 1.02 / 50.0;
   const hs::TickOutput out = r.move(*snap, H(0, 0, 0), H(xb, 0, 0), 500, 300);
@@ -141,7 +142,7 @@ TEST(Navigation, PointStartsAheadOfTheChassis) {
 TEST(Modes, ButtonsCycleAndSwitchingKeepsTheForce) {
   ho::OperatorTaskParams p;
   Runner r(p);
-  const auto snap = wall_snapshot({-3, 1}, {3, 1}, {0, -1}, {0, 0, hm::kPi / 2});  // wall 1 m ahead
+  const auto snap = wall_snapshot({-3, 1}, {3, 1}, {0, -1}, {0, 0, std::numbers::pi / 2});  // wall 1 m ahead
   const double xb = 1.03 / 50.0;  // 0.06 past the proxy's stop in exploration
   hs::TickOutput out = r.move(*snap, H(0, 0, 0), H(xb, 0, 0), 500, 300);
   const double f0 = out.command.ee[0].force_H.norm();
@@ -182,7 +183,7 @@ TEST(Modes, ButtonsCycleAndSwitchingKeepsTheForce) {
 TEST(Modes, AnchorRelaxesAtBoundedForceRate) {
   ho::OperatorTaskParams p;
   Runner r(p);
-  const auto snap = wall_snapshot({-3, 1}, {3, 1}, {0, -1}, {0, 0, hm::kPi / 2});
+  const auto snap = wall_snapshot({-3, 1}, {3, 1}, {0, -1}, {0, 0, std::numbers::pi / 2});
   const double xb = 1.03 / 50.0;
   hs::TickOutput out = r.move(*snap, H(0, 0, 0), H(xb, 0, 0), 500, 300);
   out = r.tick(*snap, H(xb, 0, 0), hd::kButton1);  // -> navigation
@@ -426,7 +427,7 @@ TEST(Tick, NeverAllocatesOrFrees) {
   ho::OperatorTaskParams p;
   auto log = ho::make_station_logger(256);  // not started: pushes fill the ring, then count drops
   Runner r(p, &log);
-  const auto snap = wall_snapshot({-3, 1}, {3, 1}, {0, -1}, {0, 0, hm::kPi / 2});
+  const auto snap = wall_snapshot({-3, 1}, {3, 1}, {0, -1}, {0, 0, std::numbers::pi / 2});
   r.move(*snap, H(0, 0, 0), H(0.001, 0, 0), 10, 0);  // warm up
   hemm::test::count_allocations_on_this_thread(true);
   const std::uint64_t before = hemm::test::counted_allocations();

@@ -6,6 +6,7 @@
 // holds the wall, and pushing the probe into it gives a force.
 // Timing assertions use wide margins: the VM is shared and stalls for ms.
 #include <gtest/gtest.h>
+#include <numbers>
 
 #include <algorithm>
 #include <chrono>
@@ -16,6 +17,7 @@
 #include <thread>
 #include <vector>
 
+#include "common/clock/steady_clock.h"
 #include "operator/client/operator_client.h"
 #include "operator/station/operator_station.h"
 #include "robot_side/server/robot_server.h"
@@ -32,7 +34,6 @@ hn::Key test_key() {
   for (size_t i = 0; i < k.size(); ++i) k[i] = static_cast<uint8_t>(31 * i + 7);
   return k;
 }
-std::int64_t now_ns() { return hn::steady_now_ns(); }
 
 constexpr double kWallX = 1.0;  // W, the robot sits at the origin heading +x
 
@@ -87,7 +88,7 @@ struct FakeRobot {
       if (server->link_up()) {
         hw::StreamMessage m;
         auto* st = m.mutable_robot_state();
-        st->set_stamp_ns(now_ns());
+        st->set_stamp_ns(hemm::steady_now_ns());
         st->mutable_t_w_r_odom()->set_x(0.0);
         st->set_mode(hw::MODE_EXPLORATION);
         server->streams().send(m);
@@ -99,12 +100,12 @@ struct FakeRobot {
   }
   void send_scan() {
     const std::uint32_t n = 181;
-    const double a0 = -hm::kPi / 2, step = hm::kPi / 180;
+    const double a0 = -std::numbers::pi / 2, step = std::numbers::pi / 180;
     ++scan_id;
     for (std::uint32_t first : {0u, 91u}) {
       hw::StreamMessage m;
       auto* s = m.mutable_range_scan();
-      s->set_stamp_ns(now_ns());
+      s->set_stamp_ns(hemm::steady_now_ns());
       s->set_scan_id(scan_id);
       s->set_sensor(hw::RANGE_SENSOR_LASER);
       s->mutable_t_w_r()->set_x(0.0);
@@ -154,7 +155,7 @@ TEST(StationLoopback, CommandsFlowModelHoldsTheWallAndTheProbeFeelsIt) {
   ASSERT_TRUE(client.start([](int, const std::string& why) { ADD_FAILURE() << "fatal: " << why; }, &err)) << err;
   station.start();
   std::thread net([&] { io.run(); });
-  const std::int64_t t0 = now_ns();
+  const std::int64_t t0 = hemm::steady_now_ns();
   std::this_thread::sleep_for(std::chrono::milliseconds(2500));
   const bool link_was_up = client.link_up();
   station.stop();

@@ -4,6 +4,7 @@
 // pose, the proxy and device point, the force arrow along the force; and the
 // text's banners for link down, e-stop and no robot state.
 #include <gtest/gtest.h>
+#include <numbers>
 
 #include <cmath>
 
@@ -57,11 +58,11 @@ TEST(OperatorScene, AMapPieceIsAWallStandingBehindItsFace) {
 TEST(OperatorScene, RobotProxyDevicePointAndForce) {
   ho::ViewModel m;
   m.have_state = true;
-  m.state.T_W_R_odom = hm::Pose2{0.9, 2.0, hm::kPi / 2};
+  m.state.T_W_R_odom = hm::Pose2{0.9, 2.0, std::numbers::pi / 2};
   ho::StationLogRecord t;
   t.robot[0] = 1.0;
   t.robot[1] = 2.0;
-  t.robot[2] = hm::kPi / 2;  // heading +y
+  t.robot[2] = std::numbers::pi / 2;  // heading +y
   t.proxy_W[0] = 1.0;
   t.proxy_W[1] = 3.0;
   t.goal_W[0] = 1.0;

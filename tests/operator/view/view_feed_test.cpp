@@ -5,6 +5,7 @@
 // snapshots are copied whole; the servo health meter reads the period
 // histogram's quantiles over a window.
 #include <gtest/gtest.h>
+#include <numbers>
 
 #include <cmath>
 #include <thread>
@@ -62,7 +63,7 @@ TEST(ViewFeed, TickWithTheViewAttachedNeverAllocatesAndPublishesTheLogRecord) {
   // so it fills and then counts drops, without allocating either way.
   ho::ServoTickTap tap(1024);
   task.set_tick_tap(&tap);
-  const auto snap = wall_snapshot({0, 0, hm::kPi / 2});
+  const auto snap = wall_snapshot({0, 0, std::numbers::pi / 2});
   std::int64_t t = 0;
   for (int i = 0; i < 10; ++i) tick(task, *snap, t += 1'000'000, H(0.001, 0, 0));  // warm up
   hemm::test::count_allocations_on_this_thread(true);

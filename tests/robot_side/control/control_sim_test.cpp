@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <numbers>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -265,7 +266,7 @@ TEST(Safety, ContactCounterSeesABaseInsideAWall) {
 TEST(Safety, CollisionGuardStopsReversingFromSonarData) {
   // Facing west with the x = 2.95 wall 1 m behind the rear bumper: only the
   // sonar ring (10 Hz) sees it.
-  Fixture f({1.7, 1.0, M_PI});
+  Fixture f({1.7, 1.0, std::numbers::pi});
   hr::SimulatedRobot& r = f.robot;
   int contacts = 0;
   double v_min = 0.0;
@@ -291,7 +292,7 @@ TEST(Safety, TurningInPlaceWithTheArmOutStopsShortOfAWallBeside) {
   // from the wheels). Turning left swings the front toward it: the arm out
   // straight (tip 0.54 m forward) would reach 0.09 m into it, the folded arm
   // (0.31 m forward) would clear it.
-  const hr::Pose2 start{2.95 - 0.45, -1.2, -M_PI / 2};
+  const hr::Pose2 start{2.95 - 0.45, -1.2, -std::numbers::pi / 2};
   double turned_out = 0.0, turned_folded = 0.0;
   for (const bool arm_out : {true, false}) {
     SCOPED_TRACE(arm_out ? "arm out" : "arm folded");
@@ -324,11 +325,11 @@ TEST(Safety, TurningInPlaceWithTheArmOutStopsShortOfAWallBeside) {
 
 // With the sonar off nothing sees behind: reversing is a crawl, not blind.
 TEST(Safety, ReversingWithNoDataBehindIsACrawl) {
-  Fixture f({1.7, 1.0, M_PI});  // the x = 2.95 wall 1 m behind the rear bumper
+  Fixture f({1.7, 1.0, std::numbers::pi});  // the x = 2.95 wall 1 m behind the rear bumper
   f.cfg.mutable_sonar()->set_enabled(false);
   ASSERT_FALSE(f.robot.load(f.cfg, kScene));
   hr::SimulatedRobot& r = f.robot;
-  r.set_base_pose_sim({1.7, 1.0, M_PI});
+  r.set_base_pose_sim({1.7, 1.0, std::numbers::pi});
   r.set_operator_in_control(true);
   r.step(200);
   int contacts = 0;

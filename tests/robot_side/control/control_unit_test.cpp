@@ -13,13 +13,11 @@ namespace hr = hemm::robot;
 
 namespace {
 
-constexpr double kPi = std::numbers::pi;
-
 // Reference for the turning guard, independent of its closed form: turn the
 // grown footprint in small steps until the point is inside it.
 double brute_force_turn(const hr::CollisionGuardParams& p, const Eigen::Vector2d& pt, double sign) {
   const double m = p.turn_margin;
-  for (double a = 0.0; a < 2.0 * kPi; a += 1e-5) {
+  for (double a = 0.0; a < 2.0 * std::numbers::pi; a += 1e-5) {
     const double c = std::cos(sign * a), s = std::sin(sign * a);
     const Eigen::Vector2d q(c * pt.x() + s * pt.y(), -s * pt.x() + c * pt.y());  // the point in the turned footprint
     if (q.x() >= p.rear_x - m && q.x() <= p.front_x + m && std::abs(q.y()) <= p.half_width + m) return a;
@@ -31,7 +29,7 @@ double brute_force_turn(const hr::CollisionGuardParams& p, const Eigen::Vector2d
 struct Scan {
   std::vector<float> ranges;
   std::vector<uint8_t> valid;
-  double angle(std::size_t i) const { return -kPi / 2 + static_cast<double>(i) * kPi / 180.0; }
+  double angle(std::size_t i) const { return -std::numbers::pi / 2 + static_cast<double>(i) * std::numbers::pi / 180.0; }
   explicit Scan(float range) : ranges(181, range), valid(181, 1) {}
   // The guard's knowledge from it (laser: no cone; not a ring).
   hr::KnownFree known() const {
@@ -88,7 +86,7 @@ TEST(Odometry, ConstantWheelSpeedsTraceTheClosedFormArc) {
   EXPECT_NEAR(o.x, R * std::sin(th), 1e-9);
   EXPECT_NEAR(o.y, R * (1 - std::cos(th)), 1e-9);
   EXPECT_NEAR(o.theta, th, 1e-12);
-  EXPECT_NEAR(hr::wrap_angle(3 * M_PI), M_PI, 1e-12);
+  EXPECT_NEAR(hemm::math::wrap_angle(3 * std::numbers::pi), std::numbers::pi, 1e-12);
 }
 
 TEST(Watchdog, ExpiresAfterTheTimeout) {
@@ -179,7 +177,7 @@ TEST(CollisionGuard, ReverseWithNoDataBehindIsACrawl) {
   // Everything ahead seen free to 5 m, nothing known behind.
   hr::KnownFree known{};
   for (int k = 0; k < hr::kGuardSectors; ++k) {
-    const double a = -kPi + (k + 0.5) * 2.0 * kPi / hr::kGuardSectors;
+    const double a = -std::numbers::pi + (k + 0.5) * 2.0 * std::numbers::pi / hr::kGuardSectors;
     if (std::cos(a) > 0.0) known[static_cast<std::size_t>(k)] = 5.0;
   }
   const hr::GuardLimit g = hr::collision_guard(p, {}, &known);

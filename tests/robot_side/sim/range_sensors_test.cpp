@@ -4,6 +4,7 @@
 #include "robot_side/sim/range_sensors.h"
 
 #include <cmath>
+#include <numbers>
 
 #include <gtest/gtest.h>
 
@@ -119,6 +120,6 @@ TEST(RangeModel, SonarLimitsApplyFromTheTransducer) {
   EXPECT_FALSE(s.valid[0]);
   EXPECT_TRUE(s.valid[4]);
   EXPECT_NEAR(s.ranges[4], 0.3, 1e-6);
-  EXPECT_NEAR(s.angle_step, 2 * M_PI / 16, 1e-12);
+  EXPECT_NEAR(s.angle_step, 2 * std::numbers::pi / 16, 1e-12);
   EXPECT_LE(s.range_min, 0.1 + 0.15 + 1e-12);
 }

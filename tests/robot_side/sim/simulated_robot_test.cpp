@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <numbers>
 #include <random>
 #include <vector>
 
@@ -121,7 +122,7 @@ TEST(RangeSensors, LaserAndSonarReadAWallAtAKnownDistance) {
   hr::SimulatedRobot r;
   ASSERT_FALSE(r.load(cfg, kScene));
   // Facing the west wall (inner face x = -0.95) from the origin.
-  r.set_base_pose_sim({0.0, 0.0, M_PI});
+  r.set_base_pose_sim({0.0, 0.0, std::numbers::pi});
   r.step(100);
   const hr::Pose2 p = r.state().T_W_R_truth;
   const auto& lp = r.laser_params();
@@ -137,7 +138,7 @@ TEST(RangeSensors, LaserAndSonarReadAWallAtAKnownDistance) {
       const double a = s.angle_min + static_cast<double>(i) * s.angle_step;
       if (std::abs(a) > 0.8) continue;  // the west wall fills +-46 deg and more
       ASSERT_TRUE(s.valid[i]);
-      const double expected = d_wall / std::cos(a + p.theta - M_PI);
+      const double expected = d_wall / std::cos(a + p.theta - std::numbers::pi);
       const double e = s.ranges[i] - expected;
       sum += e;
       worst = std::max(worst, std::abs(e));
@@ -157,7 +158,7 @@ TEST(RangeSensors, LaserAndSonarReadAWallAtAKnownDistance) {
   for (const auto& s : sonar) {
     ASSERT_TRUE(s.valid[0]);
     EXPECT_NEAR(s.ranges[0], d_sonar, 5.5 * cfg.sonar().sigma_m());
-    EXPECT_NEAR(s.beam_width, cfg.sonar().cone_deg() * M_PI / 180, 1e-12);
+    EXPECT_NEAR(s.beam_width, cfg.sonar().cone_deg() * std::numbers::pi / 180, 1e-12);
     EXPECT_EQ(s.size(), cfg.sonar().count());
   }
 }
@@ -191,7 +192,7 @@ TEST(RangeSensors, DropoutsAreFlaggedNeverZero) {
   cfg.mutable_sonar()->set_dropout_probability(0.3);
   hr::SimulatedRobot r;
   ASSERT_FALSE(r.load(cfg, kScene));
-  r.set_base_pose_sim({0.0, 0.0, M_PI});
+  r.set_base_pose_sim({0.0, 0.0, std::numbers::pi});
   int total = 0, dropped = 0;
   for (const auto& s : collect(r, hr::RangeSensorKind::kLaser, 1000)) {
     for (size_t i = 0; i < s.size(); ++i) {
@@ -214,7 +215,7 @@ TEST(RangeSensors, DropoutsAreFlaggedNeverZero) {
   short_cfg.mutable_laser()->set_range_max_m(0.5);
   hr::SimulatedRobot r2;
   ASSERT_FALSE(r2.load(short_cfg, kScene));
-  r2.set_base_pose_sim({0.0, 0.0, M_PI});
+  r2.set_base_pose_sim({0.0, 0.0, std::numbers::pi});
   for (const auto& s : collect(r2, hr::RangeSensorKind::kLaser, 100)) {
     const size_t mid = s.size() / 2;
     EXPECT_FALSE(s.valid[mid]);
@@ -270,7 +271,7 @@ TEST(DepthCamera, WristCameraSeesTheWallAndFloorWhereTheyAre) {
   hr::SimDepthCameraParams cam;
   ASSERT_FALSE(r.enable_depth_camera(cam));
   // Facing the west wall (inner face x = -0.95) from the origin, arm at rest.
-  r.set_base_pose_sim({0.0, 0.0, M_PI});
+  r.set_base_pose_sim({0.0, 0.0, std::numbers::pi});
   r.take_depth_images();
   const auto t0 = std::chrono::steady_clock::now();
   r.step(1000);

@@ -3,6 +3,7 @@
 #include "robot_side/sim/wire_convert.h"
 
 #include <cmath>
+#include <numbers>
 
 #include <gtest/gtest.h>
 
@@ -19,8 +20,8 @@ hr::RangeScanData make_scan(size_t n) {
   s.T_W_R_truth = {1.01, -2.02, 0.31};
   s.T_R_S.translation() << 0.18, 0.0, 0.3;
   s.T_R_S.linear() = Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-  s.angle_min = -M_PI / 2;
-  s.angle_step = M_PI / static_cast<double>(n - 1);
+  s.angle_min = -std::numbers::pi / 2;
+  s.angle_step = std::numbers::pi / static_cast<double>(n - 1);
   s.range_min = 0.05;
   s.range_max = 10.0;
   for (size_t i = 0; i < n; ++i) {

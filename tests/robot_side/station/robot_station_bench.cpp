@@ -2,6 +2,7 @@
 // RobotState to the wire, a laser scan (181 beams) split into datagram-sized
 // chunks, and their serialization (the network thread's share before sealing).
 #include <benchmark/benchmark.h>
+#include <numbers>
 
 #include <cmath>
 
@@ -15,9 +16,8 @@ hr::RangeScanData laser_scan(int beams) {
   hr::RangeScanData s;
   s.stamp_ns = 123456789;
   s.sensor_name = "laser";
-  constexpr double kPi = 3.14159265358979323846;
-  s.angle_min = -kPi / 2;
-  s.angle_step = kPi / (beams - 1);
+  s.angle_min = -std::numbers::pi / 2;
+  s.angle_step = std::numbers::pi / (beams - 1);
   s.range_min = 0.05;
   s.range_max = 10.0;
   for (int i = 0; i < beams; ++i) {

@@ -19,6 +19,7 @@
 #include <gtest/gtest.h>
 
 #include "config_robot.pb.h"
+#include "common/clock/steady_clock.h"
 #include "operator/client/operator_client.h"
 #include "robot_side/server/robot_server.h"
 #include "robot_side/sim/realtime.h"
@@ -40,12 +41,11 @@ hn::Key test_key() {
   return k;
 }
 
-int64_t now_ns() { return hr::steady_now_ns(); }
 void sleep_s(double s) { std::this_thread::sleep_for(std::chrono::duration<double>(s)); }
 
 bool wait_until(const std::function<bool()>& pred, double timeout_s) {
-  const int64_t end = now_ns() + static_cast<int64_t>(timeout_s * 1e9);
-  while (now_ns() < end) {
+  const int64_t end = hemm::steady_now_ns() + static_cast<int64_t>(timeout_s * 1e9);
+  while (hemm::steady_now_ns() < end) {
     if (pred()) return true;
     std::this_thread::sleep_for(std::chrono::milliseconds(2));
   }
@@ -179,10 +179,10 @@ struct FakeOperator {
         hold = hold_ns;
       }
       if (c) {
-        c->set_stamp_ns(now_ns());
+        c->set_stamp_ns(hemm::steady_now_ns());
         held.push_back(*c);
       }
-      while (!held.empty() && held.front().stamp_ns() <= now_ns() - hold) {
+      while (!held.empty() && held.front().stamp_ns() <= hemm::steady_now_ns() - hold) {
         hw::StreamMessage m;
         *m.mutable_command() = held.front();
         held.pop_front();
@@ -356,9 +356,9 @@ TEST(RobotStationLoopback, StreamsStateAtRateAndChunkedScans) {
   FakeOperator op(robot.server->session_port(), true);
   ASSERT_TRUE(op.wait_connected());
   sleep_s(0.3);
-  const int64_t t0 = now_ns();
+  const int64_t t0 = hemm::steady_now_ns();
   sleep_s(2.0);
-  const int64_t t1 = now_ns();
+  const int64_t t1 = hemm::steady_now_ns();
   std::vector<StateRec> states;
   std::vector<ScanRec> scans;
   {
@@ -584,10 +584,10 @@ TEST(RobotStationLoopback, EStopStopsBaseAndReleaseAllowsMotion) {
   op.send_frame(estop_frame(true));
   ASSERT_TRUE(wait_until([&] { return op.ack_with_reason("e-stop engaged").has_value(); }, 2.0));
   EXPECT_TRUE(op.ack_with_reason("e-stop engaged")->ok());
-  const int64_t t_ack = now_ns();
+  const int64_t t_ack = hemm::steady_now_ns();
   ASSERT_TRUE(wait_until([&] { return op.estop_reports(true) == 1; }, 1.0));
   ASSERT_TRUE(wait_until([&] { auto s = op.last_state(); return s && std::abs(s->v()) < 0.01; }, 1.0));
-  std::printf("e-stop ack -> |v| < 0.01 m/s observed after %.3f s\n", (now_ns() - t_ack) * 1e-9);
+  std::printf("e-stop ack -> |v| < 0.01 m/s observed after %.3f s\n", (hemm::steady_now_ns() - t_ack) * 1e-9);
   sleep_s(0.3);
   const auto s0 = *op.last_state();
   sleep_s(0.5);
@@ -661,14 +661,14 @@ TEST(RobotStationLoopback, LinkLossStopsRobot) {
   ASSERT_TRUE(wait_until([&] { return robot.station->latest_state().v > 0.25; }, 3.0));
   EXPECT_EQ(robot.station->latest_state().safety & hw::SAFETY_LINK_LOST, 0u);
 
-  const int64_t t_kill = now_ns();
+  const int64_t t_kill = hemm::steady_now_ns();
   op.kill_streams();
   int64_t t_lost = -1, t_still = -1;
   wait_until(
       [&] {
         const auto s = robot.station->latest_state();
-        if (t_lost < 0 && (s.safety & hw::SAFETY_LINK_LOST)) t_lost = now_ns();
-        if (t_lost >= 0 && t_still < 0 && std::abs(s.v) < 0.01) t_still = now_ns();
+        if (t_lost < 0 && (s.safety & hw::SAFETY_LINK_LOST)) t_lost = hemm::steady_now_ns();
+        if (t_lost >= 0 && t_still < 0 && std::abs(s.v) < 0.01) t_still = hemm::steady_now_ns();
         return t_still >= 0;
       },
       4.0);

@@ -1,5 +1,6 @@
 #include "robot_side/truth/scene_slice.h"
 
+#include <numbers>
 #include <unistd.h>
 
 #include <algorithm>
@@ -94,7 +95,7 @@ TEST(SceneSlice, ClosedFormShapes) {
 
   // Box yawed 30 deg: corners c +- R(30)(0.3, 0) +- R(30)(0, 0.1).
   ASSERT_EQ(s.scene.segments.size(), 8u);  // two rectangles
-  const Eigen::Matrix2d R = math::rotation2(math::kPi / 6);
+  const Eigen::Matrix2d R = math::rotation2(std::numbers::pi / 6);
   for (double sa : {-1.0, 1.0})
     for (double sb : {-1.0, 1.0}) {
       const Vector2d corner = Vector2d(1, 2) + R * Vector2d(sa * 0.3, sb * 0.1);

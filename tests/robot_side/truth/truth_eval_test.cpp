@@ -1,5 +1,6 @@
 #include "robot_side/truth/truth_eval.h"
 
+#include <numbers>
 #include <unistd.h>
 
 #include <cmath>
@@ -149,14 +150,14 @@ TEST(TruthEval, ForcesAreComparedInTheRobotFrame) {
   const auto path = push_path();
   haptics::ExactScene true_scene;
   true_scene.segments.push_back({{-2.0, 1.0}, {2.0, 1.0}});
-  const Pose2 pred{0, 0, 0}, truth{0, 0, math::kPi / 2};
+  const Pose2 pred{0, 0, 0}, truth{0, 0, std::numbers::pi / 2};
   TruthOptions o;
   o.per_tick = true;
   const TruthReport r =
       evaluate_against_truth(make_rows(pred, truth, path, reference_forces(wall_x1(), m, path)), true_scene, m, o);
   EXPECT_LT(r.max_n, 1e-9);
   EXPECT_GT(r.contact_ticks, 300u);
-  EXPECT_NEAR(r.heading_error_max_rad, math::kPi / 2, 1e-12);
+  EXPECT_NEAR(r.heading_error_max_rad, std::numbers::pi / 2, 1e-12);
   EXPECT_NEAR(r.per_tick.back().proxy_true_W.y(), 1.0 - m.probe_radius, 1e-9);
 }
 
@@ -191,7 +192,7 @@ TEST(TruthEval, InterpolatesSkipsAndHoldsTruth) {
   EXPECT_EQ(mid.t_ns, 10 * kMs);
   EXPECT_NEAR(mid.true_x, 0.05, 1e-12);
   // Shortest way from 3.0 to -3.0 passes through pi, not through 0.
-  EXPECT_NEAR(math::wrap_angle(mid.true_theta - (3.0 + 0.5 * (2 * math::kPi - 6.0))), 0.0, 1e-12);
+  EXPECT_NEAR(math::wrap_angle(mid.true_theta - (3.0 + 0.5 * (2 * std::numbers::pi - 6.0))), 0.0, 1e-12);
   // Predicted at the origin: error |x_true| = 0.01 (t - 5) for t = 5..15, then 0.1 held.
   EXPECT_NEAR(r.pose_error_max_m, 0.1, 1e-12);
   EXPECT_NEAR(r.pose_error_mean_m, (0.55 + 15 * 0.1) / 26.0, 1e-12);

@@ -2,6 +2,7 @@
 
 #include <cstdio>
 #include <deque>
+#include <numbers>
 
 #include <gtest/gtest.h>
 
@@ -20,7 +21,7 @@ TEST(Passivity, ClosedFormSpringAndDamper) {
   const double k = 100.0, dt = 1e-3;
   std::vector<Vector3d> F, x, v;
   for (int i = 0; i <= 200; ++i) {
-    const double xi = 0.01 * std::sin(3.14159265358979 * i / 200.0);
+    const double xi = 0.01 * std::sin(std::numbers::pi * i / 200.0);
     x.push_back({xi, 0, 0});
   }
   // Spring with the force evaluated at the midpoint of each step (exact work).
@@ -70,7 +71,7 @@ HandRun run_wall(const ProxyModel& m, int delay) {
   HandRun run;
   for (int k = 0; k < 5000; ++k) {
     const double t = k * 1e-3;
-    const Vector2d target(0.097 + 0.006 * std::sin(2 * 3.14159265358979 * t), 0.002 * std::cos(5 * t));
+    const Vector2d target(0.097 + 0.006 * std::sin(2 * std::numbers::pi * t), 0.002 * std::cos(5 * t));
     stale.push_back(Vector3d(scale * hand.x.x(), scale * hand.x.y(), 0));
     const Vector3d dev = stale.front();
     if (static_cast<int>(stale.size()) > delay) stale.pop_front();

@@ -1,6 +1,7 @@
 #include "common/haptics/proxy/reference_scene.h"
 
 #include <cstdio>
+#include <numbers>
 
 #include <gtest/gtest.h>
 
@@ -13,7 +14,6 @@ namespace {
 
 using Eigen::Vector2d;
 using Eigen::Vector3d;
-using math::kPi;
 using math::Pose2;
 
 TEST(Reference, RaycastAndDistanceClosedForm) {
@@ -58,7 +58,7 @@ ForceError local_vs_exact(double sigma, double* peak_out) {
   test::SynthScanSpec spec;
   spec.sigma = sigma;
   spec.beams = 361;
-  spec.angle_step = kPi / 360;
+  spec.angle_step = std::numbers::pi / 360;
   auto ray = [&](const Vector2d& o, const Vector2d& u, double r) { return raycast(world, o, u, r); };
   mapping::MapParams mp;
   mapping::LocalMap lm;

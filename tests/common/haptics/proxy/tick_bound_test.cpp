@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <numbers>
 #include <random>
 #include <vector>
 
@@ -25,7 +26,7 @@ TEST(ProxyTickBound, DenseMapWorstCaseIsCappedAndTimed) {
   // toward a goal that jumps across the map every tick: every tick queries a
   // full candidate buffer and runs out of iterations.
   std::mt19937 rng(5);
-  std::uniform_real_distribution<double> u(-1.5, 1.5), ang(0.0, 6.283185307179586);
+  std::uniform_real_distribution<double> u(-1.5, 1.5), ang(0.0, 2 * std::numbers::pi);
   mapping::LocalMap map;
   for (int i = 0; i < 20000; ++i) {
     mapping::Segment2 s;

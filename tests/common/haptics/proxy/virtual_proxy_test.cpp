@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdio>
 #include <memory>
+#include <numbers>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -19,7 +20,6 @@ namespace {
 
 using Eigen::Vector2d;
 using Eigen::Vector3d;
-using math::kPi;
 using math::Pose2;
 
 Vector3d v3(double x, double y) { return {x, y, 0.0}; }
@@ -175,7 +175,7 @@ TEST(VirtualProxy, RightAngleCornerHoldsProxyOutside) {
 
 TEST(VirtualProxy, AcuteCornerWedgesAtClosedFormPoint) {
   // Two walls from the apex (0, 0) at +-15 deg: a 30 deg wedge opening to +x.
-  const double half = 15.0 * kPi / 180.0;
+  const double half = 15.0 * std::numbers::pi / 180.0;
   ExactScene scene;
   scene.segments.push_back({{0, 0}, {3 * std::cos(half), 3 * std::sin(half)}});
   scene.segments.push_back({{0, 0}, {3 * std::cos(half), -3 * std::sin(half)}});
@@ -315,11 +315,11 @@ TEST(VirtualProxy, SonarOnlySparseDataBlocksBeforeTrueWall) {
   test::SynthScanSpec spec;
   spec.kind = mapping::SensorKind::kSonar;
   spec.beams = 16;
-  spec.angle_min = -kPi + kPi / 16;
-  spec.angle_step = 2 * kPi / 16;
+  spec.angle_min = -std::numbers::pi + std::numbers::pi / 16;
+  spec.angle_step = 2 * std::numbers::pi / 16;
   spec.range_min = 0.1;
   spec.range_max = 5.0;
-  spec.beam_width = 15.0 * kPi / 180.0;
+  spec.beam_width = 15.0 * std::numbers::pi / 180.0;
   spec.rays_per_cone = 9;
   spec.sigma = 0.005;
   const auto map = map_from_scan(ray_of(world), Pose2{}, spec);
@@ -358,7 +358,7 @@ TEST(VirtualProxy, ScanWithDropoutsBlocksAndHolesAreFree) {
     ASSERT_LT(d.proxy_W.x(), 2.0);
   }
   // Through the hole (beams 61..69 read nothing): no phantom obstacle.
-  const double a = (-90.0 + 65.0) * kPi / 180.0;
+  const double a = (-90.0 + 65.0) * std::numbers::pi / 180.0;
   const Vector2d behind = 2.4 * Vector2d(std::cos(a), std::sin(a));  // 2.17 m: behind the wall
   ProxyData d2 = make_proxy_data(m);
   proxy_tick(m, map, d2, v3(0, 0), scale);

@@ -17,7 +17,6 @@ namespace hemm::vps {
 namespace {
 
 constexpr double kK = 1e7;
-const double kPi = std::numbers::pi;
 
 Eigen::Isometry3d at(const Eigen::Vector3d& p, const Eigen::Matrix3d& R = Eigen::Matrix3d::Identity()) {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
@@ -27,7 +26,7 @@ Eigen::Isometry3d at(const Eigen::Vector3d& p, const Eigen::Matrix3d& R = Eigen:
 }
 
 double angle_deg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
-  return std::acos(std::clamp(a.normalized().dot(b.normalized()), -1.0, 1.0)) * 180.0 / kPi;
+  return std::acos(std::clamp(a.normalized().dot(b.normalized()), -1.0, 1.0)) * 180.0 / std::numbers::pi;
 }
 
 struct Row {

@@ -3,6 +3,7 @@
 // loop (continuous device, 1 kHz zero-order-hold controller, coupling, tool
 // hitting a VPS wall) with a passivity observer at the device port.
 #include <gtest/gtest.h>
+#include <numbers>
 
 #include <cmath>
 #include <cstdio>
@@ -125,7 +126,7 @@ LoopResult run_loop(const CouplingParams& cpl, double device_mass, double device
       z = 0.03 - 0.1 * t;
       vz = -0.1;
     } else if (t < 1.23) {
-      const double w = 2 * M_PI * tap_hz;
+      const double w = 2 * std::numbers::pi * tap_hz;
       z = 0.007 - 0.003 * std::sin(w * (t - 0.23));
       vz = -0.003 * w * std::cos(w * (t - 0.23));
     } else if (t < 1.4) {

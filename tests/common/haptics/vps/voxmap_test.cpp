@@ -1,5 +1,6 @@
 // Voxmap, pointshell, cache and geometry kernels against exact references.
 #include <gtest/gtest.h>
+#include <numbers>
 
 #include <atomic>
 #include <cmath>
@@ -262,7 +263,7 @@ TEST(PointShell, PointsOnSurfaceInwardNormalsAreaAndTree) {
   EXPECT_NEAR(ps.total_weight, area, 1e-9 * area);
   for (std::size_t i = 0; i < ps.size(); ++i) {
     EXPECT_NEAR(ps.point(i).norm(), R, 0.0005);
-    EXPECT_GT(ps.normal(i).dot(-ps.point(i).normalized()), std::cos(3.0 * M_PI / 180));
+    EXPECT_GT(ps.normal(i).dot(-ps.point(i).normalized()), std::cos(3.0 * std::numbers::pi / 180));
     EXPECT_NEAR(ps.normal(i).norm(), 1.0, 1e-6);
   }
   // Each node's sphere holds its points; children split the parent's range;

@@ -37,7 +37,6 @@ namespace {
 
 constexpr std::int64_t kMs = 1'000'000;
 
-std::int64_t now_ns() { return hemm::steady_now_ns(); }
 
 double median_ms(std::vector<std::int64_t> v) {
   if (v.empty()) return -1.0;
@@ -117,7 +116,7 @@ class UdpEcho {
       socklen_t len = sizeof(from);
       const ssize_t n =
           ::recvfrom(sock_.fd, buf, sizeof(buf), 0, reinterpret_cast<sockaddr*>(&from), &len);
-      const std::int64_t t = now_ns();
+      const std::int64_t t = hemm::steady_now_ns();
       if (n < static_cast<ssize_t>(sizeof(Stamp))) continue;
       Stamp s;
       std::memcpy(&s, buf, sizeof(s));
@@ -172,7 +171,7 @@ class TcpEcho {
         eof_ = n == 0;
         break;
       }
-      if (first_byte_ns_ == 0) first_byte_ns_ = now_ns();
+      if (first_byte_ns_ == 0) first_byte_ns_ = hemm::steady_now_ns();
       std::size_t off = 0;
       while (off < static_cast<std::size_t>(n)) {
         const ssize_t w = ::send(c.fd, buf.data() + off, static_cast<std::size_t>(n) - off, MSG_NOSIGNAL);
@@ -199,7 +198,7 @@ Fd tcp_connect(std::uint16_t port) {
 }
 
 void send_stamp(int fd, std::uint16_t port, std::uint32_t seq) {
-  const Stamp s{seq, now_ns()};
+  const Stamp s{seq, hemm::steady_now_ns()};
   char buf[64] = {};
   std::memcpy(buf, &s, sizeof(s));
   const sockaddr_in a = loopback(port);
@@ -211,14 +210,14 @@ void drain_echoes(int fd, std::int64_t deadline_ns, std::vector<std::int64_t>& r
                   std::vector<std::uint32_t>* seqs = nullptr) {
   char buf[2048];
   for (;;) {
-    const std::int64_t left = deadline_ns - now_ns();
+    const std::int64_t left = deadline_ns - hemm::steady_now_ns();
     if (left <= 0) return;
     if (!readable(fd, static_cast<int>(std::max<std::int64_t>(1, left / kMs)))) continue;
     const ssize_t n = ::recv(fd, buf, sizeof(buf), 0);
     if (n < static_cast<ssize_t>(sizeof(Stamp))) continue;
     Stamp s;
     std::memcpy(&s, buf, sizeof(s));
-    rtt.push_back(now_ns() - s.sent_ns);
+    rtt.push_back(hemm::steady_now_ns() - s.sent_ns);
     if (seqs) seqs->push_back(s.seq);
   }
 }
@@ -248,9 +247,9 @@ TEST(RelayLoopback, UdpOneWayAndRoundTripDelayMatchConfig) {
   const int n = 60;
   for (int i = 0; i < n; ++i) {
     send_stamp(client.fd, relay.udp_listen_port(), static_cast<std::uint32_t>(i));
-    drain_echoes(client.fd, now_ns() + 10 * kMs, rtt);
+    drain_echoes(client.fd, hemm::steady_now_ns() + 10 * kMs, rtt);
   }
-  drain_echoes(client.fd, now_ns() + 300 * kMs, rtt);
+  drain_echoes(client.fd, hemm::steady_now_ns() + 300 * kMs, rtt);
   std::vector<std::int64_t> one_way;
   for (const auto& [stamp, t] : echo.received()) one_way.push_back(t - stamp.sent_ns);
   ASSERT_EQ(one_way.size(), static_cast<std::size_t>(n));
@@ -288,9 +287,9 @@ TEST(RelayLoopback, UdpLossRateRoughlyRightAndCountersMatchDelivery) {
   for (int i = 0; i < n; ++i) {
     send_stamp(client.fd, relay.udp_listen_port(), static_cast<std::uint32_t>(i));
     // Paced (~2 datagrams/ms) so no socket buffer overflows on a loaded machine.
-    if (i % 10 == 9) drain_echoes(client.fd, now_ns() + 5 * kMs, rtt);
+    if (i % 10 == 9) drain_echoes(client.fd, hemm::steady_now_ns() + 5 * kMs, rtt);
   }
-  drain_echoes(client.fd, now_ns() + 300 * kMs, rtt);
+  drain_echoes(client.fd, hemm::steady_now_ns() + 300 * kMs, rtt);
   const RelayStats s = relay.stats();
   const auto got = echo.received();
   EXPECT_EQ(s.udp_up.received, static_cast<std::uint64_t>(n));
@@ -351,8 +350,8 @@ TEST(RelayLoopback, TcpDataArrivesCompleteAndInOrderWithJitter) {
   back.reserve(total);
   std::vector<char> buf(65536);
   bool eof = false;
-  const std::int64_t deadline = now_ns() + 30'000 * kMs;
-  while (now_ns() < deadline) {
+  const std::int64_t deadline = hemm::steady_now_ns() + 30'000 * kMs;
+  while (hemm::steady_now_ns() < deadline) {
     if (!readable(c.fd, 100)) continue;
     const ssize_t n = ::recv(c.fd, buf.data(), buf.size(), 0);
     if (n <= 0) {
@@ -383,7 +382,7 @@ TEST(RelayLoopback, TcpRateLimitPacesThroughputWithBackpressure) {
   Fd c = tcp_connect(relay.tcp_listen_port());
   const std::size_t total = 200'000;
   std::vector<char> data(total, 'x');
-  const std::int64_t t0 = now_ns();
+  const std::int64_t t0 = hemm::steady_now_ns();
   std::thread writer([&] {
     std::size_t off = 0;
     while (off < total) {
@@ -394,13 +393,13 @@ TEST(RelayLoopback, TcpRateLimitPacesThroughputWithBackpressure) {
   });
   std::size_t got = 0;
   std::vector<char> buf(65536);
-  while (got < total && now_ns() - t0 < 10'000 * kMs) {
+  while (got < total && hemm::steady_now_ns() - t0 < 10'000 * kMs) {
     if (!readable(c.fd, 100)) continue;
     const ssize_t n = ::recv(c.fd, buf.data(), buf.size(), 0);
     if (n <= 0) break;
     got += static_cast<std::size_t>(n);
   }
-  const double seconds = static_cast<double>(now_ns() - t0) * 1e-9;
+  const double seconds = static_cast<double>(hemm::steady_now_ns() - t0) * 1e-9;
   writer.join();
   ASSERT_EQ(got, total);
   // 200 kB at 200 kB/s: one second, plus scheduling slack.
@@ -419,14 +418,14 @@ TEST(RelayLoopback, TcpRoundTripDelayMatchesConfig) {
   Fd c = tcp_connect(relay.tcp_listen_port());
   std::vector<std::int64_t> rtt;
   for (int i = 0; i < 15; ++i) {
-    const std::int64_t t0 = now_ns();
+    const std::int64_t t0 = hemm::steady_now_ns();
     const char ping = static_cast<char>('a' + i);
     ASSERT_EQ(::send(c.fd, &ping, 1, MSG_NOSIGNAL), 1);
     ASSERT_TRUE(readable(c.fd, 3000));
     char pong = 0;
     ASSERT_EQ(::recv(c.fd, &pong, 1, 0), 1);
     EXPECT_EQ(pong, ping);
-    rtt.push_back(now_ns() - t0);
+    rtt.push_back(hemm::steady_now_ns() - t0);
   }
   EXPECT_GE(*std::min_element(rtt.begin(), rtt.end()), 40 * kMs);
   const double med = median_ms(rtt);
@@ -443,9 +442,9 @@ TEST(RelayLoopback, OutageHoldsTcpAndDropsUdp) {
   cfg.tcp_listen = HostPort{"127.0.0.1", 0};
   cfg.tcp_forward = HostPort{"127.0.0.1", techo.port()};
   for (auto* d : {&cfg.up, &cfg.down}) d->outages = {{300 * kMs, 400 * kMs}};
-  const std::int64_t before = now_ns();  // the relay's start (outage origin) is after this
+  const std::int64_t before = hemm::steady_now_ns();  // the relay's start (outage origin) is after this
   Relay relay(cfg);
-  const std::int64_t t0 = now_ns();  // ... and before this
+  const std::int64_t t0 = hemm::steady_now_ns();  // ... and before this
   Fd tcp = tcp_connect(relay.tcp_listen_port());
   Fd udp = udp_bound();
   std::vector<std::int64_t> rtt;
@@ -454,10 +453,10 @@ TEST(RelayLoopback, OutageHoldsTcpAndDropsUdp) {
   bool tcp_sent = false;
   std::int64_t tcp_sent_rel = 0;
   for (std::uint32_t i = 0; i < 120; ++i) {
-    udp_sent_rel[i] = now_ns() - t0;
+    udp_sent_rel[i] = hemm::steady_now_ns() - t0;
     send_stamp(udp.fd, relay.udp_listen_port(), i);
     if (!tcp_sent && udp_sent_rel[i] >= 400 * kMs) {
-      tcp_sent_rel = now_ns() - t0;
+      tcp_sent_rel = hemm::steady_now_ns() - t0;
       ASSERT_EQ(::send(tcp.fd, "held", 4, MSG_NOSIGNAL), 4);
       tcp_sent = true;
     }
@@ -465,7 +464,7 @@ TEST(RelayLoopback, OutageHoldsTcpAndDropsUdp) {
   }
   ASSERT_TRUE(tcp_sent);
   EXPECT_LT(tcp_sent_rel, 650 * kMs);
-  drain_echoes(udp.fd, now_ns() + 100 * kMs, rtt, &echoed);
+  drain_echoes(udp.fd, hemm::steady_now_ns() + 100 * kMs, rtt, &echoed);
   // TCP: held until the outage ends, then delivered intact.
   ASSERT_TRUE(readable(tcp.fd, 3000));
   char buf[16] = {};
@@ -593,9 +592,9 @@ TEST(RelayBinary, RelaysAndWritesJsonStats) {
   std::vector<std::int64_t> rtt;
   for (std::uint32_t i = 0; i < 20; ++i) {
     send_stamp(client.fd, port, i);
-    drain_echoes(client.fd, now_ns() + 5 * kMs, rtt);
+    drain_echoes(client.fd, hemm::steady_now_ns() + 5 * kMs, rtt);
   }
-  drain_echoes(client.fd, now_ns() + 200 * kMs, rtt);
+  drain_echoes(client.fd, hemm::steady_now_ns() + 200 * kMs, rtt);
   std::string out;
   while (std::fgets(line, sizeof(line), p)) out += line;
   const int st = ::pclose(p);

@@ -9,6 +9,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <numbers>
 #include <random>
 
 #include <Eigen/Dense>
@@ -195,14 +196,14 @@ void sine_push(const hb::SimulationConfig& c, int ax, double amp, double hz, V6&
   hb::BimanualSimulation s(c);
   auto h = s.resting_targets();
   for (int k = 0; k < 100; ++k) s.step(h);
-  const double om = 2 * M_PI * hz;
+  const double om = 2 * std::numbers::pi * hz;
   const int n_ramp = static_cast<int>(std::lround(1000 / hz)), n_meas = 2 * n_ramp;
   const Eigen::Isometry3d E0 = s.output(hb::ArmSide::kRight).T_D_E;
   const Vector3d u = Vector3d::Unit(ax % 3);
   Eigen::Matrix<double, Eigen::Dynamic, 13> rows(n_meas, 13);  // x (6), w (6), cos
   for (int k = 0; k < n_ramp + n_meas; ++k) {
     const double t = (k + 1) * 0.001;
-    const double env = k < n_ramp ? 0.5 * (1 - std::cos(M_PI * k / n_ramp)) : 1.0;
+    const double env = k < n_ramp ? 0.5 * (1 - std::cos(std::numbers::pi * k / n_ramp)) : 1.0;
     const double f = env * amp * std::cos(om * t);
     (ax >= 3 ? h[0].push_torque_D : h[0].push_force_D) = f * u;
     s.step(h);
