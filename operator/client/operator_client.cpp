@@ -231,6 +231,7 @@ void OperatorClient::on_open() {
 
 void OperatorClient::on_session_frame_in(const wire::SessionFrame& f) {
   if (!open_) return;
+  if (frame_tap_) frame_tap_(f);
   switch (f.body_case()) {
     case wire::SessionFrame::kBye:
       spdlog::warn("event=peer_bye reason=\"{}\"", net::log_safe(f.bye().reason()));

@@ -67,6 +67,9 @@ class OperatorClient {
 
   net::StreamLink& streams() { return streams_; }
   void on_session_frame(wire::SessionFrame::BodyCase kind, SessionHandler h) { handlers_[kind] = std::move(h); }
+  // Sees every session frame received while the session is open, before its
+  // handler (for the session recording); network thread.
+  void set_session_frame_tap(SessionHandler tap) { frame_tap_ = std::move(tap); }
   void send_session_frame(const wire::SessionFrame& f);
 
  private:
@@ -100,6 +103,7 @@ class OperatorClient {
   uint32_t step_timeouts_ = 0;   // consecutive attempts that ended in a step time-out
   std::atomic<bool> has_control_{false};
   std::map<wire::SessionFrame::BodyCase, SessionHandler> handlers_;
+  SessionHandler frame_tap_;
   bool stopped_ = false;
 };
 

@@ -1,12 +1,31 @@
 #include "operator/record/session_recording.h"
 
+#include <array>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <iterator>
 #include <stdexcept>
 
 namespace hemm::op {
+
+std::uint32_t record_checksum(const char* data, std::size_t n) noexcept {
+  // CRC-32C, reflected polynomial 0x82f63b78, one table lookup per byte.
+  static constexpr auto kTable = [] {
+    std::array<std::uint32_t, 256> t{};
+    for (std::uint32_t i = 0; i < 256; ++i) {
+      std::uint32_t c = i;
+      for (int k = 0; k < 8; ++k) c = (c & 1u) ? (c >> 1) ^ 0x82f63b78u : c >> 1;
+      t[i] = c;
+    }
+    return t;
+  }();
+  std::uint32_t crc = 0xffffffffu;
+  for (std::size_t i = 0; i < n; ++i) crc = kTable[(crc ^ static_cast<unsigned char>(data[i])) & 0xffu] ^ (crc >> 8);
+  return crc ^ 0xffffffffu;
+}
+
 namespace {
 
 template <class Vec>
@@ -30,13 +49,38 @@ void append_varint(std::uint64_t v, std::string* out) {
   out->push_back(static_cast<char>(v));
 }
 
+constexpr char kCrcTag = 0x7d;  // field 15, wire type 5 (fixed32)
+constexpr std::size_t kCrcBytes = 5;
+
+// The record's bytes, its checksum field appended (r has none set), behind
+// its length.
 std::string delimited(const rec::Record& r) {
   std::string body = r.SerializeAsString();
+  const std::uint32_t crc = record_checksum(body.data(), body.size());
+  body.push_back(kCrcTag);
+  for (int i = 0; i < 4; ++i) body.push_back(static_cast<char>((crc >> (8 * i)) & 0xff));
   std::string out;
   out.reserve(body.size() + 5);
   append_varint(body.size(), &out);
   out += body;
   return out;
+}
+
+// Format 2: the record's last 5 bytes are the checksum field, and the
+// checksum matches the bytes before it.
+std::optional<std::string> check_checksum(const char* data, std::size_t len) {
+  if (len < kCrcBytes || data[len - kCrcBytes] != kCrcTag) return "no checksum at the record's end (corrupt)";
+  std::uint32_t stored = 0;
+  for (int i = 0; i < 4; ++i)
+    stored |= static_cast<std::uint32_t>(static_cast<unsigned char>(data[len - 4 + static_cast<std::size_t>(i)]))
+              << (8 * i);
+  const std::uint32_t computed = record_checksum(data, len - kCrcBytes);
+  if (stored != computed) {
+    char buf[96];
+    std::snprintf(buf, sizeof buf, "checksum mismatch: stored %08x, computed %08x (corrupt)", stored, computed);
+    return std::string(buf);
+  }
+  return std::nullopt;
 }
 
 }  // namespace
@@ -269,8 +313,8 @@ std::size_t read_varint(const std::string& data, std::size_t pos, std::uint64_t*
 
 std::optional<std::string> check_header(const rec::Header& h) {
   if (h.magic() != kRecordingMagic) return std::string("not a hemm recording (no '") + kRecordingMagic + "' header)";
-  if (h.format_version() != kRecordingFormatVersion)
-    return "recording format version " + std::to_string(h.format_version()) + ", this build reads version " +
+  if (h.format_version() < 1 || h.format_version() > kRecordingFormatVersion)
+    return "recording format version " + std::to_string(h.format_version()) + ", this build reads versions 1 to " +
            std::to_string(kRecordingFormatVersion);
   if (h.end_effectors() < 1 || h.end_effectors() > device::kMaxEndEffectors)
     return "header: end_effectors " + std::to_string(h.end_effectors()) + " outside 1.." +
@@ -309,11 +353,17 @@ std::optional<std::string> load_recording(const std::string& path, Recording* ou
     if (len > data.size() - pos - n)
       return broke("truncated: the record has " + std::to_string(len) + " bytes, the file " +
                    std::to_string(data.size() - pos - n) + " left");
-    if (!record.ParseFromArray(data.data() + pos + n, static_cast<int>(len)))
+    const char* body = data.data() + pos + n;
+    // After the header, a checksum is checked before the bytes are parsed.
+    if (index > 0 && r.header.format_version() >= 2)
+      if (auto e = check_checksum(body, static_cast<std::size_t>(len))) return broke(*e);
+    if (!record.ParseFromArray(body, static_cast<int>(len)))
       return broke("does not parse as a hemm.rec.Record (corrupt)");
     if (index == 0) {
       if (!record.has_header()) return broke("not a hemm recording (the first record is not a header)");
       if (auto e = check_header(record.header())) return broke(*e);
+      if (record.header().format_version() >= 2)
+        if (auto e = check_checksum(body, static_cast<std::size_t>(len))) return broke(*e);
       r.header = record.header();
     } else {
       switch (record.body_case()) {

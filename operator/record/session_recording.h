@@ -14,7 +14,7 @@
 // serialized records over under a mutex the servo thread never takes.
 //
 // load_recording validates as it reads: the Header's magic and version,
-// every record's length and parse; it stops at the first bad record with an
+// every record's length, checksum and parse; it stops at the first bad record with an
 // error naming the record and byte offset, and keeps the records before it.
 #pragma once
 
@@ -36,7 +36,12 @@
 namespace hemm::op {
 
 inline constexpr const char* kRecordingMagic = "hemm-recording";
-inline constexpr std::uint32_t kRecordingFormatVersion = 1;
+// 2: every record ends with its CRC-32C (Record.crc32c); 1 (no checksums)
+// is still read.
+inline constexpr std::uint32_t kRecordingFormatVersion = 2;
+
+// CRC-32C (Castagnoli) of n bytes: the checksum of a format-2 record.
+std::uint32_t record_checksum(const char* data, std::size_t n) noexcept;
 // A record longer than this is corrupt (the largest real ones, model steps
 // with a few scans, are tens of kB).
 inline constexpr std::uint64_t kMaxRecordBytes = 64u << 20;

@@ -219,6 +219,8 @@ servo::RealtimeStatus OperatorStation::start() {
   client_.on_session_frame(wire::SessionFrame::kAck, [this](const wire::SessionFrame& f) { on_ack(f.ack()); });
   client_.on_session_frame(wire::SessionFrame::kEstop,
                            [this](const wire::SessionFrame& f) { on_robot_estop(f.estop()); });
+  if (taps_.on_session)
+    client_.set_session_frame_tap([this](const wire::SessionFrame& f) { taps_.on_session(steady_now_ns(), false, f); });
   if (servo_log_) {
     if (auto e = servo_log_->start(o_.log_path)) throw std::runtime_error(*e);
     if (auto e = world_log_->start(o_.log_path + ".world.csv")) throw std::runtime_error(*e);
@@ -309,6 +311,7 @@ void OperatorStation::stop() {
     client_.streams().on(wire::StreamMessage::kRangeScan, nullptr);
     client_.on_session_frame(wire::SessionFrame::kAck, nullptr);
     client_.on_session_frame(wire::SessionFrame::kEstop, nullptr);
+    client_.set_session_frame_tap(nullptr);
     for (auto& [id, p] : pending_acks_) p.timer->cancel();
   };
   if (io_.stopped() || io_.get_executor().running_in_this_thread()) {

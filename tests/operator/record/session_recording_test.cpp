@@ -242,6 +242,88 @@ TEST(SessionRecording, CorruptRecordIsRefusedWhereItIs) {
   std::remove(path.c_str());
 }
 
+// The check value of the CRC-32C catalogue (Castagnoli, reflected, init and
+// final xor all ones): "123456789" -> 0xe3069283.
+TEST(SessionRecording, ChecksumIsCrc32c) {
+  EXPECT_EQ(ho::record_checksum("123456789", 9), 0xe3069283u);
+  EXPECT_EQ(ho::record_checksum("", 0), 0u);
+}
+
+// A single flipped bit inside a number parses as another number; the
+// record's checksum catches it, before the record is used.
+TEST(SessionRecording, FlippedBitInsideANumberIsCaughtByTheChecksum) {
+  const std::string bytes = small_recording();
+  const std::vector<std::size_t> starts = record_starts(bytes);
+  ASSERT_EQ(starts.size(), 31u);
+  // Every record, read by protobuf itself, carries its checksum.
+  {
+    google::protobuf::io::ArrayInputStream in(bytes.data(), static_cast<int>(bytes.size()));
+    hr::Record r;
+    bool clean = false;
+    for (std::size_t i = 0; i < starts.size(); ++i) {
+      ASSERT_TRUE(google::protobuf::util::ParseDelimitedFromZeroCopyStream(&r, &in, &clean));
+      EXPECT_TRUE(r.has_crc32c()) << "record " << i;
+    }
+  }
+  const std::string path = temp_path("flipped.rec");
+  // In record 7 (a tick), the first bit from its middle on whose flip
+  // protobuf still parses: a number changed, nothing malformed.
+  std::string b;
+  const std::size_t body = starts[7] + (bytes[starts[7]] & 0x80 ? 2 : 1);  // after the length prefix
+  const std::size_t end = starts[8] - 5;                                  // before the checksum field
+  for (std::size_t at = (body + end) / 2; at < end && b.empty(); ++at) {
+    std::string t = bytes;
+    t[at] = static_cast<char>(t[at] ^ 0x04);
+    hr::Record still_parses;
+    if (still_parses.ParseFromArray(t.data() + body, static_cast<int>(starts[8] - body)) && still_parses.has_tick())
+      b = t;
+  }
+  ASSERT_FALSE(b.empty());
+  write_bytes(path, b);
+  ho::Recording rec;
+  const auto e = ho::load_recording(path, &rec);
+  ASSERT_TRUE(e.has_value());
+  EXPECT_NE(e->find("record 7 at byte " + std::to_string(starts[7]) + ": checksum mismatch"), std::string::npos)
+      << *e;
+  EXPECT_EQ(rec.ticks.size(), 6u);
+  std::remove(path.c_str());
+}
+
+// Recordings of format 1 (no checksums) still load; an unknown version does not.
+TEST(SessionRecording, FormatOneWithoutChecksumsStillReads) {
+  auto without_checksums = [](std::uint32_t version) {
+    std::string b;
+    google::protobuf::io::StringOutputStream out(&b);
+    hr::Record r;
+    *r.mutable_header() = header();
+    r.mutable_header()->set_magic(ho::kRecordingMagic);
+    r.mutable_header()->set_format_version(version);
+    EXPECT_TRUE(google::protobuf::util::SerializeDelimitedToZeroCopyStream(r, &out));
+    for (std::uint64_t k = 0; k < 3; ++k) {
+      ho::to_proto(tick_record(k), r.mutable_tick());
+      EXPECT_TRUE(google::protobuf::util::SerializeDelimitedToZeroCopyStream(r, &out));
+    }
+    return b;
+  };
+  const std::string path = temp_path("v1.rec");
+  write_bytes(path, without_checksums(1));
+  ho::Recording rec;
+  EXPECT_EQ(ho::load_recording(path, &rec), std::nullopt);
+  EXPECT_EQ(rec.header.format_version(), 1u);
+  EXPECT_EQ(rec.ticks.size(), 3u);
+  // Format 2 without its checksums is corrupt.
+  write_bytes(path, without_checksums(2));
+  auto e = ho::load_recording(path, &rec);
+  ASSERT_TRUE(e.has_value());
+  EXPECT_NE(e->find("record 0 at byte 0: no checksum"), std::string::npos) << *e;
+  write_bytes(path, without_checksums(9));
+  e = ho::load_recording(path, &rec);
+  ASSERT_TRUE(e.has_value());
+  EXPECT_NE(e->find("format version 9"), std::string::npos) << *e;
+  EXPECT_EQ(rec.header.format_version(), 1u);  // unchanged by the refused files
+  std::remove(path.c_str());
+}
+
 TEST(SessionRecording, ForeignFilesChangeNothing) {
   ho::Recording rec;
   rec.header.set_script("untouched");

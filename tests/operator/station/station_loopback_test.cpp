@@ -13,6 +13,7 @@
 #include <cmath>
 #include <fstream>
 #include <mutex>
+#include <utility>
 #include <optional>
 #include <thread>
 #include <vector>
@@ -64,8 +65,14 @@ struct FakeRobot {
                            commands.push_back(m.command());
                          });
     server->on_session_frame(hw::SessionFrame::kModeChange, [this](const hw::SessionFrame& f) {
-      std::lock_guard<std::mutex> lk(mu);
-      modes.push_back(f.mode_change());
+      {
+        std::lock_guard<std::mutex> lk(mu);
+        modes.push_back(f.mode_change());
+      }
+      hw::SessionFrame ack;
+      ack.mutable_ack()->set_request_id(f.mode_change().request_id());
+      ack.mutable_ack()->set_ok(true);
+      server->send_session_frame(ack);
     });
     std::string err;
     EXPECT_TRUE(server->start(&err)) << err;
@@ -150,6 +157,15 @@ TEST(StationLoopback, CommandsFlowModelHoldsTheWallAndTheProbeFeelsIt) {
   const Eigen::Vector3d fwd_H = ho::R_B_H().transpose() * Eigen::Vector3d(0.022, 0.0, 0.0);
   so.hand = std::make_shared<hemm::device::LineScript>(Eigen::Vector3d::Zero(), fwd_H, 0.03, 0.5);
   ho::OperatorStation station(io, client, so);
+  // What a session recording would get: every session frame, both ways.
+  std::mutex tap_mu;
+  std::vector<std::pair<bool, hw::SessionFrame>> frames;  // (outgoing, frame)
+  ho::OperatorStation::SessionTaps taps;
+  taps.on_session = [&](std::int64_t, bool outgoing, const hw::SessionFrame& f) {
+    std::lock_guard<std::mutex> lk(tap_mu);
+    frames.emplace_back(outgoing, f);
+  };
+  station.attach_session_taps(std::move(taps));
 
   std::string err;
   ASSERT_TRUE(client.start([](int, const std::string& why) { ADD_FAILURE() << "fatal: " << why; }, &err)) << err;
@@ -192,6 +208,18 @@ TEST(StationLoopback, CommandsFlowModelHoldsTheWallAndTheProbeFeelsIt) {
   }
   ASSERT_FALSE(modes.empty());
   EXPECT_EQ(modes.front().mode(), hw::MODE_EXPLORATION);
+  // The session taps saw the mode change go out and the robot's ack come in.
+  {
+    std::lock_guard<std::mutex> lk(tap_mu);
+    std::uint64_t sent_id = 0;
+    bool acked = false;
+    for (const auto& [outgoing, f] : frames) {
+      if (outgoing && f.has_mode_change()) sent_id = f.mode_change().request_id();
+      if (!outgoing && f.has_ack() && f.ack().request_id() == sent_id && f.ack().ok()) acked = true;
+    }
+    EXPECT_NE(sent_id, 0u);
+    EXPECT_TRUE(acked) << frames.size() << " session frames tapped";
+  }
 
   // The operator's model holds the wall x = 1 (and nothing else).
   const auto& segs = station.model().map().segments;
