@@ -260,8 +260,9 @@ int run(int argc, char** argv) {
   std::string probe_line_arg;
   app.add_option("--probe-line", probe_line_arg,
                  "probe-cylinder: X0,Y0,X1,Y1 in W metres, the line the probe sweeps (out and back); pass it a few "
-                 "cm off the object's centre so the probe meets its seen face; within 4 m of the start "
-                 "(default 1.42,-0.8,1.42,-1.6: home.xml's bin)");
+                 "cm off the object's centre so the probe meets its seen face; within the SIMULATED Omni's reach at "
+                 "the exploration scale: 1.75 m ahead or behind and 4 m to either side of the start (default "
+                 "1.42,-0.8,1.42,-1.6: home.xml's bin)");
   std::string station_json;
   app.add_option("--station-json", station_json,
                  "write the station summary (servo timing, model, commands, logs, final predicted pose, "

@@ -2,13 +2,18 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <numbers>
 #include <stdexcept>
+
+#include "operator/device/haptic_device.h"
 
 namespace hemm::op {
 namespace {
 // B (x forward, y left, z up) -> H (x right, y up, z towards the user).
 Eigen::Vector3d h_from_b(double xb, double yb, double zb) { return {-yb, zb, -xb}; }
+
+constexpr double kExplorationScale = 50.0;  // exploration: 4 m over the Omni's 0.08 m
 
 // Inverse of math::dead_band_saturate: the stylus offset that commands the
 // fraction a in [-1, 1] of the axis' maximum (0 stays at the centre).
@@ -122,9 +127,23 @@ DemoScript make_demo_script(std::string_view name, const DemoScriptOptions& o) {
   if (!o.probe_line_W.empty()) {
     if (name != "probe-cylinder") throw std::invalid_argument("a probe line is for probe-cylinder");
     if (o.probe_line_W.size() != 2) throw std::invalid_argument("a probe line is two points");
-    for (const Eigen::Vector2d& q : o.probe_line_W)
-      if (!q.allFinite() || q.norm() > 4.0)
-        throw std::invalid_argument("probe line points must be finite and within 4 m of the robot's start");
+    // The probe goes only where the SIMULATED Omni's stylus can take it at
+    // the exploration scale: a point beyond would be probed at the box's
+    // edge instead, silently somewhere else.
+    const device::DeviceLimits omni_device = device::phantom_omni_limits();
+    const device::EndEffectorLimits& omni = omni_device.ee[0];
+    for (const Eigen::Vector2d& q : o.probe_line_W) {
+      if (!q.allFinite()) throw std::invalid_argument("probe line points must be finite");
+      if (!omni.contains(h_from_b(q.x() / kExplorationScale, q.y() / kExplorationScale, 0.0))) {
+        char buf[256];
+        std::snprintf(buf, sizeof buf,
+                      "probe line point (%.2f, %.2f) is beyond what exploration reaches with the SIMULATED Omni "
+                      "(%.2f m ahead or behind, %.2f m to either side of the robot's start)",
+                      q.x(), q.y(), -omni.workspace_min_H.z() * kExplorationScale,
+                      omni.workspace_max_H.x() * kExplorationScale);
+        throw std::invalid_argument(buf);
+      }
+    }
   }
   if (name == "idle") {
     d.hand = std::make_shared<device::HoldScript>(Eigen::Vector3d::Zero());
@@ -139,8 +158,7 @@ DemoScript make_demo_script(std::string_view name, const DemoScriptOptions& o) {
     d.mode = math::Mode::kNavigation;
     d.duration_s = 14.0;
   } else if (name == "probe-cylinder") {
-    constexpr double s = 50.0;  // exploration: 4 m over 0.08 m
-    auto b = [](double xw, double yw) { return h_from_b(xw / s, yw / s, 0.0); };
+    auto b = [](double xw, double yw) { return h_from_b(xw / kExplorationScale, yw / kExplorationScale, 0.0); };
     std::vector<device::Waypoint> w;
     w.push_back({0.0, Eigen::Vector3d::Zero(), 0});
     w.push_back({1.0, Eigen::Vector3d::Zero(), 0});

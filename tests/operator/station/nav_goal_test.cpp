@@ -195,10 +195,23 @@ TEST(NavGoalParams, Validation) {
   EXPECT_THROW(ho::NavGoalHand(nullptr, {{1.0, 0.0}}), std::invalid_argument);
   EXPECT_THROW(ho::NavGoalHand(view, {{1.0, 0.0}}, p), std::invalid_argument);
   EXPECT_THROW(ho::make_demo_script("nav-to-goal", {{{INFINITY, 0.0}}, {}}), std::invalid_argument);
-  // Targets from the command line: a probe line is two finite points within
-  // the exploration range, for probe-cylinder only; nav-to-wall takes one goal.
-  EXPECT_TRUE(ho::make_demo_script("probe-cylinder", {{}, {{2.52, -0.1}, {2.52, -0.9}}}).hand);
-  EXPECT_THROW(ho::make_demo_script("probe-cylinder", {{}, {{2.52, -0.1}}}), std::invalid_argument);
+  // Targets from the command line: a probe line is two finite points that
+  // the SIMULATED Omni reaches at the exploration scale (50: its 35 mm
+  // depth is 1.75 m ahead, its 80 mm half width 4 m aside), for
+  // probe-cylinder only; nav-to-wall takes one goal.
+  EXPECT_TRUE(ho::make_demo_script("probe-cylinder", {{}, {{1.42, 0.15}, {1.42, 0.85}}}).hand);
+  EXPECT_TRUE(ho::make_demo_script("probe-cylinder", {{}, {{1.74, 3.9}, {-1.74, -3.9}}}).hand);
+  try {
+    ho::make_demo_script("probe-cylinder", {{}, {{2.52, -0.1}, {2.52, -0.9}}});
+    ADD_FAILURE() << "a line 2.52 m ahead is out of reach";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("(2.52, -0.10) is beyond what exploration reaches"), std::string::npos)
+        << e.what();
+    EXPECT_NE(std::string(e.what()).find("1.75 m ahead or behind, 4.00 m to either side"), std::string::npos)
+        << e.what();
+  }
+  EXPECT_THROW(ho::make_demo_script("probe-cylinder", {{}, {{1.0, 4.1}, {1.0, 0.0}}}), std::invalid_argument);
+  EXPECT_THROW(ho::make_demo_script("probe-cylinder", {{}, {{1.42, -0.1}}}), std::invalid_argument);
   EXPECT_THROW(ho::make_demo_script("probe-cylinder", {{}, {{5.0, 0.0}, {1.0, 0.0}}}), std::invalid_argument);
   EXPECT_THROW(ho::make_demo_script("probe-cylinder", {{}, {{NAN, 0.0}, {1.0, 0.0}}}), std::invalid_argument);
   EXPECT_THROW(ho::make_demo_script("nav-to-goal", {{}, {{1.0, 0.0}, {1.0, 1.0}}}), std::invalid_argument);

@@ -198,5 +198,35 @@ TEST(SceneSlice, CorridorsSceneColumnsBoardAndDoorway) {
   EXPECT_NEAR(haptics::distance_to_scene(s.scene, {0.0, 0.0}), 0.95, 1e-12);
 }
 
+TEST(SceneSlice, OfficeSceneMixedShapes) {
+  SceneSlice s;
+  std::string err;
+  ASSERT_TRUE(load_scene_slice(HEMM_SOURCE_DIR "/deploy/scenes/office.xml", 0.30, &s, &err)) << err;
+  EXPECT_TRUE(s.skipped.empty());
+  const struct {
+    Eigen::Vector2d c;
+    double r;
+  } circles[] = {{{1.6, 0.8}, 0.20},     // the bin
+                 {{0.9, -1.35}, 0.30},   // the ball, cut at its equator
+                 {{2.45, 0.9}, 0.025},   // the table's legs
+                 {{3.55, 1.5}, 0.025}};
+  for (const auto& c : circles) {
+    const auto* got = circle_at(s.scene, c.c);
+    ASSERT_NE(got, nullptr) << c.r;
+    EXPECT_NEAR(got->radius, c.r, 1e-12);
+  }
+  // The pillar (0.4 m square turned 30 deg about z): 0.3 m from a face
+  // along its normal at 30 deg is 0.5 m from the centre.
+  const Eigen::Vector2d n(std::cos(std::numbers::pi / 6), std::sin(std::numbers::pi / 6));
+  EXPECT_NEAR(haptics::distance_to_scene(s.scene, Eigen::Vector2d(2.6, -1.1) + 0.5 * n), 0.3, 1e-9);
+  // The board: 1.5 cm thick, faces at x = 0.3925 and 0.4075.
+  EXPECT_NEAR(haptics::distance_to_scene(s.scene, {0.3, 1.7}), 0.0925, 1e-9);
+  EXPECT_NEAR(haptics::distance_to_scene(s.scene, {0.5, 1.7}), 0.0925, 1e-9);
+  // The table top is above the laser plane: between the legs is free.
+  EXPECT_NEAR(haptics::distance_to_scene(s.scene, {3.0, 1.2}), std::hypot(0.55, 0.3) - 0.025, 1e-9);
+  // The start: the west wall's face 0.95 m away is the nearest.
+  EXPECT_NEAR(haptics::distance_to_scene(s.scene, {0.0, 0.0}), 0.95, 1e-12);
+}
+
 }  // namespace
 }  // namespace hemm::robot
