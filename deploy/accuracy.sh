@@ -4,14 +4,16 @@
 # hemm-robot on that scene, hemm-relay for a round trip above 0, and
 # hemm-operator with the SIMULATED Omni and a scripted hand aimed at the
 # scene's own targets (named in each scene file's header): nav-to-wall (HEMM
-# Fig. 8, the robot moving into a wall) and probe-cylinder (Fig. 9, the probe
-# moving round a round object). hemm-truth replays each run's proxy path
+# Fig. 8, the robot moving into a wall), probe-cylinder (Fig. 9, the probe
+# moving round a round object's seen front half) and probe-back (the same
+# sweep through the object's far half, which the laser never sees: shape
+# completion or the shadow edges must stand for it). hemm-truth replays each run's proxy path
 # against the scene cut at the laser plane; the table gives the force error
 # over contact ticks (RMS and max, and RMS as a share of the Omni's 3.3 N
 # peak: targets 5 % at 0 ms, 10 % at 300 ms) and the pose error.
 #
-# Usage: deploy/accuracy.sh BUILD_DIR [--scenes home,corridors,office] [--rtts 0,300] [--out DIR]
-# Takes about 40 s per run (3 scenes x 2 runs x 2 round trips: ~8 min).
+# Usage: deploy/accuracy.sh BUILD_DIR [--scenes home,corridors,office] [--rtts 0,300] [--runs nav-to-wall,probe-cylinder,probe-back] [--shape-completion on|off] [--out DIR]
+# Takes about 40 s per run (3 scenes x 3 runs x 2 round trips: ~12 min).
 set -euo pipefail
 
 usage() {
@@ -24,11 +26,15 @@ shift
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 scenes="home,corridors,office"
 rtts="0,300"
+runs="nav-to-wall,probe-cylinder,probe-back"
+shapes="on"
 out="$root/out/accuracy"
 while (($#)); do
   case "$1" in
     --scenes) scenes="${2:?--scenes needs a list}"; shift 2 ;;
     --rtts) rtts="${2:?--rtts needs a list}"; shift 2 ;;
+    --runs) runs="${2:?--runs needs a list}"; shift 2 ;;
+    --shape-completion) shapes="${2:?--shape-completion needs on or off}"; shift 2 ;;
     --out) out="${2:?--out needs a directory}"; shift 2 ;;
     -h|--help) usage; exit 0 ;;
     *) echo "accuracy: unknown argument '$1'" >&2; usage >&2; exit 2 ;;
@@ -40,20 +46,26 @@ for b in hemm-robot hemm-operator hemm-relay hemm-truth; do
 done
 cfg="$root/deploy/configs"
 
+[[ "$shapes" == on || "$shapes" == off ]] || { echo "accuracy: --shape-completion must be on or off" >&2; exit 2; }
 # Each scene's targets for the scripted runs (as in the scene file's header).
-targets() {  # SCENE SCRIPT -> operator arguments
+# probe-back sweeps the line mirrored through the object's centre.
+targets() {  # SCENE RUN -> operator arguments
   case "$1:$2" in
-    home:*) ;;  # the scripts' defaults aim at home.xml
+    home:nav-to-wall|home:probe-cylinder) ;;  # the scripts' defaults aim at home.xml
+    home:probe-back) echo "--probe-line 1.58,-0.8,1.58,-1.6" ;;
     corridors:probe-cylinder) echo "--probe-line 1.47,0.15,1.47,0.85" ;;
+    corridors:probe-back) echo "--probe-line 1.53,0.15,1.53,0.85" ;;
     corridors:nav-to-wall) echo "--goal 2.0,-1.6" ;;
     office:probe-cylinder) echo "--probe-line 1.52,0.3,1.52,1.3" ;;
+    office:probe-back) echo "--probe-line 1.68,0.3,1.68,1.3" ;;
     office:nav-to-wall) echo "--goal 4.5,0.0" ;;
-    *) echo "accuracy: no targets for scene '$1' script '$2'" >&2; return 2 ;;
+    *) echo "accuracy: no targets for scene '$1' run '$2'" >&2; return 2 ;;
   esac
 }
+script_of() { [[ "$1" == probe-back ]] && echo probe-cylinder || echo "$1"; }
 for s in ${scenes//,/ }; do
   [[ -f "$root/deploy/scenes/$s.xml" ]] || { echo "accuracy: no scene deploy/scenes/$s.xml" >&2; exit 2; }
-  targets "$s" probe-cylinder >/dev/null
+  for r in ${runs//,/ }; do targets "$s" "$r" >/dev/null || exit 2; done
 done
 for r in ${rtts//,/ }; do
   [[ "$r" =~ ^[0-9]+$ ]] || { echo "accuracy: --rtts '$rtts': round trips are whole milliseconds" >&2; exit 2; }
@@ -64,11 +76,12 @@ cleanup() { for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done; }
 trap cleanup EXIT
 mkdir -p "$out"
 
-run() {  # SCENE SCRIPT SECONDS RTT_MS
-  local scene="$1" script="$2" secs="$3" rtt="$4"
-  local dir="$out/$scene/$script-${rtt}ms"
+run() {  # SCENE RUN SECONDS RTT_MS
+  local scene="$1" name="$2" secs="$3" rtt="$4"
+  local script; script="$(script_of "$name")"
+  local dir="$out/$scene/$name-${rtt}ms"
   mkdir -p "$dir"
-  echo "accuracy: $scene $script at $rtt ms round trip ($secs s) -> $dir" >&2
+  echo "accuracy: $scene $name at $rtt ms round trip ($secs s, shape completion $shapes) -> $dir" >&2
   "$bin/hemm-robot" --config "$cfg/robot.pbtxt" --scene "$root/deploy/scenes/$scene.xml" \
     --session-port 47300 --stream-port 47301 --duration $((secs + 8)) --log-level warn \
     >"$dir/robot.txt" 2>"$dir/robot.log" &
@@ -90,7 +103,7 @@ run() {  # SCENE SCRIPT SECONDS RTT_MS
   local rc=0
   # shellcheck disable=SC2046
   "$bin/hemm-operator" --config "$cfg/operator.pbtxt" --session-port "$port" --stream-port "$stream" \
-    --script "$script" $(targets "$scene" "$script") --log "$dir/servo.csv" --duration "$secs" \
+    --script "$script" $(targets "$scene" "$name") --shape-completion "$shapes" --log "$dir/servo.csv" --duration "$secs" \
     --log-level warn --station-json "$dir/station.json" >"$dir/operator.txt" 2>"$dir/operator.log" || rc=$?
   kill -INT "$robot" 2>/dev/null || true
   wait "$robot" 2>/dev/null || true
@@ -108,14 +121,16 @@ run() {  # SCENE SCRIPT SECONDS RTT_MS
 
 for scene in ${scenes//,/ }; do
   for rtt in ${rtts//,/ }; do
-    run "$scene" nav-to-wall 14 "$rtt"
-    run "$scene" probe-cylinder 19 "$rtt"
+    for r in ${runs//,/ }; do
+      if [[ "$r" == nav-to-wall ]]; then run "$scene" "$r" 14 "$rtt"; else run "$scene" "$r" 19 "$rtt"; fi
+    done
   done
 done
 
-/usr/bin/python3 - "$out" "$scenes" "$rtts" <<'PY'
+echo "shape completion: $shapes"
+/usr/bin/python3 - "$out" "$scenes" "$rtts" "$runs" <<'PY'
 import json, os, sys
-out, scenes, rtts = sys.argv[1], sys.argv[2].split(","), sys.argv[3].split(",")
+out, scenes, rtts, runs = sys.argv[1], sys.argv[2].split(","), sys.argv[3].split(","), sys.argv[4].split(",")
 peak = 3.3  # N, the SIMULATED Omni's peak force (operator/device/haptic_device.h)
 rows = []
 hdr = ("scene", "run", "rtt ms", "contact ticks", "cF rms N", "cF max N", "rms/peak", "target", "dF rms N", "pose err max m")
@@ -124,7 +139,7 @@ print("|" + "|".join(["---"] * 2 + ["--:"] * (len(hdr) - 2)) + "|")
 bad = 0
 for s in scenes:
     for r in rtts:
-        for script in ("nav-to-wall", "probe-cylinder"):
+        for script in runs:
             p = os.path.join(out, s, f"{script}-{r}ms", "truth.json")
             j = json.load(open(p))
             n = int(j.get("contact_ticks", 0))

@@ -263,6 +263,12 @@ int run(int argc, char** argv) {
                  "cm off the object's centre so the probe meets its seen face; within the SIMULATED Omni's reach at "
                  "the exploration scale: 1.75 m ahead or behind and 4 m to either side of the start (default "
                  "1.42,-0.8,1.42,-1.6: home.xml's bin)");
+  std::string shape_completion = "on";
+  app.add_option("--shape-completion", shape_completion,
+                 "on: circles and wall lines fitted to the local map (PCL sample consensus) are rendered where "
+                 "their fit is good (a round object's unseen back, a wall through dropouts); off: raw map segments "
+                 "and shadow edges only (default on)")
+      ->check(CLI::IsMember({"on", "off"}));
   std::string station_json;
   app.add_option("--station-json", station_json,
                  "write the station summary (servo timing, model, commands, logs, final predicted pose, "
@@ -437,6 +443,7 @@ int run(int argc, char** argv) {
   so.goal_route = goal_route;
   so.probe_line = probe_line;
   so.log_path = servo_log;
+  so.model.shapes.enabled = shape_completion == "on";
   so.command_rate_hz = cfg.net().command_rate_hz();
   if (cfg.servo().rate_hz() < 100 || cfg.servo().rate_hz() > 4000 || so.command_rate_hz < 100 ||
       so.command_rate_hz > 1000) {
@@ -465,6 +472,7 @@ int run(int argc, char** argv) {
     h.set_initial_mode(static_cast<std::uint32_t>(station->task().params().initial_mode));
     h.set_script(so.device == "sim-omni" ? so.script : so.device);
     h.set_end_effectors(station->device().limits().end_effectors);
+    h.set_shape_completion_off(!so.model.shapes.enabled);
     google::protobuf::TextFormat::PrintToString(cfg, h.mutable_config_text());
     try {
       recorder = std::make_unique<op::SessionRecorder>(record_path, h);

@@ -418,6 +418,13 @@ bool sonar_sees_through(const MapParams& p, const RangeScan2D& s, double r_q, do
 
 }  // namespace
 
+bool scan_sees_through(const MapParams& p, const RangeScan2D& scan, const Eigen::Vector2d& q_W) {
+  if (scan.kind != SensorKind::kLaser || !validate(scan).empty() || !q_W.allFinite()) return false;
+  const math::Pose2 T_W_S = math::compose(scan.T_W_R, scan.T_R_S);
+  const Vector2d q_S = math::apply(math::inverse(T_W_S), q_W);
+  return laser_sees_through(p, scan, q_S.norm(), std::atan2(q_S.y(), q_S.x()));
+}
+
 std::size_t clear_reobserved_segments(const MapParams& p, LocalMap& map, const RangeScan2D& scan) {
   if (!validate(p).empty() || !validate(scan).empty()) return 0;
   const math::Pose2 T_S_W = math::inverse(math::compose(scan.T_W_R, scan.T_R_S));
@@ -544,7 +551,11 @@ std::string add_scan(const MapParams& p, LocalMap& map, const RangeScan2D& scan_
   std::string e = extract_segments(p, scan, map.segments, &map.laser);
   if (!e.empty()) return e;
   map.newest_stamp_ns = std::max(map.newest_stamp_ns, scan.stamp_ns);
-  if (scan.kind == SensorKind::kLaser) update_laser_coverage(map.laser, scan, p.sonar_laser_max_age_s);
+  if (scan.kind == SensorKind::kLaser) {
+    update_laser_coverage(map.laser, scan, p.sonar_laser_max_age_s);
+    if (map.recent_laser.size() == LocalMap::kRecentLaserScans) map.recent_laser.erase(map.recent_laser.begin());
+    map.recent_laser.push_back(scan);
+  }
   return e;
 }
 
@@ -598,12 +609,16 @@ void set_depth_limits(const MapParams&, MapSnapshot& s) {
 }  // namespace
 
 MapSnapshot build_snapshot(const MapParams& p, const LocalMap& map) {
+  return build_snapshot(p, map.segments, map.newest_stamp_ns);
+}
+
+MapSnapshot build_snapshot(const MapParams& p, const std::vector<Segment2>& segments, std::int64_t stamp_ns) {
   MapSnapshot s;
-  s.stamp_ns = map.newest_stamp_ns == std::numeric_limits<std::int64_t>::min() ? 0 : map.newest_stamp_ns;
+  s.stamp_ns = stamp_ns == std::numeric_limits<std::int64_t>::min() ? 0 : stamp_ns;
   // Split long segments so that each piece lies within half a cell of its
   // midpoint: then bucketing by midpoint never misses one at query time.
-  s.segments.reserve(map.segments.size());
-  for (const Segment2& seg : map.segments) {
+  s.segments.reserve(segments.size());
+  for (const Segment2& seg : segments) {
     const double len = (seg.b - seg.a).norm();
     const int pieces = std::max(1, static_cast<int>(std::ceil(len / p.cell_size)));
     for (int k = 0; k < pieces; ++k) {

@@ -79,6 +79,9 @@ struct Segment2 {
   std::int64_t stamp_ns = 0;                         // scan acquisition time
   SensorKind kind = SensorKind::kLaser;
   bool interpolated = false;  // sonar arc / bridge: inferred, not a measured point pair
+  // A piece of a fitted primitive (shape completion: a circle's outline, a
+  // wall's line continued through a dropout), not a measured point pair.
+  bool fitted = false;
   // Shadow edge (laser): the side of the unseen space behind a visible face,
   // drawn from the face's silhouette point along the grazing beam, normal
   // toward the beam that passed it (see MapParams::shadow_depth).
@@ -187,7 +190,16 @@ struct LocalMap {
   std::vector<Segment2> segments;
   std::int64_t newest_stamp_ns = std::numeric_limits<std::int64_t>::min();
   LaserCoverage laser;  // recent laser returns (see MapParams::sonar_laser_max_age_s)
+  // The newest laser scans (or chunks of one), newest last, at most
+  // kRecentLaserScans: what shape completion asks "was this gap seen through?".
+  static constexpr std::size_t kRecentLaserScans = 8;
+  std::vector<RangeScan2D> recent_laser;
 };
+
+// Has this laser scan seen through point q_W (free space up to it and
+// beyond, by ray clearing's rule and tolerance)? A dropout, a nearer return,
+// q outside the field of view or a sonar scan: false.
+bool scan_sees_through(const MapParams& p, const RangeScan2D& scan, const Eigen::Vector2d& q_W);
 
 // Surfaces of one scan, appended to out. A bad scan returns an error and
 // leaves out untouched. laser (optional): sonar echoes it explains are not drawn.
@@ -229,6 +241,8 @@ struct MapSnapshot {
 };
 
 MapSnapshot build_snapshot(const MapParams& p, const LocalMap& map);
+// The same over any segment list (e.g. shape completion's): stamp_ns = newest scan in it.
+MapSnapshot build_snapshot(const MapParams& p, const std::vector<Segment2>& segments, std::int64_t stamp_ns);
 
 // Indices of all snapshot segments within distance r of p (exact test), written
 // to out[0 .. min(count, cap)). Returns the count, or cap + 1 as soon as more

@@ -20,6 +20,7 @@ ModelThread::ModelThread(servo::ModelChannel& channel, const ModelThreadParams& 
       history_(p.history) {
   if (std::string e = mapping::validate(p.map); !e.empty()) throw std::invalid_argument("ModelThread: " + e);
   if (std::string e = validate(p.registration); !e.empty()) throw std::invalid_argument("ModelThread: " + e);
+  if (std::string e = mapping::validate(p.shapes); !e.empty()) throw std::invalid_argument("ModelThread: " + e);
   if (!(p.rate_hz > 0.0 && p.rate_hz <= 1000.0)) throw std::invalid_argument("ModelThread: rate_hz outside (0, 1000]");
   if (!(p.fresh_s >= 0.0 && p.fade_s > 0.0 && p.fade_s < 60.0 && p.fresh_s < 60.0))
     throw std::invalid_argument("ModelThread: need fresh_s >= 0 and fade_s > 0 (both under a minute)");
@@ -50,6 +51,7 @@ ModelStats ModelThread::stats() const {
   s.freed = freed_.load();
   std::lock_guard<std::mutex> lock(stats_mutex_);  // never taken by the servo thread
   s.registration = reg_stats_;
+  s.shapes = shape_stats_;
   s.resyncs = resyncs_.load();
   s.old_epoch_dropped = old_epoch_dropped_.load();
   return s;
@@ -210,7 +212,33 @@ void ModelThread::step(std::int64_t now_ns) {
   snap->resyncing = resyncing_;
   snap->resyncs = resyncs_.load();
   mapping::slide_window(p_.map, map_, now_ns, math::translation(snap->T_W_R));
-  snap->map = mapping::build_snapshot(p_.map, map_);
+  if (p_.shapes.enabled) {
+    // Refit only when the map changed (a new scan, or the window slid).
+    if (map_.newest_stamp_ns != shapes_stamp_ || map_.segments.size() != shapes_size_) {
+      const std::int64_t t0 = steady_now_ns();
+      mapping::complete_shapes(p_.shapes, p_.map, map_, shapes_);
+      const double ms = static_cast<double>(steady_now_ns() - t0) * 1e-6;
+      shapes_stamp_ = map_.newest_stamp_ns;
+      shapes_size_ = map_.segments.size();
+      ShapeStats st;
+      st.circles = shapes_.circles.size();
+      st.lines = shapes_.lines.size();
+      st.bridges = shapes_.bridges;
+      st.raw_replaced = shapes_.raw_replaced;
+      for (const mapping::FittedCircle& fc : shapes_.circles) st.max_circle_rms_m = std::max(st.max_circle_rms_m, fc.rms);
+      st.raw_replaced_bytes = shapes_.raw_replaced * sizeof(mapping::Segment2);
+      st.primitive_bytes = shapes_.circles.size() * 3 * sizeof(double);
+      st.outline_bytes = shapes_.circles.size() * static_cast<std::size_t>(p_.shapes.circle_pieces) * sizeof(mapping::Segment2);
+      std::lock_guard<std::mutex> lock(stats_mutex_);
+      st.fits = shape_stats_.fits + 1;
+      st.last_fit_ms = ms;
+      st.max_fit_ms = std::max(shape_stats_.max_fit_ms, ms);
+      shape_stats_ = st;
+    }
+    snap->map = mapping::build_snapshot(p_.map, shapes_.segments, map_.newest_stamp_ns);
+  } else {
+    snap->map = mapping::build_snapshot(p_.map, map_);
+  }
   snap->segments = map_.segments.size();
   if (observer_) observer_(*snap);
   if (step_tap_) {

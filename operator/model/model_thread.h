@@ -35,6 +35,7 @@
 #include <atomic>
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -43,6 +44,7 @@
 #include <vector>
 
 #include "common/mapping/local_map.h"
+#include "common/mapping/shape_completion.h"
 #include "operator/model/pose_prediction.h"
 #include "operator/model/scan_convert.h"
 #include "operator/model/scan_registration.h"
@@ -82,8 +84,23 @@ struct ModelThreadParams {
   std::size_t history = 4096;            // sent commands kept for prediction
   double max_prediction_s = 2.0;
   RegistrationParams registration;  // its correction-rate limit keeps the force smooth
+  mapping::ShapeParams shapes;      // shape completion of the snapshot (enabled by default)
   double fresh_s = 0.25;   // model age beyond the one-way delay that still counts as fresh
   double fade_s = 1.0;     // a going-stale model's force fades to zero over this
+};
+
+// Shape completion (mapping::complete_shapes) as of the newest snapshot, and
+// its cost: fits run on the model thread when the map changed.
+struct ShapeStats {
+  std::uint64_t fits = 0;
+  std::size_t circles = 0, lines = 0, bridges = 0;
+  std::size_t raw_replaced = 0;     // raw segments and shadow edges the circles stand for
+  double max_circle_rms_m = 0.0;    // worst fit error among the rendered circles
+  double last_fit_ms = 0.0, max_fit_ms = 0.0;
+  // Memory: the raw segments the circles replace against the circles'
+  // parameters (centre, radius), and what the snapshot draws for them (the
+  // outline pieces the proxy queries).
+  std::size_t raw_replaced_bytes = 0, primitive_bytes = 0, outline_bytes = 0;
 };
 
 struct ModelStats {
@@ -96,6 +113,7 @@ struct ModelStats {
   std::uint64_t snapshots = 0;
   std::uint64_t freed = 0;
   LocalizerStats registration;   // scan registration: counts, fit, the correction (scans and pose)
+  ShapeStats shapes;
   std::uint64_t resyncs = 0;          // robot restarts (new frame epochs) taken in
   std::uint64_t old_epoch_dropped = 0;  // states and scans of a robot that restarted
 };
@@ -191,6 +209,10 @@ class ModelThread {
   // Registration figures for stats() (read from other threads).
   mutable std::mutex stats_mutex_;
   LocalizerStats reg_stats_;
+  ShapeStats shape_stats_;            // under stats_mutex_
+  mapping::ShapeModel shapes_;        // model thread: the newest completion
+  std::int64_t shapes_stamp_ = std::numeric_limits<std::int64_t>::min();  // map state it was fitted on
+  std::size_t shapes_size_ = 0;
   std::atomic<bool> stop_{false};
   std::thread thread_;
 };

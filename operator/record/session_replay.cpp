@@ -31,7 +31,9 @@ SessionReplayResult replay_session(const Recording& rec, const SessionReplayOpti
   SessionReplayResult r;
   const int ees = rec.header.end_effectors();
   servo::ModelChannel channel;
-  ModelThread model(channel, ModelThreadParams{});
+  ModelThreadParams mp;
+  mp.shapes.enabled = !rec.header.shape_completion_off();
+  ModelThread model(channel, mp);
   if (o.on_snapshot) model.set_snapshot_observer(o.on_snapshot);
   OperatorTaskParams tp;
   tp.proxy.period = static_cast<double>(rec.header.servo_period_ns()) * 1e-9;

@@ -39,6 +39,10 @@ std::string to_string(const OperatorStationSummary& s) {
     << " max_step_m=" << s.model.registration.max_step
     << " correction=(" << s.model.registration.correction.x << ", " << s.model.registration.correction.y << ", "
     << s.model.registration.correction.theta << ")\n"
+    << "shapes: circles=" << s.model.shapes.circles << " lines=" << s.model.shapes.lines
+    << " bridges=" << s.model.shapes.bridges << " raw_replaced=" << s.model.shapes.raw_replaced
+    << " max_circle_rms_m=" << s.model.shapes.max_circle_rms_m << " fit_ms last=" << s.model.shapes.last_fit_ms
+    << " max=" << s.model.shapes.max_fit_ms << "\n"
     << "commands: sent=" << s.commands.commands_sent << " failures=" << s.commands.send_failures
     << " link_down=" << s.commands.link_down << " mode_changes=" << s.commands.mode_changes_sent << " stale=" << s.commands.stale
     << " mode_switches=" << s.mode_switches << "\n"
@@ -81,6 +85,18 @@ report::OperatorStation to_report(const OperatorStationSummary& s) {
   m.set_correction_x_m(s.model.registration.correction.x);
   m.set_correction_y_m(s.model.registration.correction.y);
   m.set_correction_theta_rad(s.model.registration.correction.theta);
+  const ShapeStats& sh = s.model.shapes;
+  m.set_shape_fits(sh.fits);
+  m.set_shape_circles(sh.circles);
+  m.set_shape_lines(sh.lines);
+  m.set_shape_bridges(sh.bridges);
+  m.set_shape_raw_replaced(sh.raw_replaced);
+  m.set_shape_max_circle_rms_m(sh.max_circle_rms_m);
+  m.set_shape_last_fit_ms(sh.last_fit_ms);
+  m.set_shape_max_fit_ms(sh.max_fit_ms);
+  m.set_shape_raw_replaced_bytes(sh.raw_replaced_bytes);
+  m.set_shape_primitive_bytes(sh.primitive_bytes);
+  m.set_shape_outline_bytes(sh.outline_bytes);
   m.set_resyncs(s.model.resyncs);
   m.set_old_epoch_dropped(s.model.old_epoch_dropped);
   report::CommandStream& c = *r.mutable_commands();

@@ -21,7 +21,8 @@ void build_operator_scene(const ViewModel& model, const StationLogRecord* tick, 
     const Eigen::Vector2d mid = 0.5 * (s.a + s.b) - 0.5 * st.wall_thickness * s.normal;
     out.box(Eigen::Vector3d(mid.x(), mid.y(), 0.5 * st.wall_height), std::atan2(d.y(), d.x()),
             Eigen::Vector3d(0.5 * len, 0.5 * st.wall_thickness, 0.5 * st.wall_height),
-            s.shadow                                ? view_colours::kMapShadow
+            s.fitted                                ? view_colours::kMapFitted
+            : s.shadow                              ? view_colours::kMapShadow
             : s.kind == mapping::SensorKind::kLaser ? view_colours::kMapLaser
                                                     : view_colours::kMapSonar);
   }

@@ -32,6 +32,8 @@ inline constexpr view::Rgba kMapLaser{0.95f, 0.45f, 0.05f, 1.0f};
 inline constexpr view::Rgba kMapSonar{0.60f, 0.25f, 0.85f, 1.0f};
 // Shadow edges: unseen space the proxy treats as solid, not a seen surface.
 inline constexpr view::Rgba kMapShadow{0.55f, 0.55f, 0.60f, 0.45f};
+// Shape completion: a fitted circle's outline or a wall bridged through dropouts.
+inline constexpr view::Rgba kMapFitted{0.15f, 0.70f, 0.65f, 0.85f};
 inline constexpr view::Rgba kRobot{0.10f, 0.30f, 0.95f, 1.0f};
 inline constexpr view::Rgba kRobotReceived{0.20f, 0.90f, 0.95f, 1.0f};
 inline constexpr view::Rgba kProxy{0.10f, 0.85f, 0.15f, 1.0f};

@@ -18,41 +18,7 @@ namespace {
 using Eigen::Vector2d;
 using math::Pose2;
 
-// Exact test geometry: thin segments and solid circles.
-struct Shapes {
-  std::vector<std::pair<Vector2d, Vector2d>> segs;
-  std::vector<std::pair<Vector2d, double>> circles;
-
-  std::optional<double> ray(const Vector2d& o, const Vector2d& u, double max_range) const {
-    double best = max_range;
-    bool hit = false;
-    for (const auto& [a, b] : segs) {
-      const Vector2d e = b - a;
-      const double den = math::cross2(u, e);
-      if (std::abs(den) < 1e-15) continue;
-      const Vector2d w = a - o;
-      const double t = math::cross2(w, e) / den, q = math::cross2(w, u) / den;
-      if (t >= 0 && q >= 0 && q <= 1 && t < best) best = t, hit = true;
-    }
-    for (const auto& [c, r] : circles) {
-      const Vector2d f = o - c;
-      const double b = f.dot(u), disc = b * b - (f.squaredNorm() - r * r);
-      if (disc < 0) continue;
-      const double t = -b - std::sqrt(disc);
-      if (t >= 0 && t < best) best = t, hit = true;
-    }
-    return hit ? std::optional<double>(best) : std::nullopt;
-  }
-  double distance(const Vector2d& p) const {
-    double d = 1e300;
-    for (const auto& [a, b] : segs) d = std::min(d, math::distance_to_segment(a, b, p));
-    for (const auto& [c, r] : circles) d = std::min(d, std::abs((p - c).norm() - r));
-    return d;
-  }
-  auto rayfn() const {
-    return [this](const Vector2d& o, const Vector2d& u, double m) { return ray(o, u, m); };
-  }
-};
+using Shapes = test::Shapes2D;
 
 test::SynthScanSpec laser(double sigma = 0.0, std::uint32_t seed = 1) {
   test::SynthScanSpec s;

@@ -1,15 +1,19 @@
 #pragma once
 // Test helper: SIMULATED range scans, generated analytically by casting rays
 // against exact geometry (the caller supplies the ray cast).
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <numbers>
 #include <optional>
 #include <random>
+#include <utility>
+#include <vector>
 
 #include <Eigen/Core>
 
 #include "common/mapping/range_scan.h"
+#include "common/math/geometry2.h"
 
 namespace hemm::test {
 
@@ -29,6 +33,43 @@ struct SynthScanSpec {
   // range_max (wire no_return): valid at range_max, free space, not a return.
   // false: flagged invalid like a dropout (senders without no_return).
   bool no_return_valid = false;
+};
+
+// Exact test geometry in W: thin segments and solid circles, with the ray
+// cast synth_scan needs and the exact distance to the nearest surface.
+struct Shapes2D {
+  std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>> segs;
+  std::vector<std::pair<Eigen::Vector2d, double>> circles;
+
+  std::optional<double> ray(const Eigen::Vector2d& o, const Eigen::Vector2d& u, double max_range) const {
+    double best = max_range;
+    bool hit = false;
+    for (const auto& [a, b] : segs) {
+      const Eigen::Vector2d e = b - a;
+      const double den = math::cross2(u, e);
+      if (std::abs(den) < 1e-15) continue;
+      const Eigen::Vector2d w = a - o;
+      const double t = math::cross2(w, e) / den, q = math::cross2(w, u) / den;
+      if (t >= 0 && q >= 0 && q <= 1 && t < best) best = t, hit = true;
+    }
+    for (const auto& [c, r] : circles) {
+      const Eigen::Vector2d f = o - c;
+      const double b = f.dot(u), disc = b * b - (f.squaredNorm() - r * r);
+      if (disc < 0) continue;
+      const double t = -b - std::sqrt(disc);
+      if (t >= 0 && t < best) best = t, hit = true;
+    }
+    return hit ? std::optional<double>(best) : std::nullopt;
+  }
+  double distance(const Eigen::Vector2d& p) const {
+    double d = 1e300;
+    for (const auto& [a, b] : segs) d = std::min(d, math::distance_to_segment(a, b, p));
+    for (const auto& [c, r] : circles) d = std::min(d, std::abs((p - c).norm() - r));
+    return d;
+  }
+  auto rayfn() const {
+    return [this](const Eigen::Vector2d& o, const Eigen::Vector2d& u, double m) { return ray(o, u, m); };
+  }
 };
 
 // ray(origin_W, unit_dir_W, max_range) -> optional distance.
