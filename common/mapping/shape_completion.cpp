@@ -219,9 +219,12 @@ Segment2 fitted_piece(const Vector2d& a, const Vector2d& b, const Vector2d& norm
 }  // namespace
 
 void complete_shapes(const ShapeParams& p, const MapParams& mp, const LocalMap& map, ShapeModel& out) {
-  out.circles.clear();
+  // The previous completion's circles: temporal coherence (below).
+  std::vector<FittedCircle> previous;
+  previous.swap(out.circles);
   out.lines.clear();
   out.bridges = 0;
+  out.kept = 0;
   out.raw_replaced = 0;
   out.clusters = 0;
   out.segments.clear();
@@ -245,14 +248,15 @@ void complete_shapes(const ShapeParams& p, const MapParams& mp, const LocalMap& 
   const double tol = p.inlier_distance;
 
   for (const std::vector<std::uint32_t>& cl : clusters) {
-    if (cl.size() < p.min_points || out.clusters == p.max_clusters) break;  // largest first
+    if (cl.size() < 3 || out.clusters == p.max_clusters) break;  // largest first
     ++out.clusters;
     // A wall first: a line that explains the cluster settles it.
     LineFit first;
     const bool have_line = fit_line(p, pts, cl, first);
+    const bool enough = cl.size() >= p.min_points;
     const double line_share = have_line ? static_cast<double>(first.inliers.size()) / static_cast<double>(cl.size()) : 0.0;
     bool circle = false;
-    if (line_share < p.line_preference) {
+    if (enough && line_share < p.line_preference) {
       CircleFit cf;
       if (fit_circle(p, pts, cl, cf) && cf.radius >= p.min_radius && cf.radius <= p.max_radius &&
           cf.rms <= p.max_rms && cf.arc >= p.min_arc &&
@@ -276,6 +280,29 @@ void complete_shapes(const ShapeParams& p, const MapParams& mp, const LocalMap& 
           fc.inliers = static_cast<std::uint32_t>(cf.inliers);
           fc.points = static_cast<std::uint32_t>(cl.size());
           out.circles.push_back(fc);
+        }
+      }
+    }
+    if (!circle && !previous.empty()) {
+      // Temporal coherence: a circle of the previous completion that still
+      // explains this cluster is kept, although this map alone did not pass
+      // the acceptance tests (a scan chunk lost on the link, a few points
+      // fewer, the arc cut by an occluder). Without it the outline would
+      // flicker with the data, and a probe resting on the object's back
+      // would fall in while the circle is away.
+      for (const FittedCircle& pc : previous) {
+        std::size_t on = 0, outward = 0;
+        for (std::uint32_t k : cl) {
+          if (std::abs((pts[k].p - pc.centre).norm() - pc.radius) <= 1.5 * p.inlier_distance) ++on;
+          const Segment2& s = segs[pts[k].seg];
+          if (s.normal.dot(0.5 * (s.a + s.b) - pc.centre) > 0.0) ++outward;
+        }
+        if (on >= 3 && static_cast<double>(on) >= p.min_inlier_ratio * static_cast<double>(cl.size()) &&
+            outward * 10 >= cl.size() * 9) {
+          out.circles.push_back(pc);
+          ++out.kept;
+          circle = true;
+          break;
         }
       }
     }

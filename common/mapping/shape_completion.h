@@ -15,7 +15,8 @@
 //    a big circle), and the seen surface faces away from the centre (the
 //    outside of a convex object, not the inside of a curved wall).
 //    The circle's outline replaces the raw segments it explains and the
-//    shadow edges that start on it.
+//    shadow edges that start on it. A circle once accepted is kept while the
+//    object's points stay on it (see complete_shapes).
 //  - Lines (SACMODEL_LINE, sequentially per cluster: a corner gives two). Two
 //    fitted wall pieces on one line, facing the same way, with a gap of at
 //    most line_max_gap between them are bridged unless a recent laser scan
@@ -83,6 +84,7 @@ struct ShapeModel {
   std::vector<FittedCircle> circles;
   std::vector<FittedLine> lines;
   std::size_t bridges = 0;        // gaps between wall pieces closed
+  std::size_t kept = 0;           // circles of the previous completion kept (temporal coherence)
   std::size_t raw_replaced = 0;   // raw segments (and shadow edges) a circle explains, left out
   std::size_t clusters = 0;       // clusters considered
   // What the snapshot is built from: the map's segments minus raw_replaced,
@@ -90,8 +92,13 @@ struct ShapeModel {
   std::vector<Segment2> segments;
 };
 
-// Fits and renders; out is overwritten (its capacity reused). A disabled or
-// invalid ShapeParams leaves the map's segments as they are.
+// Fits and renders; out is overwritten (its capacity reused). Temporal
+// coherence: a circle in out from the previous call is kept while it still
+// explains its object's points (at least 3, min_inlier_ratio of the cluster,
+// seen from outside) even where this map alone would not pass the tests, so
+// the outline does not flicker with lost or noisy scans; pass a fresh
+// ShapeModel to fit from scratch. A disabled or invalid ShapeParams leaves
+// the map's segments as they are.
 void complete_shapes(const ShapeParams& p, const MapParams& mp, const LocalMap& map, ShapeModel& out);
 
 }  // namespace hemm::mapping

@@ -224,6 +224,7 @@ void ModelThread::step(std::int64_t now_ns) {
       st.circles = shapes_.circles.size();
       st.lines = shapes_.lines.size();
       st.bridges = shapes_.bridges;
+      st.kept = shapes_.kept;
       st.raw_replaced = shapes_.raw_replaced;
       for (const mapping::FittedCircle& fc : shapes_.circles) st.max_circle_rms_m = std::max(st.max_circle_rms_m, fc.rms);
       st.raw_replaced_bytes = shapes_.raw_replaced * sizeof(mapping::Segment2);

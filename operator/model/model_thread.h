@@ -94,6 +94,7 @@ struct ModelThreadParams {
 struct ShapeStats {
   std::uint64_t fits = 0;
   std::size_t circles = 0, lines = 0, bridges = 0;
+  std::size_t kept = 0;             // circles held from the previous fit (temporal coherence)
   std::size_t raw_replaced = 0;     // raw segments and shadow edges the circles stand for
   double max_circle_rms_m = 0.0;    // worst fit error among the rendered circles
   double last_fit_ms = 0.0, max_fit_ms = 0.0;

@@ -161,6 +161,38 @@ TEST(ShapeCompletion, AWallContinuesThroughDropoutsButNotThroughAnOpeningSeenFre
   }
 }
 
+// Temporal coherence: an accepted circle stays while the object's few
+// remaining points still lie on it (a scan chunk lost on the link leaves too
+// few to fit), and goes when they do not (the object moved).
+TEST(ShapeCompletion, AnAcceptedCircleStaysWhileItsPointsStayOnItAndGoesWhenTheyMove) {
+  test::Shapes2D world;
+  world.circles.push_back({{1.6, 0.2}, 0.15});
+  ShapeModel m;
+  complete_shapes(ShapeParams{}, MapParams{}, scan_world(world, 5), m);
+  ASSERT_EQ(m.circles.size(), 1u);
+  // The same object seen through a narrow gap: 4 points, too few to fit.
+  LocalMap sparse = scan_world(world, 1, 0.002);
+  std::vector<Segment2> kept_raw;
+  for (const Segment2& s : sparse.segments)
+    if (!s.shadow && std::abs(0.5 * (s.a.y() + s.b.y()) - 0.2) < 0.03) kept_raw.push_back(s);
+  ASSERT_GE(kept_raw.size(), 2u);
+  ASSERT_LE(kept_raw.size(), 4u);
+  sparse.segments = kept_raw;
+  ShapeModel fresh;
+  complete_shapes(ShapeParams{}, MapParams{}, sparse, fresh);
+  EXPECT_TRUE(fresh.circles.empty());  // alone, the few points do not make a circle ...
+  complete_shapes(ShapeParams{}, MapParams{}, sparse, m);
+  ASSERT_EQ(m.circles.size(), 1u);     // ... but they keep the one accepted before
+  EXPECT_EQ(m.kept, 1u);
+  // The object moved 10 cm: its points are off the old circle, which goes.
+  for (Segment2& s : sparse.segments) {
+    s.a.x() += 0.10;
+    s.b.x() += 0.10;
+  }
+  complete_shapes(ShapeParams{}, MapParams{}, sparse, m);
+  EXPECT_TRUE(m.circles.empty());
+}
+
 TEST(ShapeCompletion, DisabledOrInvalidParametersLeaveTheMapAsItIs) {
   test::Shapes2D world;
   world.circles.push_back({{1.9, 0.0}, 0.15});
