@@ -429,9 +429,11 @@ std::size_t clear_reobserved_segments(const MapParams& p, LocalMap& map, const R
   if (!validate(p).empty() || !validate(scan).empty()) return 0;
   const math::Pose2 T_S_W = math::inverse(math::compose(scan.T_W_R, scan.T_R_S));
   const bool sonar = scan.kind == SensorKind::kSonar;
-  auto seen = [&](const Vector2d& q_W) {
+  // behind: the extra range a point needs in front of the measured surface
+  // to count (0: re-observed at the surface is enough).
+  auto seen = [&](const Vector2d& q_W, double behind = 0.0) {
     const Vector2d d = math::apply(T_S_W, q_W);
-    const double r = d.norm(), beta = std::atan2(d.y(), d.x());
+    const double r = d.norm() + behind, beta = std::atan2(d.y(), d.x());
     return sonar ? sonar_sees_through(p, scan, r, beta) : laser_sees_through(p, scan, r, beta);
   };
   for (Segment2& seg : map.segments) {
@@ -456,9 +458,15 @@ std::size_t clear_reobserved_segments(const MapParams& p, LocalMap& map, const R
       }
       continue;
     }
-    if (!(seg.reobserved & 1u) && seen(seg.a)) seg.reobserved |= 1u;
-    if (!(seg.reobserved & 2u) && seen(0.5 * (seg.a + seg.b))) seg.reobserved |= 2u;
-    if (!(seg.reobserved & 4u) && seen(seg.b)) seg.reobserved |= 4u;
+    // A laser face turned away from this sensor cannot be re-observed from
+    // here (it sees the other side: the far face of a thin board, the back
+    // of a column passed): it goes only where the scan saw clearly past it.
+    const Vector2d mid_S = math::apply(T_S_W, Vector2d(0.5 * (seg.a + seg.b)));
+    const bool away = !sonar && math::rotate(T_S_W, seg.normal).dot(-mid_S) <= 0.0;
+    const double behind = away ? 2.0 * p.clear_tolerance : 0.0;
+    if (!(seg.reobserved & 1u) && seen(seg.a, behind)) seg.reobserved |= 1u;
+    if (!(seg.reobserved & 2u) && seen(0.5 * (seg.a + seg.b), behind)) seg.reobserved |= 2u;
+    if (!(seg.reobserved & 4u) && seen(seg.b, behind)) seg.reobserved |= 4u;
   }
   const std::size_t before = map.segments.size();
   map.segments.erase(std::remove_if(map.segments.begin(), map.segments.end(),
@@ -508,6 +516,9 @@ std::size_t filter_scan_against_map(const MapParams& p, const LocalMap& map, Ran
   for (const Segment2& seg : map.segments) {
     if (seg.kind != SensorKind::kLaser || seg.interpolated || seg.shadow || seg.stamp_ns >= scan.stamp_ns) continue;
     const Vector2d a = math::apply(T_S_W, seg.a), b = math::apply(T_S_W, seg.b);
+    // Only a face this sensor looks at: the far face of a thin board seen
+    // earlier from the other side is another surface, not this one's past.
+    if (math::rotate(T_S_W, seg.normal).dot(-0.5 * (a + b)) <= 0.0) continue;
     double ta = std::atan2(a.y(), a.x()), tb = std::atan2(b.y(), b.x());
     if (ta > tb) std::swap(ta, tb);
     if (tb - ta > 0.5 * std::numbers::pi) continue;  // behind the sensor or spanning its back

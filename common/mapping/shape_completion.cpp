@@ -40,6 +40,9 @@ namespace {
 
 using Cloud = pcl::PointCloud<pcl::PointXYZ>;
 
+// Normals within ~25 deg: the same face of a wall.
+constexpr double kSameFace = 0.9;
+
 bool measured_laser(const Segment2& s) {
   return s.kind == SensorKind::kLaser && !s.interpolated && !s.shadow && !s.fitted;
 }
@@ -317,19 +320,27 @@ void complete_shapes(const ShapeParams& p, const MapParams& mp, const LocalMap& 
       for (std::uint32_t k : lf.inliers) is_in[k] = 1;
       Vector2d nsum = Vector2d::Zero();
       const Vector2d perp = math::perp(lf.dir);
+      std::vector<std::uint32_t> cand;
       for (std::uint32_t k : lf.inliers) {
         const std::uint32_t si = pts[k].seg;
         const Segment2& s = segs[si];
         if (seg_on_line[si] || std::abs(perp.dot(s.a - lf.point)) > tol || std::abs(perp.dot(s.b - lf.point)) > tol)
           continue;
-        seg_on_line[si] = 1;
-        rec.segs.push_back(si);
+        if (!cand.empty() && cand.back() == si) continue;  // both ends of one segment
+        cand.push_back(si);
         nsum += s.normal;
-        rec.stamp = std::max(rec.stamp, s.stamp_ns);
       }
-      if (!rec.segs.empty() && nsum.norm() > 1e-9) {
+      if (!cand.empty() && nsum.norm() > 1e-9) {
         rec.normal = perp.dot(nsum) >= 0.0 ? perp : Vector2d(-perp);
-        lines.push_back(std::move(rec));
+        // Only the face the line's normal looks out of: the far face of a
+        // board thinner than the inlier band stays its own (raw) surface.
+        for (std::uint32_t si : cand) {
+          if (segs[si].normal.dot(rec.normal) < kSameFace) continue;
+          seg_on_line[si] = 1;
+          rec.segs.push_back(si);
+          rec.stamp = std::max(rec.stamp, segs[si].stamp_ns);
+        }
+        if (!rec.segs.empty()) lines.push_back(std::move(rec));
       }
       std::vector<std::uint32_t> next;
       for (std::uint32_t k : rest)
@@ -356,24 +367,13 @@ void complete_shapes(const ShapeParams& p, const MapParams& mp, const LocalMap& 
       }
     }
   }
-  std::int64_t newest = 0;
-  for (std::size_t i = 0; i < segs.size(); ++i) {
-    newest = std::max(newest, segs[i].stamp_ns);
-    if (!replaced[i]) out.segments.push_back(segs[i]);
-  }
-  for (const FittedCircle& c : out.circles) {
-    const int n = p.circle_pieces;
-    for (int k = 0; k < n; ++k) {
-      const double t0 = 2.0 * std::numbers::pi * k / n, t1 = 2.0 * std::numbers::pi * (k + 1) / n;
-      const double tm = 0.5 * (t0 + t1);
-      out.segments.push_back(fitted_piece(c.centre + c.radius * Vector2d(std::cos(t0), std::sin(t0)),
-                                          c.centre + c.radius * Vector2d(std::cos(t1), std::sin(t1)),
-                                          Vector2d(std::cos(tm), std::sin(tm)), newest));
-    }
-  }
 
-  // Lines: their extents, then collinear pieces (one wall) bridged across
-  // gaps nothing has seen through.
+  // Lines: their extents; then collinear pieces facing the same way (one
+  // wall) are drawn on their common line over what was seen (the union of
+  // their segments' spans: a doorway stays open), in place of the raw
+  // segments, whose scan noise would otherwise reach the hand as kinks; and
+  // bridged across gaps nothing has seen through.
+  std::vector<Segment2> line_pieces;
   for (const LineRec& r : lines) {
     double lo = INFINITY, hi = -INFINITY, ss = 0.0;
     const Vector2d perp = math::perp(r.fit.dir);
@@ -391,61 +391,93 @@ void complete_shapes(const ShapeParams& p, const MapParams& mp, const LocalMap& 
     fl.rms = std::sqrt(ss / static_cast<double>(std::max<std::size_t>(1, r.fit.inliers.size())));
     out.lines.push_back(fl);
   }
-  if (!(p.line_max_gap > 0.0) || lines.empty()) return;
-  Disjoint walls(lines.size());
-  const double cos_max = std::cos(p.line_max_angle);
-  for (std::uint32_t i = 0; i < lines.size(); ++i)
-    for (std::uint32_t j = i + 1; j < lines.size(); ++j) {
-      const LineRec& A = lines[i];
-      const LineRec& B = lines[j];
-      if (A.normal.dot(B.normal) < cos_max) continue;
-      const FittedLine& fa = out.lines[i];
-      const FittedLine& fb = out.lines[j];
-      if (std::abs(A.normal.dot(fb.a - fa.a)) > 2.0 * tol || std::abs(A.normal.dot(fb.b - fa.a)) > 2.0 * tol) continue;
-      walls.join(i, j);
-    }
-  std::vector<std::vector<std::uint32_t>> groups(lines.size());
-  for (std::uint32_t i = 0; i < lines.size(); ++i) groups[walls.find(i)].push_back(i);
-  std::vector<std::pair<double, double>> cover;
-  for (const std::vector<std::uint32_t>& g : groups) {
-    if (g.empty()) continue;
-    // The group's reference line: its longest member.
-    std::uint32_t ref = g[0];
-    for (std::uint32_t i : g)
-      if ((out.lines[i].b - out.lines[i].a).norm() > (out.lines[ref].b - out.lines[ref].a).norm()) ref = i;
-    const Vector2d o = lines[ref].fit.point, d = lines[ref].fit.dir, nrm = lines[ref].normal;
-    cover.clear();
-    std::int64_t stamp = 0;
-    for (std::uint32_t i : g)
-      for (std::uint32_t si : lines[i].segs) {
-        const double ta = d.dot(segs[si].a - o), tb = d.dot(segs[si].b - o);
-        cover.emplace_back(std::min(ta, tb), std::max(ta, tb));
-        stamp = std::max(stamp, segs[si].stamp_ns);
+  if (!lines.empty()) {
+    Disjoint walls(lines.size());
+    const double cos_max = std::cos(p.line_max_angle);
+    for (std::uint32_t i = 0; i < lines.size(); ++i)
+      for (std::uint32_t j = i + 1; j < lines.size(); ++j) {
+        if (lines[i].normal.dot(lines[j].normal) < cos_max) continue;
+        const FittedLine& fa = out.lines[i];
+        const FittedLine& fb = out.lines[j];
+        const Vector2d& n = lines[i].normal;
+        if (std::abs(n.dot(fb.a - fa.a)) > 2.0 * tol || std::abs(n.dot(fb.b - fa.a)) > 2.0 * tol) continue;
+        walls.join(i, j);
       }
-    std::sort(cover.begin(), cover.end());
-    double reach = cover.front().second;
-    for (std::size_t k = 1; k < cover.size(); ++k) {
-      const double gap = cover[k].first - reach;
-      if (gap > 1e-6 && gap <= p.line_max_gap) {
-        // Bridge [reach, cover[k].first] unless a recent scan saw through it.
-        bool seen = false;
-        const int steps = std::max(2, static_cast<int>(std::ceil(gap / p.gap_test_step)));
-        for (int s = 1; s < steps && !seen; ++s) {
-          const Vector2d q = o + (reach + gap * s / steps) * d;
-          for (const RangeScan2D& scan : map.recent_laser)
-            if (scan_sees_through(mp, scan, q)) {
-              seen = true;
-              break;
+    std::vector<std::vector<std::uint32_t>> groups(lines.size());
+    for (std::uint32_t i = 0; i < lines.size(); ++i) groups[walls.find(i)].push_back(i);
+    std::vector<std::pair<double, double>> cover;
+    for (const std::vector<std::uint32_t>& g : groups) {
+      if (g.empty()) continue;
+      // The group's reference line: its best supported member.
+      std::uint32_t ref = g[0];
+      for (std::uint32_t i : g)
+        if (lines[i].fit.inliers.size() > lines[ref].fit.inliers.size()) ref = i;
+      const Vector2d o = lines[ref].fit.point, d = lines[ref].fit.dir, nrm = lines[ref].normal;
+      cover.clear();
+      std::int64_t stamp = 0;
+      for (std::uint32_t i : g)
+        for (std::uint32_t si : lines[i].segs) {
+          const double ta = d.dot(segs[si].a - o), tb = d.dot(segs[si].b - o);
+          cover.emplace_back(std::min(ta, tb), std::max(ta, tb));
+          stamp = std::max(stamp, segs[si].stamp_ns);
+          if (p.render_lines && !replaced[si]) {
+            replaced[si] = 1;
+            ++out.raw_replaced;
+          }
+        }
+      std::sort(cover.begin(), cover.end());
+      double from = cover.front().first, reach = cover.front().second;
+      auto flush = [&](double to) {
+        if (p.render_lines && to > from) line_pieces.push_back(fitted_piece(o + from * d, o + to * d, nrm, stamp));
+      };
+      for (std::size_t k = 1; k < cover.size(); ++k) {
+        const double gap = cover[k].first - reach;
+        if (gap > 1e-6) {
+          bool bridge = false;
+          if (p.line_max_gap > 0.0 && gap <= p.line_max_gap) {
+            // Bridge unless a recent scan saw through the gap.
+            bool seen = false;
+            const int steps = std::max(2, static_cast<int>(std::ceil(gap / p.gap_test_step)));
+            for (int st = 1; st < steps && !seen; ++st) {
+              const Vector2d q = o + (reach + gap * st / steps) * d;
+              for (const RangeScan2D& scan : map.recent_laser)
+                if (scan_sees_through(mp, scan, q)) {
+                  seen = true;
+                  break;
+                }
             }
+            bridge = !seen;
+          }
+          if (bridge) {
+            ++out.bridges;
+            if (!p.render_lines) line_pieces.push_back(fitted_piece(o + reach * d, o + cover[k].first * d, nrm, stamp));
+          } else {
+            flush(reach);
+            from = cover[k].first;
+          }
         }
-        if (!seen) {
-          out.segments.push_back(fitted_piece(o + reach * d, o + cover[k].first * d, nrm, stamp));
-          ++out.bridges;
-        }
+        reach = std::max(reach, cover[k].second);
       }
-      reach = std::max(reach, cover[k].second);
+      flush(reach);
     }
   }
+
+  std::int64_t newest = 0;
+  for (std::size_t i = 0; i < segs.size(); ++i) {
+    newest = std::max(newest, segs[i].stamp_ns);
+    if (!replaced[i]) out.segments.push_back(segs[i]);
+  }
+  for (const FittedCircle& c : out.circles) {
+    const int n = p.circle_pieces;
+    for (int k = 0; k < n; ++k) {
+      const double t0 = 2.0 * std::numbers::pi * k / n, t1 = 2.0 * std::numbers::pi * (k + 1) / n;
+      const double tm = 0.5 * (t0 + t1);
+      out.segments.push_back(fitted_piece(c.centre + c.radius * Vector2d(std::cos(t0), std::sin(t0)),
+                                          c.centre + c.radius * Vector2d(std::cos(t1), std::sin(t1)),
+                                          Vector2d(std::cos(tm), std::sin(tm)), newest));
+    }
+  }
+  out.segments.insert(out.segments.end(), line_pieces.begin(), line_pieces.end());
 }
 
 }  // namespace hemm::mapping

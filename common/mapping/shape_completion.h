@@ -17,12 +17,16 @@
 //    The circle's outline replaces the raw segments it explains and the
 //    shadow edges that start on it. A circle once accepted is kept while the
 //    object's points stay on it (see complete_shapes).
-//  - Lines (SACMODEL_LINE, sequentially per cluster: a corner gives two). Two
-//    fitted wall pieces on one line, facing the same way, with a gap of at
-//    most line_max_gap between them are bridged unless a recent laser scan
-//    saw through the gap: dropouts (no information) do not open a wall; an
-//    opening seen as free space (a return beyond it, or nothing up to the
-//    laser's range) stays open.
+//  - Lines (SACMODEL_LINE, sequentially per cluster: a corner gives two).
+//    Fitted wall pieces on one line and facing the same way are one wall,
+//    drawn on the fitted line over the span its segments cover (a doorway
+//    stays open) in place of those segments: 1 cm scan noise on 2 cm
+//    segments makes kinks of tens of degrees, felt as sideways force. Gaps
+//    of at most line_max_gap between its pieces are bridged unless a recent
+//    laser scan saw through the gap: dropouts (no information) do not open
+//    a wall; an opening seen as free space (a return beyond it, or nothing
+//    up to the laser's range) stays open. Only the face the line looks out
+//    of is replaced: the far face of a thin board stays its own surface.
 //
 // Points: the endpoints of the map's measured laser segments (not sonar
 // arcs, not shadow edges, not earlier fits), clustered by proximity
@@ -55,6 +59,9 @@ struct ShapeParams {
   double line_preference = 0.9;     // a line explaining this share of the circle's inliers wins
   int circle_pieces = 32;           // outline pieces (sagitta r (1 - cos(pi / 32)) = 0.5 % of r: 0.7 mm at 0.15 m)
   int max_lines_per_cluster = 4;
+  // Walls drawn on their fitted line over the span seen (in place of the raw
+  // segments, whose noise makes kinks the hand feels); false: raw walls, bridges only.
+  bool render_lines = true;
   double line_max_gap = 0.30;       // m: longest gap bridged between collinear wall pieces
   double line_max_angle = 0.05;     // rad: "the same line"
   double gap_test_step = 0.02;      // m: spacing of the points tested for "seen through"
@@ -85,10 +92,10 @@ struct ShapeModel {
   std::vector<FittedLine> lines;
   std::size_t bridges = 0;        // gaps between wall pieces closed
   std::size_t kept = 0;           // circles of the previous completion kept (temporal coherence)
-  std::size_t raw_replaced = 0;   // raw segments (and shadow edges) a circle explains, left out
+  std::size_t raw_replaced = 0;   // raw segments (and shadow edges) a primitive stands for, left out
   std::size_t clusters = 0;       // clusters considered
   // What the snapshot is built from: the map's segments minus raw_replaced,
-  // plus the circles' outlines and the bridges (pieces marked fitted).
+  // plus the circles' outlines and the walls' lines (pieces marked fitted).
   std::vector<Segment2> segments;
 };
 

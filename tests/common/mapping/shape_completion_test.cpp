@@ -1,6 +1,7 @@
 #include "common/mapping/shape_completion.h"
 
 #include <cmath>
+#include <cstdio>
 #include <numbers>
 
 #include <gtest/gtest.h>
@@ -112,7 +113,73 @@ TEST(ShapeCompletion, WallsAndBoxCornersAreLinesNotCircles) {
     complete_shapes(ShapeParams{}, MapParams{}, scan_world(world, 5), m);
     EXPECT_TRUE(m.circles.empty());
     EXPECT_GE(m.lines.size(), 2u);
-    EXPECT_EQ(m.raw_replaced, 0u);
+    // Its two seen faces are drawn on their lines, on the true faces.
+    int on_faces = 0;
+    for (const Segment2& sg : m.segments) {
+      if (!sg.fitted) continue;
+      ++on_faces;
+      EXPECT_LT(world.distance(sg.a), 0.01);
+      EXPECT_LT(world.distance(sg.b), 0.01);
+    }
+    EXPECT_GE(on_faces, 2);
+  }
+}
+
+// A wall seen with 1 cm noise: raw, its 2 cm segments kink by tens of
+// degrees (felt as sideways force); drawn on its fitted line, every piece
+// faces the true way. A 1.5 cm board seen from both sides keeps both faces.
+TEST(ShapeCompletion, WallsAreDrawnStraightAndAThinBoardKeepsBothFaces) {
+  {
+    test::Shapes2D world;
+    world.segs.push_back({{1.0, -3.0}, {1.0, 3.0}});
+    const LocalMap map = scan_world(world, 3);
+    // The surface's direction: each piece against the true wall (along y).
+    auto kink = [](const Segment2& sg) {
+      const Vector2d d = (sg.b - sg.a).normalized();
+      return std::acos(std::min(1.0, std::abs(d.y())));
+    };
+    double raw_worst = 0.0, fit_worst = 0.0, fit_len = 0.0;
+    for (const Segment2& sg : map.segments)
+      if (!sg.shadow && std::abs(sg.a.y()) < 1.0) raw_worst = std::max(raw_worst, kink(sg));
+    ShapeModel m;
+    complete_shapes(ShapeParams{}, MapParams{}, map, m);
+    for (const Segment2& sg : m.segments) {
+      if (!sg.fitted) continue;
+      fit_worst = std::max(fit_worst, kink(sg));
+      fit_len += (sg.b - sg.a).norm();
+      EXPECT_NEAR(sg.a.x(), 1.0, 0.004);
+      EXPECT_NEAR(sg.b.x(), 1.0, 0.004);
+    }
+    std::printf("wall pieces, worst direction error: raw %.1f deg, fitted %.2f deg over %.2f m\n",
+                raw_worst * 180 / std::numbers::pi, fit_worst * 180 / std::numbers::pi, fit_len);
+    EXPECT_GT(fit_len, 3.0);     // the wall seen within +-60 deg at 1 m: 3.4 m
+    EXPECT_GT(raw_worst, 0.3);   // the kinks are there ...
+    EXPECT_LT(fit_worst, 0.01);  // ... and gone
+  }
+  {
+    test::Shapes2D world;  // a board 1.5 cm thick along x at y = 0, seen from below and from above
+    world.segs = {{{1.0, -0.0075}, {1.6, -0.0075}}, {{1.6, -0.0075}, {1.6, 0.0075}},
+                  {{1.6, 0.0075}, {1.0, 0.0075}}, {{1.0, 0.0075}, {1.0, -0.0075}}};
+    MapParams mp;
+    LocalMap map;
+    test::SynthScanSpec spec;
+    spec.beams = 361;
+    spec.angle_step = std::numbers::pi / 360;
+    spec.sigma = 0.003;
+    spec.no_return_valid = true;
+    const Pose2 below{1.3, -0.8, std::numbers::pi / 2}, above{1.3, 0.8, -std::numbers::pi / 2};
+    ASSERT_EQ(add_scan(mp, map, test::synth_scan(world.rayfn(), below, Pose2{}, 1, spec)), "");
+    ASSERT_EQ(add_scan(mp, map, test::synth_scan(world.rayfn(), above, Pose2{}, 2, spec)), "");
+    ShapeModel m;
+    complete_shapes(ShapeParams{}, mp, map, m);
+    bool faces_down = false, faces_up = false;
+    for (const Segment2& sg : m.segments) {
+      if (sg.shadow || std::abs(0.5 * (sg.a.y() + sg.b.y())) > 0.02) continue;
+      faces_down = faces_down || sg.normal.y() < -0.9;
+      faces_up = faces_up || sg.normal.y() > 0.9;
+    }
+    EXPECT_TRUE(faces_down);
+    EXPECT_TRUE(faces_up);
   }
 }
 
