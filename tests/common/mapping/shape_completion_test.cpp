@@ -17,16 +17,23 @@ using math::Pose2;
 
 constexpr std::int64_t kScanPeriodNs = 33'333'333;  // 30 Hz
 
-// A SIMULATED laser (0.5 deg, 1 cm noise) scanning `world` from poses along a
-// short line, as a robot creeping forward would: n scans into one map.
-LocalMap scan_world(const test::Shapes2D& world, int n, double sigma = 0.01, double step = 0.01) {
-  MapParams p;
-  LocalMap map;
+// A SIMULATED 0.5 deg laser over the half plane ahead, reporting "nothing
+// up to range" apart from dropouts.
+test::SynthScanSpec half_degree_laser(double sigma) {
   test::SynthScanSpec spec;
   spec.beams = 361;
   spec.angle_step = std::numbers::pi / 360;
   spec.sigma = sigma;
   spec.no_return_valid = true;
+  return spec;
+}
+
+// A SIMULATED laser (0.5 deg, 1 cm noise) scanning `world` from poses along a
+// short line, as a robot creeping forward would: n scans into one map.
+LocalMap scan_world(const test::Shapes2D& world, int n, double sigma = 0.01, double step = 0.01) {
+  MapParams p;
+  LocalMap map;
+  test::SynthScanSpec spec = half_degree_laser(sigma);
   for (int k = 0; k < n; ++k) {
     spec.seed = 7 + k;
     const Pose2 T_W_R{step * k, 0.0, 0.0};
@@ -162,11 +169,7 @@ TEST(ShapeCompletion, WallsAreDrawnStraightAndAThinBoardKeepsBothFaces) {
                   {{1.6, 0.0075}, {1.0, 0.0075}}, {{1.0, 0.0075}, {1.0, -0.0075}}};
     MapParams mp;
     LocalMap map;
-    test::SynthScanSpec spec;
-    spec.beams = 361;
-    spec.angle_step = std::numbers::pi / 360;
-    spec.sigma = 0.003;
-    spec.no_return_valid = true;
+    test::SynthScanSpec spec = half_degree_laser(0.003);
     const Pose2 below{1.3, -0.8, std::numbers::pi / 2}, above{1.3, 0.8, -std::numbers::pi / 2};
     ASSERT_EQ(add_scan(mp, map, test::synth_scan(world.rayfn(), below, Pose2{}, 1, spec)), "");
     ASSERT_EQ(add_scan(mp, map, test::synth_scan(world.rayfn(), above, Pose2{}, 2, spec)), "");
@@ -188,11 +191,7 @@ TEST(ShapeCompletion, WallsAreDrawnStraightAndAThinBoardKeepsBothFaces) {
 // range behind it) stays open.
 TEST(ShapeCompletion, AWallContinuesThroughDropoutsButNotThroughAnOpeningSeenFree) {
   MapParams mp;
-  test::SynthScanSpec spec;
-  spec.beams = 361;
-  spec.angle_step = std::numbers::pi / 360;
-  spec.sigma = 0.005;
-  spec.no_return_valid = true;
+  test::SynthScanSpec spec = half_degree_laser(0.005);
   auto gap_covered = [](const ShapeModel& m) {
     // Points inside the gap (y in [-0.04, 0.04] on x = 2) on a fitted piece.
     int on = 0;
