@@ -118,6 +118,8 @@ void BM_ShapeCompletion(benchmark::State& state) {
   state.counters["fit_cpu_ms"] = 1e3 * cpu / std::max(1, runs);
   state.counters["raw_segments"] = static_cast<double>(map.segments.size());
   state.counters["raw_KB"] = static_cast<double>(map.segments.size() * sizeof(hm::Segment2)) / 1024.0;
+  state.counters["model_segments"] = static_cast<double>(m.segments.size());
+  state.counters["model_KB"] = static_cast<double>(m.segments.size() * sizeof(hm::Segment2)) / 1024.0;
   state.counters["replaced_KB"] = static_cast<double>(m.raw_replaced * sizeof(hm::Segment2)) / 1024.0;
   state.counters["circle_params_B"] = static_cast<double>(m.circles.size() * 3 * sizeof(double));
   state.counters["outline_KB"] =
