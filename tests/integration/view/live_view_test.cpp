@@ -86,6 +86,11 @@ struct Camera {
 bool is_blue(const std::uint8_t* p) { return p[2] > 180 && p[0] < 100 && p[1] < 160; }
 bool is_green(const std::uint8_t* p) { return p[1] > 170 && p[0] < 110 && p[2] < 110; }
 bool is_orange(const std::uint8_t* p) { return p[0] > 140 && p[1] > 50 && p[1] < 210 && p[2] < 70 && p[0] > p[1] + 40; }
+// Fitted map surfaces (shape completion): teal, green above blue (the
+// received pose's cyan has blue above green).
+bool is_teal(const std::uint8_t* p) { return p[0] < 110 && p[1] > 90 && p[1] >= p[2] && p[2] > p[0] + 40; }
+// A map surface: raw laser (orange) or fitted (teal).
+bool is_map_surface(const std::uint8_t* p) { return is_orange(p) || is_teal(p); }
 bool is_red(const std::uint8_t* p) { return p[0] > 120 && p[1] < 70 && p[2] < 70; }
 
 // Any pixel within `radius` of (u, v) of the class.
@@ -309,17 +314,17 @@ TEST(LiveView, UnderXvfbTheViewShowsRobotMapAndProxyWhereTheyAreAndTheServoKeeps
     const Eigen::Vector3d proxy(world["proxy_x"][row], world["proxy_y"][row], 0.35);
     proxy_ok += near(img, cam->project(proxy), 2, is_green);
 
-    // Map: orange walls (0.25 m high, 0.04 m thick behind the face) along the
+    // Map: orange (raw) or teal (fitted) walls (0.25 m high, 0.04 m thick behind the face) along the
     // west face of wall_mid_s and the sofa's front face, where the laser
     // sees them from the start; free floor half a metre in front of both.
     int hits = 0, samples = 0, false_hits = 0;
     for (double y = -2.0; y <= -0.8; y += 0.2, ++samples) {
-      hits += near(img, cam->project(Eigen::Vector3d(scene.mid_s_west_x + 0.02, y, 0.25)), 3, is_orange);
-      false_hits += near(img, cam->project(Eigen::Vector3d(scene.mid_s_west_x - 0.5, y, 0.0)), 1, is_orange);
+      hits += near(img, cam->project(Eigen::Vector3d(scene.mid_s_west_x + 0.02, y, 0.25)), 3, is_map_surface);
+      false_hits += near(img, cam->project(Eigen::Vector3d(scene.mid_s_west_x - 0.5, y, 0.0)), 1, is_map_surface);
     }
     for (double x = 0.3; x <= 1.7; x += 0.2, ++samples) {
-      hits += near(img, cam->project(Eigen::Vector3d(x, scene.sofa_front_y - 0.02, 0.25)), 3, is_orange);
-      false_hits += near(img, cam->project(Eigen::Vector3d(x, scene.sofa_front_y + 0.5, 0.0)), 1, is_orange);
+      hits += near(img, cam->project(Eigen::Vector3d(x, scene.sofa_front_y - 0.02, 0.25)), 3, is_map_surface);
+      false_hits += near(img, cam->project(Eigen::Vector3d(x, scene.sofa_front_y + 0.5, 0.0)), 1, is_map_surface);
     }
     const bool map = hits >= 0.8 * samples && false_hits == 0;
     if (!map) std::printf("%s: map %d/%d hits, %d on free floor\n", path.c_str(), hits, samples, false_hits);
