@@ -1,5 +1,6 @@
 #include "operator/vps/vps_bimanual.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <stdexcept>

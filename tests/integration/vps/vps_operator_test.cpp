@@ -127,10 +127,13 @@ TEST(VpsOperatorLoopback, PegInHoleWithTheSimulatedBimanualDeviceInTheLoopComple
   for (int k = 0; k < 2; ++k) EXPECT_LT(r.max_e[k], 1e-3) << k;
   // At rest at the end.
   EXPECT_LT(r.drift, 0.05 * mm);
-  // The hand yielded: the rigid hand would end at its target (the pins
-  // frame 13 mm above the holes, 2 mm into the block); this one stays
-  // above it, held back by the rendered contact through the coupling.
-  EXPECT_GT(r.c["dev0_z"][r.last], 14 * mm);
+  // The hands yielded: rigid hands end at their targets, the right 13 mm
+  // above the left (the pins 2 mm into the block); these stay about 15 mm
+  // apart, held back by the rendered contact through the couplings, and
+  // their arms' springs carry the press.
+  const double hands_dz = r.c["dev0_z"][r.last] - r.c["dev1_z"][r.last];
+  std::printf("right hand %.3f mm above the left at the end (rigid hands: 13)\n", hands_dz / mm);
+  EXPECT_GT(hands_dz, 14 * mm);
   EXPECT_EQ(json_number(r.json, "log_dropped").value_or(-1), 0);
 }
 
