@@ -123,8 +123,15 @@ TEST(VpsOperatorLoopback, PegInHoleWithTheSimulatedBimanualDeviceInTheLoopComple
   EXPECT_LT(r.max_lateral, 1.0 * mm + r.max_pen + 0.5 * mm);
   // No tunnelling.
   EXPECT_LT(r.max_pen, 0.8 * mm);
-  // Passivity observer on both arms: no net generation.
+  // Passivity observer on both arms: no net generation. One arm may take a
+  // little of what the other puts in (the right hand pushes the holes block
+  // down in the left one: ~0.3 N over ~0.8 mm, 0.2 mJ); the two together
+  // never gain.
   for (int k = 0; k < 2; ++k) EXPECT_LT(r.max_e[k], 1e-3) << k;
+  const auto &e0 = r.c["energy0"], &e1 = r.c["energy1"];
+  double max_sum = -1.0;
+  for (std::size_t i = 0; i < r.c.rows; ++i) max_sum = std::max(max_sum, e0[i] + e1[i]);
+  EXPECT_LE(max_sum, 1e-6);
   // At rest at the end.
   EXPECT_LT(r.drift, 0.05 * mm);
   // The hands yielded: rigid hands end at their targets, the right 13 mm
