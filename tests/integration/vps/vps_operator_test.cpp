@@ -112,11 +112,13 @@ TEST(VpsOperatorLoopback, PegInHoleWithTheSimulatedBimanualDeviceInTheLoopComple
   PegRun r;
   ASSERT_TRUE(run_peg("operator_vps_peg_bimanual.pbtxt", 3200, &r));  // the path (1.8 s) and 1.5 s of holding
   EXPECT_NE(r.json.find("simulated-bimanual-lwr"), std::string::npos) << r.json;
-  // Fully in: the plate on the block (15 mm), pressed by the hand's spring
-  // (human.h: 300 N/m x the path's 2 mm press, ~0.6 N): the contact gives
-  // way by micrometres under that, so what is left is the hand's own
-  // settling: __TOLERANCE__.
-  EXPECT_NEAR(r.c["rel_z"][r.last], 15 * mm, 0.5 * mm);
+  // Fully in: the plate on the block (15 mm). The hands' springs press it
+  // with ~0.3 N (human.h: 300 N/m on each side of the path's 2 mm press),
+  // under which the contact gives way by micrometres; 0.3 mm is what a
+  // 0.1 N disturbance at the yielding hand would leave (0.1 N / 300 N/m),
+  // less than the 1 mm play. (The LWR-like actuators' ~1 N of residual
+  // friction and gravity error leave it 0.75 mm short: that fails here.)
+  EXPECT_NEAR(r.c["rel_z"][r.last], 15 * mm, 0.3 * mm);
   // On the axis: the play (1 mm per side), the penetration and the 0.4
   // degree tilt over the pins, as with the rigid hands (a yielding hand can
   // only be pushed towards the axis by the walls).
@@ -132,8 +134,8 @@ TEST(VpsOperatorLoopback, PegInHoleWithTheSimulatedBimanualDeviceInTheLoopComple
   double max_sum = -1.0;
   for (std::size_t i = 0; i < r.c.rows; ++i) max_sum = std::max(max_sum, e0[i] + e1[i]);
   EXPECT_LE(max_sum, 1e-6);
-  // At rest at the end.
-  EXPECT_LT(r.drift, 0.05 * mm);
+  // At rest at the end (stable: no oscillation).
+  EXPECT_LT(r.drift, 0.02 * mm);
   // The hands yielded: rigid hands end at their targets, the right 13 mm
   // above the left (the pins 2 mm into the block); these stay about 15 mm
   // apart, held back by the rendered contact through the couplings, and
