@@ -123,9 +123,8 @@ int run_vps(const config::OperatorConfig& cfg, const std::string& config_path, c
   o.servo = servo_config(cfg);
   o.log_path = servo_log;
   o.duration_s = duration_s;
-  // Scripted hands end: by default the run covers their path and half a second of holding.
-  if (o.duration_s <= 0 && !cfg.vps().hands().empty())
-    o.duration_s = (cfg.vps().hands() == "peg-in-hole" ? vps::kPegInHoleDuration : vps::kAssemblyDuration) + 0.5;
+  // Scripted hands end: by default the run covers their path and a hold.
+  if (o.duration_s <= 0) o.duration_s = op::vps_default_duration_s(cfg);
   std::signal(SIGINT, on_local_signal);
   std::signal(SIGTERM, on_local_signal);
   op::VpsSessionSummary s;
@@ -295,7 +294,8 @@ int run(int argc, char** argv) {
   std::string device_type, bimanual_hands;
   app.add_option("--device", device_type,
                  "device (overrides device.type): sim-omni, replay, or sim-bimanual (the SIMULATED bimanual "
-                 "interface: two 7-DoF arms in MuJoCo with scripted hands, rendering local planes; no robot)")
+                 "interface: two 7-DoF arms in MuJoCo with scripted hands, rendering local planes, or with a vps "
+                 "config the scene's VPS objects along its scripted hand paths; no robot)")
       ->check(CLI::IsMember({"sim-omni", "replay", "sim-bimanual"}));
   app.add_option("--hands", bimanual_hands,
                  "SIMULATED hand script for the sim-bimanual device (overrides device.bimanual.script): features "
@@ -384,6 +384,10 @@ int run(int argc, char** argv) {
   }
   if (!device_type.empty()) cfg.mutable_device()->set_type(device_type);
   if (cfg.has_vps()) {
+    if (!bimanual_hands.empty()) {
+      std::cerr << "hemm-operator: --hands: a VPS scene's SIMULATED hands follow its vps.hands paths\n";
+      return net::kExitUsage;
+    }
 #ifdef HEMM_OPERATOR_HAVE_VPS
     return run_vps(cfg, config_path, replay_file, duration_s, servo_log, station_json);
 #else

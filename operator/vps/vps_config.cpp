@@ -1,6 +1,7 @@
 #include "operator/vps/vps_config.h"
 
 #include <cmath>
+#include <numbers>
 #include <stdexcept>
 
 #include "common/config/config.h"
@@ -8,6 +9,7 @@
 #include "operator/device/replay_device.h"
 #include "operator/device/simulated_omni.h"
 #include "operator/device/trajectory_csv.h"
+#include "operator/vps/vps_bimanual.h"
 #include "operator/vps/vps_session.h"
 
 namespace hemm::op {
@@ -39,7 +41,22 @@ VpsEndEffectorParams ee_params(const config::VpsEndEffectorConfig& c, const std:
   if (!o.allFinite() || o.cwiseAbs().maxCoeff() > 100) fail(field + ".h_origin", "must be finite, within 100 m");
   p.T_W_H.translation() = o;
   if (c.h_y_up()) p.T_W_H.linear() << 1, 0, 0, 0, 0, -1, 0, 1, 0;  // x_W = x_H, y_W = -z_H, z_W = y_H
+  // A hand-held object: its mesh frame within half a metre of the hand.
+  const Eigen::Vector3d g(c.grasp_x(), c.grasp_y(), c.grasp_z());
+  if (!g.allFinite() || g.norm() > 0.5) fail(field + ".grasp_x", "the grasp's origin must be finite, within 0.5 m of E");
+  const Eigen::Vector3d r(c.grasp_rx(), c.grasp_ry(), c.grasp_rz());
+  if (!r.allFinite() || r.norm() > std::numbers::pi + 1e-9)
+    fail(field + ".grasp_rx", "the grasp's rotation vector must be finite, at most pi rad");
+  p.T_E_M.translation() = g;
+  if (r.norm() > 0) p.T_E_M.linear() = Eigen::AngleAxisd(r.norm(), r.normalized()).toRotationMatrix();
   return p;
+}
+
+std::array<VpsEndEffectorParams, device::kMaxEndEffectors> ee_mappings(const config::VpsSceneConfig& v) {
+  std::array<VpsEndEffectorParams, device::kMaxEndEffectors> m{};
+  m[0] = ee_params(v.right(), "vps.right");
+  if (v.has_left()) m[1] = ee_params(v.left(), "vps.left");
+  return m;
 }
 
 }  // namespace
@@ -50,11 +67,8 @@ VpsSetup vps_setup(const config::OperatorConfig& cfg, const std::string& config_
   s.model.scene = mesh_spec(v.scene(), "vps.scene", config_path);
   if (!v.has_right()) fail("vps.right", "required (the object of end-effector 0)");
   s.model.objects[0] = mesh_spec(v.right().object(), "vps.right.object", config_path);
-  s.task.ee[0] = ee_params(v.right(), "vps.right");
-  if (v.has_left()) {
-    s.model.objects[1] = mesh_spec(v.left().object(), "vps.left.object", config_path);
-    s.task.ee[1] = ee_params(v.left(), "vps.left");
-  }
+  if (v.has_left()) s.model.objects[1] = mesh_spec(v.left().object(), "vps.left.object", config_path);
+  s.task.ee = ee_mappings(v);
   s.model.cache_dir = v.cache_dir().empty() ? std::string() : config::resolve_relative_to(config_path, v.cache_dir());
   if (!(v.contact_stiffness() > 0 && v.contact_stiffness() < 1e12))
     fail("vps.contact_stiffness", "must be in (0, 1e12) N/m^3");
@@ -70,11 +84,20 @@ VpsSetup vps_setup(const config::OperatorConfig& cfg, const std::string& config_
 std::unique_ptr<device::HapticDevice> make_vps_device(const config::OperatorConfig& cfg,
                                                       const std::string& replay_file) {
   const config::VpsSceneConfig& v = cfg.vps();
+  const std::string& type = replay_file.empty() ? cfg.device().type() : std::string("replay");
+  if (type == "sim-bimanual") {
+    if (v.hands().empty())
+      fail("vps.hands", "the SIMULATED bimanual device's humans follow a scene's scripted hands: \"peg-in-hole\" or "
+                        "\"assembly\"");
+    if (!v.has_left()) fail("vps.left", "required with the bimanual device (two end-effectors)");
+    if (cfg.servo().rate_hz() < 100 || cfg.servo().rate_hz() > 10000) fail("servo.rate_hz", "must be in [100, 10000]");
+    return make_vps_bimanual_device(cfg, v.hands(), ee_mappings(v), 1.0 / cfg.servo().rate_hz());
+  }
   if (!v.hands().empty()) {
     const int n = v.has_left() ? 2 : 1;
-    return std::make_unique<device::ReplayDevice>(scene_hands_trajectory(v.hands()), scripted_hands_limits(n));
+    return std::make_unique<device::ReplayDevice>(scene_hands_trajectory(v.hands(), 1000.0, ee_mappings(v)),
+                                                  scripted_hands_limits(n));
   }
-  const std::string& type = replay_file.empty() ? cfg.device().type() : std::string("replay");
   if (type == "replay") {
     if (replay_file.empty()) fail("device.replay_file", "required for a replayed device");
     // A replayed trajectory says how many end-effectors it has; the limits
@@ -84,7 +107,7 @@ std::unique_ptr<device::HapticDevice> make_vps_device(const config::OperatorConf
     if (auto e = device::load_trajectory_csv(replay_file, limits, &tr)) throw std::runtime_error(e->to_string());
     return std::make_unique<device::ReplayDevice>(std::move(tr), limits);
   }
-  if (type != "sim-omni") fail("device.type", "the VPS scene runs with sim-omni or replay (or vps.hands)");
+  if (type != "sim-omni") fail("device.type", "the VPS scene runs with sim-omni, replay or sim-bimanual (or vps.hands)");
   if (v.has_left()) fail("vps.left", "the Omni has one end-effector");
   if (v.omni_waypoints_size() == 0) fail("vps.omni_waypoints", "required for the SIMULATED Omni's hand");
   std::vector<device::Waypoint> w;
@@ -100,6 +123,16 @@ std::unique_ptr<device::HapticDevice> make_vps_device(const config::OperatorConf
   }
   return std::make_unique<device::SimulatedOmni>(device::SimulatedOmniModel{},
                                                  std::make_shared<device::WaypointScript>(std::move(w)));
+}
+
+double vps_default_duration_s(const config::OperatorConfig& cfg) {
+  const config::VpsSceneConfig& v = cfg.vps();
+  if (v.hands().empty()) return 0.0;
+  // The rigid hands are at rest when their path ends; the SIMULATED humans
+  // of the bimanual device lag it and settle after it (hand and felt arm
+  // ~2.5 kg on the arm's 300 N/m spring with ~30 N s/m: ~0.7 s).
+  const double hold = cfg.device().type() == "sim-bimanual" ? 1.5 : 0.5;
+  return scene_hands(v.hands()).duration_s + hold;
 }
 
 }  // namespace hemm::op

@@ -121,34 +121,40 @@ report::VpsSession to_report(const VpsSessionSummary& s) {
 
 std::string to_json(const VpsSessionSummary& s) { return config::to_json(to_report(s)); }
 
-device::Trajectory scene_hands_trajectory(const std::string& scene, double rate_hz) {
-  const bool peg = scene == "peg-in-hole";
-  if (!peg && scene != "assembly") throw std::invalid_argument("scripted hands: unknown scene '" + scene + "'");
+SceneHands scene_hands(const std::string& scene) {
+  if (scene == "peg-in-hole") return {[](double t) { return vps::peg_in_hole_hands(t); }, vps::kPegInHoleDuration};
+  if (scene == "assembly") return {[](double t) { return vps::assembly_hands(t); }, vps::kAssemblyDuration};
+  throw std::invalid_argument("scripted hands: unknown scene '" + scene + "'");
+}
+
+device::Trajectory scene_hands_trajectory(const std::string& scene, double rate_hz,
+                                          const std::array<VpsEndEffectorParams, device::kMaxEndEffectors>& ee) {
+  const SceneHands path = scene_hands(scene);
   if (!(rate_hz >= 10 && rate_hz <= 10000)) throw std::invalid_argument("scripted hands: rate must be in [10, 10000]");
-  auto at = [&](double t) { return peg ? vps::peg_in_hole_hands(t) : vps::assembly_hands(t); };
-  const double duration = peg ? vps::kPegInHoleDuration : vps::kAssemblyDuration;
+  // Where each end-effector must be at time t (right: 0, left: 1).
+  auto at = [&](double t) {
+    const vps::BimanualPoses p = path.at(t);
+    return std::array<Eigen::Isometry3d, 2>{end_effector_pose_H(ee[0], p.right), end_effector_pose_H(ee[1], p.left)};
+  };
   const double h = 0.5 / rate_hz;
   device::Trajectory tr;
   tr.end_effectors = 2;
   tr.has_twist = true;
-  const int n = static_cast<int>(std::floor(duration * rate_hz)) + 1;
+  const int n = static_cast<int>(std::floor(path.duration_s * rate_hz)) + 1;
   tr.samples.reserve(static_cast<std::size_t>(n));
   for (int i = 0; i < n; ++i) {
     const double t = i / rate_hz;
-    const vps::BimanualPoses p = at(t), a = at(std::max(0.0, t - h)), b = at(t + h);
+    const auto now = at(t), before = at(std::max(0.0, t - h)), after = at(t + h);
     device::TrajectorySample s;
     s.t_s = t;
     s.end_effectors = 2;
-    const Eigen::Isometry3d* now[2] = {&p.right, &p.left};
-    const Eigen::Isometry3d* before[2] = {&a.right, &a.left};
-    const Eigen::Isometry3d* after[2] = {&b.right, &b.left};
-    for (int k = 0; k < 2; ++k) {
-      device::EndEffectorSample& e = s.ee[static_cast<std::size_t>(k)];
+    for (std::size_t k = 0; k < 2; ++k) {
+      device::EndEffectorSample& e = s.ee[k];
       const double span = t + h - std::max(0.0, t - h);
-      e.position_H = now[k]->translation();
-      e.orientation_H = Eigen::Quaterniond(now[k]->linear());
-      e.velocity_H = (after[k]->translation() - before[k]->translation()) / span;
-      const Eigen::AngleAxisd d(after[k]->linear() * before[k]->linear().transpose());
+      e.position_H = now[k].translation();
+      e.orientation_H = Eigen::Quaterniond(now[k].linear());
+      e.velocity_H = (after[k].translation() - before[k].translation()) / span;
+      const Eigen::AngleAxisd d(after[k].linear() * before[k].linear().transpose());
       e.angular_velocity_H = d.axis() * d.angle() / span;
     }
     tr.samples.push_back(s);

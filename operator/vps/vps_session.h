@@ -4,6 +4,7 @@
 // channel; the 1 kHz VPS log is drained by its writer thread.
 #pragma once
 
+#include <array>
 #include <atomic>
 #include <memory>
 #include <string>
@@ -54,12 +55,24 @@ std::string to_string(const VpsSessionSummary& s);
 report::VpsSession to_report(const VpsSessionSummary& s);
 std::string to_json(const VpsSessionSummary& s);
 
-// The SIMULATED scripted hands of the paper's scenes (scenes.h) as a
-// two-end-effector trajectory for the ReplayDevice: each end-effector's pose
-// is its object's mesh-frame pose in W (T_W_H = T_E_M = identity), sampled
-// at `rate_hz` with velocities by central differences. Rigid hands: they do
-// not yield to the rendered force (the worst case for the couplings).
+// The scripted hand paths of the paper's scenes (scenes.h): each held
+// object's mesh-frame pose in W against time (pure, allocation-free: callable
+// on the servo thread), and how long the path lasts (it holds after).
+struct SceneHands {
+  vps::BimanualPoses (*at)(double t_s) = nullptr;
+  double duration_s = 0.0;
+};
 // "peg-in-hole" or "assembly"; throws std::invalid_argument otherwise.
-device::Trajectory scene_hands_trajectory(const std::string& scene, double rate_hz = 1000.0);
+SceneHands scene_hands(const std::string& scene);
+
+// The SIMULATED scripted hands of the paper's scenes as a two-end-effector
+// trajectory for the ReplayDevice: each end-effector's pose is where it must
+// be for its object's mesh frame to be on the path (end_effector_pose_H
+// through `ee`; with the default identity mappings, the mesh-frame pose in
+// W), sampled at `rate_hz` with velocities by central differences. Rigid
+// hands: they do not yield to the rendered force (the worst case for the
+// couplings). Throws std::invalid_argument on an unknown scene or rate.
+device::Trajectory scene_hands_trajectory(const std::string& scene, double rate_hz = 1000.0,
+                                          const std::array<VpsEndEffectorParams, device::kMaxEndEffectors>& ee = {});
 
 }  // namespace hemm::op

@@ -120,8 +120,9 @@ void VpsServoTask::tick(const device::DeviceSample& in, const servo::ModelSnapsh
     ok[ku] = finite_sample(s);
     if (!ok[ku]) continue;  // a bad reading: no wrench, the object stays where it is
     const VpsEndEffectorParams& e = p_.ee[ku];
-    T_W_E[ku] = e.T_W_H * pose_of(s);
-    T_W_D[ku] = T_W_E[ku] * e.T_E_M * T_C_M_[ku].inverse();
+    const Eigen::Isometry3d T_H_E = pose_of(s);
+    T_W_E[ku] = e.T_W_H * T_H_E;
+    T_W_D[ku] = object_pose_W(e, T_H_E) * T_C_M_[ku].inverse();
     const Eigen::Matrix3d R_W_H = e.T_W_H.linear();
     w_D[ku] = R_W_H * s.angular_velocity_H;
     const Eigen::Vector3d r_W = T_W_D[ku].translation() - T_W_E[ku].translation();

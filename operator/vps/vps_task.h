@@ -43,6 +43,18 @@ struct VpsEndEffectorParams {
   Eigen::Isometry3d T_E_M = Eigen::Isometry3d::Identity();  // object mesh frame in the end-effector frame
 };
 
+// The one mapping from an end-effector's pose in H to where it wants its
+// object's mesh frame in W (T_W_M = T_W_H T_H_E T_E_M), used by tick(); and
+// its inverse, where the end-effector must be for the object to sit at T_W_M:
+// a scene's scripted object paths become device paths through it (the rigid
+// hands' replay, the SIMULATED bimanual humans' targets).
+inline Eigen::Isometry3d object_pose_W(const VpsEndEffectorParams& e, const Eigen::Isometry3d& T_H_E) {
+  return e.T_W_H * T_H_E * e.T_E_M;
+}
+inline Eigen::Isometry3d end_effector_pose_H(const VpsEndEffectorParams& e, const Eigen::Isometry3d& T_W_M) {
+  return e.T_W_H.inverse() * T_W_M * e.T_E_M.inverse();
+}
+
 struct VpsTaskParams {
   std::array<VpsEndEffectorParams, device::kMaxEndEffectors> ee{};
   double period_s = 1e-3;
