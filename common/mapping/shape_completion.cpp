@@ -207,6 +207,19 @@ bool fit_circle(const ShapeParams& p, const std::vector<Point>& pts, const std::
   return out.inliers > 0;
 }
 
+// A circle about `centre` fits the outside of a convex object: the cluster's
+// surface normals (toward the sensor) point away from the centre, for at
+// least 90 % of its points (not the inside of a curved wall).
+bool seen_from_outside(const std::vector<Segment2>& segs, const std::vector<Point>& pts,
+                       const std::vector<std::uint32_t>& cluster, const Vector2d& centre) {
+  std::size_t outward = 0;
+  for (std::uint32_t k : cluster) {
+    const Segment2& s = segs[pts[k].seg];
+    if (s.normal.dot(0.5 * (s.a + s.b) - centre) > 0.0) ++outward;
+  }
+  return outward * 10 >= cluster.size() * 9;
+}
+
 Segment2 fitted_piece(const Vector2d& a, const Vector2d& b, const Vector2d& normal, std::int64_t stamp) {
   Segment2 s;
   s.a = a;
@@ -265,15 +278,7 @@ void complete_shapes(const ShapeParams& p, const MapParams& mp, const LocalMap& 
           cf.rms <= p.max_rms && cf.arc >= p.min_arc &&
           static_cast<double>(cf.inliers) >= p.min_inlier_ratio * static_cast<double>(cl.size()) &&
           static_cast<double>(have_line ? first.inliers.size() : 0) < p.line_preference * static_cast<double>(cf.inliers)) {
-        // The seen surface must be the outside of a convex object: its
-        // normals (toward the sensor) point away from the centre.
-        std::size_t outward = 0, total = 0;
-        for (std::uint32_t k : cl) {
-          const Segment2& s = segs[pts[k].seg];
-          ++total;
-          if (s.normal.dot(0.5 * (s.a + s.b) - cf.centre) > 0.0) ++outward;
-        }
-        circle = outward * 10 >= total * 9;
+        circle = seen_from_outside(segs, pts, cl, cf.centre);
         if (circle) {
           FittedCircle fc;
           fc.centre = cf.centre;
@@ -294,14 +299,11 @@ void complete_shapes(const ShapeParams& p, const MapParams& mp, const LocalMap& 
       // flicker with the data, and a probe resting on the object's back
       // would fall in while the circle is away.
       for (const FittedCircle& pc : previous) {
-        std::size_t on = 0, outward = 0;
-        for (std::uint32_t k : cl) {
+        std::size_t on = 0;
+        for (std::uint32_t k : cl)
           if (std::abs((pts[k].p - pc.centre).norm() - pc.radius) <= 1.5 * p.inlier_distance) ++on;
-          const Segment2& s = segs[pts[k].seg];
-          if (s.normal.dot(0.5 * (s.a + s.b) - pc.centre) > 0.0) ++outward;
-        }
         if (on >= 3 && static_cast<double>(on) >= p.min_inlier_ratio * static_cast<double>(cl.size()) &&
-            outward * 10 >= cl.size() * 9) {
+            seen_from_outside(segs, pts, cl, pc.centre)) {
           out.circles.push_back(pc);
           ++out.kept;
           circle = true;
