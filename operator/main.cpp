@@ -10,6 +10,8 @@
 // held objects, 6-DoF couplings) with the device instead, without a robot.
 // With the SIMULATED bimanual interface (device sim-bimanual) it runs
 // that device in the same servo loop against local planes, without a robot.
+// --view / --view-png show each of these runs (the robot's world, or the
+// device, its arms and the VPS scene).
 #include <CLI/CLI.hpp>
 #include <spdlog/spdlog.h>
 
@@ -50,6 +52,11 @@
 #include "common/view/view_options.h"
 #include "operator/view/live_view.h"
 #endif
+#if defined(HEMM_WITH_VIEW) && defined(HEMM_OPERATOR_HAVE_VPS)
+#define HEMM_DEVICE_VIEW 1  // the device-only runs' view (operator/view/device_live_view.h)
+#include "operator/device/bimanual/simulated_bimanual_device.h"
+#include "operator/view/device_live_view.h"
+#endif
 
 namespace {
 
@@ -81,6 +88,22 @@ servo::ServoConfig servo_config(const config::OperatorConfig& cfg) {
   return c;
 }
 
+#ifdef HEMM_DEVICE_VIEW
+// A device-only run's live view: its thread starts once the servo loop runs
+// and stops (after a last picture) when the loop has stopped. Null without
+// --view / --view-png.
+std::unique_ptr<op::DeviceLiveView> attach_device_view(const view::ViewOptions& opts, op::DeviceSceneSetup setup,
+                                                       op::DeviceViewTaps* taps) {
+  if (!opts.enabled()) return nullptr;
+  auto v = std::make_unique<op::DeviceLiveView>(opts, std::move(setup));
+  op::DeviceLiveView* p = v.get();
+  taps->ticks = &p->ticks();
+  taps->started = [p](const servo::TimingStats& t) { p->start(&t); };
+  taps->stopped = [p] { p->stop(); };
+  return v;
+}
+#endif
+
 // SIGINT/SIGTERM end a local run (VPS scene or bimanual device) between ticks.
 std::atomic<bool> g_local_stop{false};
 extern "C" void on_local_signal(int) { g_local_stop.store(true); }
@@ -101,7 +124,12 @@ int finish_local_run(const Summary& s, const std::string& station_json) {
 // The VPS scene of the config's `vps` block with the device in the servo
 // loop: no robot, no link.
 int run_vps(const config::OperatorConfig& cfg, const std::string& config_path, const std::string& replay_file,
-            double duration_s, const std::string& servo_log, const std::string& station_json) {
+            double duration_s, const std::string& servo_log, const std::string& station_json
+#ifdef HEMM_DEVICE_VIEW
+            ,
+            const view::ViewOptions& view_opts
+#endif
+) {
   op::VpsSessionOptions o;
   std::unique_ptr<device::HapticDevice> dev;
   std::shared_ptr<op::VpsLocalModel> model;
@@ -123,6 +151,14 @@ int run_vps(const config::OperatorConfig& cfg, const std::string& config_path, c
   o.servo = servo_config(cfg);
   o.log_path = servo_log;
   o.duration_s = duration_s;
+#ifdef HEMM_DEVICE_VIEW
+  const auto* arms = dynamic_cast<const device::bimanual::SimulatedBimanualDevice*>(dev.get());
+  const std::unique_ptr<op::DeviceLiveView> live_view = attach_device_view(
+      view_opts,
+      op::vps_view_setup(*model, o.task, dev->limits().end_effectors,
+                         arms != nullptr ? &arms->simulation().config() : nullptr, std::string(dev->name())),
+      &o.view);
+#endif
   // Scripted hands end: by default the run covers their path and a hold.
   if (o.duration_s <= 0) o.duration_s = op::vps_default_duration_s(cfg);
   std::signal(SIGINT, on_local_signal);
@@ -145,7 +181,12 @@ int run_vps(const config::OperatorConfig& cfg, const std::string& config_path, c
 // The SIMULATED bimanual interface in the servo loop against its local
 // environment: no robot, no link (DeviceConfig.type "sim-bimanual").
 int run_bimanual(const config::OperatorConfig& cfg, const std::string& hands, double duration_s,
-                 const std::string& servo_log, const std::string& station_json) {
+                 const std::string& servo_log, const std::string& station_json
+#ifdef HEMM_DEVICE_VIEW
+                 ,
+                 const view::ViewOptions& view_opts
+#endif
+) {
   op::BimanualSessionOptions o;
   try {
     o.setup = op::bimanual_setup(cfg.device().bimanual());
@@ -158,6 +199,10 @@ int run_bimanual(const config::OperatorConfig& cfg, const std::string& hands, do
   o.setup.sim.plant.control_period_s = static_cast<double>(o.servo.period_ns) * 1e-9;
   o.log_path = servo_log;
   o.duration_s = duration_s;
+#ifdef HEMM_DEVICE_VIEW
+  const std::unique_ptr<op::DeviceLiveView> live_view =
+      attach_device_view(view_opts, op::bimanual_view_setup(o.setup), &o.view);
+#endif
   std::signal(SIGINT, on_local_signal);
   std::signal(SIGTERM, on_local_signal);
   op::BimanualSessionSummary s;
@@ -388,7 +433,9 @@ int run(int argc, char** argv) {
       std::cerr << "hemm-operator: --hands: a VPS scene's SIMULATED hands follow its vps.hands paths\n";
       return net::kExitUsage;
     }
-#ifdef HEMM_OPERATOR_HAVE_VPS
+#ifdef HEMM_DEVICE_VIEW
+    return run_vps(cfg, config_path, replay_file, duration_s, servo_log, station_json, view_opts);
+#elif defined(HEMM_OPERATOR_HAVE_VPS)
     return run_vps(cfg, config_path, replay_file, duration_s, servo_log, station_json);
 #else
     std::cerr << "hemm-operator: bad config: vps: this build has no VPS component\n";
@@ -401,9 +448,9 @@ int run(int argc, char** argv) {
                    "--hands\n";
       return net::kExitUsage;
     }
-#ifdef HEMM_WITH_VIEW
+#if defined(HEMM_WITH_VIEW) && !defined(HEMM_DEVICE_VIEW)
     if (view_opts.enabled()) {
-      std::cerr << "hemm-operator: the live view shows the robot station's scene; not available with sim-bimanual\n";
+      std::cerr << "hemm-operator: this build has no live view of the sim-bimanual device (no VPS component)\n";
       return net::kExitUsage;
     }
 #endif
@@ -411,7 +458,11 @@ int run(int argc, char** argv) {
       std::cerr << "hemm-operator: bad config: " << issues.front().field << ": " << issues.front().message << "\n";
       return net::kExitUsage;
     }
+#ifdef HEMM_DEVICE_VIEW
+    return run_bimanual(cfg, bimanual_hands, duration_s, servo_log, station_json, view_opts);
+#else
     return run_bimanual(cfg, bimanual_hands, duration_s, servo_log, station_json);
+#endif
   }
   if (!bimanual_hands.empty()) {
     std::cerr << "hemm-operator: --hands needs the sim-bimanual device\n";

@@ -21,6 +21,7 @@ int to_mj_type(Shape s) {
     case Shape::kCylinder: return mjGEOM_CYLINDER;
     case Shape::kArrow: return mjGEOM_ARROW;
     case Shape::kLine: return mjGEOM_LINE;
+    case Shape::kCapsule: return mjGEOM_CAPSULE;
   }
   return mjGEOM_BOX;
 }
@@ -35,6 +36,20 @@ MjDataPtr make_data(mjModel* m) {
   if (!d) throw std::runtime_error("mj_makeData failed");
   mj_forward(m, d.get());
   return d;
+}
+
+MjModelPtr load_model_xml(const std::string& name, const std::string& xml) {
+  mjVFS vfs;
+  mj_defaultVFS(&vfs);
+  const int size = static_cast<int>(xml.size());
+  if (mj_makeEmptyFileVFS(&vfs, name.c_str(), size) != 0) throw std::runtime_error("MuJoCo VFS full");
+  const int i = mj_findFileVFS(&vfs, name.c_str());
+  std::memcpy(vfs.filedata[i], xml.data(), xml.size());
+  char err[1000] = "";
+  mjModel* m = mj_loadXML(name.c_str(), &vfs, err, sizeof err);
+  mj_deleteVFS(&vfs);
+  if (m == nullptr) throw std::runtime_error(name + ": " + err);
+  return MjModelPtr(m);
 }
 
 struct MujocoWindow::Impl {
@@ -195,7 +210,7 @@ std::size_t MujocoWindow::render(const std::vector<Primitive>& extra, const Over
     mjvGeom* g = &s.scn.geoms[s.scn.ngeom];
     const float rgba[4] = {p.rgba.r, p.rgba.g, p.rgba.b, p.rgba.a};
     const mjtNum pos[3] = {p.pos.x(), p.pos.y(), p.pos.z()};
-    if (p.shape == Shape::kArrow || p.shape == Shape::kLine) {
+    if (p.shape == Shape::kArrow || p.shape == Shape::kLine || p.shape == Shape::kCapsule) {
       mjv_initGeom(g, to_mj_type(p.shape), nullptr, nullptr, nullptr, rgba);
       mjv_makeConnector(g, to_mj_type(p.shape), p.width, p.pos.x(), p.pos.y(), p.pos.z(), p.to.x(), p.to.y(),
                         p.to.z());

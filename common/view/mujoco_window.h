@@ -36,6 +36,9 @@ using MjModelPtr = std::unique_ptr<mjModel_, MjModelDeleter>;
 using MjDataPtr = std::unique_ptr<mjData_, MjDataDeleter>;
 // mj_makeData + mj_forward: the model at rest, ready to draw.
 MjDataPtr make_data(mjModel_* m);
+// A view's world from MJCF text (through MuJoCo's virtual file system, named
+// `name`). Throws std::runtime_error with MuJoCo's message.
+MjModelPtr load_model_xml(const std::string& name, const std::string& xml);
 
 struct WindowOptions {
   bool visible = true;

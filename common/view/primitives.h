@@ -16,7 +16,7 @@ struct Rgba {
   float r = 1, g = 1, b = 1, a = 1;
 };
 
-enum class Shape { kBox, kSphere, kCylinder, kArrow, kLine };
+enum class Shape { kBox, kSphere, kCylinder, kArrow, kLine, kCapsule };
 
 struct Primitive {
   Shape shape = Shape::kBox;
@@ -25,7 +25,8 @@ struct Primitive {
   Eigen::Vector3d pos = Eigen::Vector3d::Zero();
   Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
   Eigen::Vector3d size = Eigen::Vector3d::Zero();
-  // Arrow and line: from pos to `to`; width in m (arrow) or pixels (line).
+  // Arrow, line and capsule: from pos to `to`; width in m (arrow), pixels
+  // (line) or the radius in m (capsule).
   Eigen::Vector3d to = Eigen::Vector3d::Zero();
   double width = 0.0;
   Rgba rgba;
@@ -57,12 +58,16 @@ class PrimitiveList {
   void clear() { items_.clear(); }
   // A box with half extents `half`, turned by yaw (rad) about z.
   void box(const Eigen::Vector3d& centre, double yaw, const Eigen::Vector3d& half, Rgba c);
+  // A box with half extents `half` along the columns of R.
+  void box(const Eigen::Vector3d& centre, const Eigen::Matrix3d& R, const Eigen::Vector3d& half, Rgba c);
   void sphere(const Eigen::Vector3d& centre, double radius, Rgba c);
   // A vertical cylinder standing on z = centre.z() - half_height.
   void cylinder(const Eigen::Vector3d& centre, double radius, double half_height, Rgba c);
   // Nothing for a zero-length arrow.
   void arrow(const Eigen::Vector3d& from, const Eigen::Vector3d& to, double width, Rgba c);
   void line(const Eigen::Vector3d& from, const Eigen::Vector3d& to, double width_px, Rgba c);
+  // A capsule of `radius` between two points (a sphere if they coincide).
+  void capsule(const Eigen::Vector3d& from, const Eigen::Vector3d& to, double radius, Rgba c);
   const std::vector<Primitive>& items() const { return items_; }
   std::size_t size() const { return items_.size(); }
 

@@ -61,6 +61,7 @@ BimanualSessionSummary run_bimanual_session(const BimanualSessionOptions& o, con
   const BimanualHands hands = make_bimanual_hands(o.setup.script, o.setup.sim);
   hb::SimulatedBimanualDevice device(o.setup.sim, hands.hands);
   BimanualTask task(o.setup.env);
+  if (o.view.ticks != nullptr) task.set_view(o.view.ticks, &device);
   servo::ModelChannel models;  // no model: the environment is the task's
   std::unique_ptr<servo::ServoLogger> log;
   if (!o.log_path.empty()) {
@@ -71,6 +72,7 @@ BimanualSessionSummary run_bimanual_session(const BimanualSessionOptions& o, con
   servo::ServoLoop loop(device, task, models, o.servo, log.get());
   const servo::RealtimeStatus rt = loop.start();
   if (on_started) on_started(rt);
+  if (o.view.started) o.view.started(loop.stats());
   const double duration = o.duration_s > 0.0 ? o.duration_s : hands.duration_s;
   const auto t0 = std::chrono::steady_clock::now();
   while (std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count() < duration &&
@@ -78,6 +80,7 @@ BimanualSessionSummary run_bimanual_session(const BimanualSessionOptions& o, con
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
   loop.stop();
+  if (o.view.stopped) o.view.stopped();
   BimanualSessionSummary s;
   if (log) {
     log->stop();

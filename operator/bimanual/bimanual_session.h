@@ -13,6 +13,7 @@
 #include "operator/bimanual/bimanual_config.h"
 #include "operator/device/bimanual/simulated_bimanual_device.h"
 #include "operator/servo/servo_loop.h"
+#include "operator/view/device_view_record.h"
 
 namespace hemm::report {
 class BimanualSession;  // report.pb.h
@@ -25,6 +26,7 @@ struct BimanualSessionOptions {
   servo::ServoConfig servo;
   std::string log_path;     // 1 kHz servo CSV; empty: none
   double duration_s = 0.0;  // 0: the script's own length
+  DeviceViewTaps view;      // a live view, if any
 };
 
 struct BimanualSessionSummary {

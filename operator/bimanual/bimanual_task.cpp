@@ -32,6 +32,14 @@ void BimanualTask::tick(const device::DeviceSample& in, const servo::ModelSnapsh
     if (env.grip_object && e.handle.has_grip && e.handle.grip_position > env.grip_object_at_m)
       c.grip_force = env.grip_object_stiffness * (e.handle.grip_position - env.grip_object_at_m);
   }
+  ++ticks_;
+  if (view_ != nullptr) {  // filled in place: one copy of the record
+    DeviceViewRecord& v = view_->back();
+    fill_device_view(in, out, view_arms_, ticks_, v);
+    v.objects = 0;
+    v.pairs = 0;
+    view_->publish();
+  }
 }
 
 }  // namespace hemm::op

@@ -13,6 +13,7 @@
 #include <Eigen/Geometry>
 
 #include "operator/servo/servo_loop.h"
+#include "operator/view/device_view_record.h"
 
 namespace hemm::op {
 
@@ -34,7 +35,18 @@ class BimanualTask final : public servo::ServoTask {
 
   void tick(const device::DeviceSample& in, const servo::ModelSnapshot& model, servo::TickOutput& out) noexcept override;
 
+  // A live view's feed (device_view_record.h), before the loop starts; `arms`
+  // (may be null): the SIMULATED device whose joint angles go with each tick.
+  void set_view(DeviceViewMailbox* ticks, const device::bimanual::SimulatedBimanualDevice* arms) noexcept {
+    view_ = ticks;
+    view_arms_ = arms;
+  }
+  const std::array<HandEnvironment, device::kMaxEndEffectors>& environment() const noexcept { return env_; }
+
  private:
+  DeviceViewMailbox* view_ = nullptr;
+  const device::bimanual::SimulatedBimanualDevice* view_arms_ = nullptr;
+  std::uint64_t ticks_ = 0;
   std::array<HandEnvironment, device::kMaxEndEffectors> env_;
   std::array<Eigen::Quaterniond, device::kMaxEndEffectors> start_{};
   std::array<bool, device::kMaxEndEffectors> have_start_{};

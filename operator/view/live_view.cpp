@@ -40,19 +40,7 @@ constexpr const char* kWorldXml = R"(<mujoco model="hemm_operator_view">
 </mujoco>
 )";
 
-view::MjModelPtr load_world() {
-  mjVFS vfs;
-  mj_defaultVFS(&vfs);
-  const int size = static_cast<int>(std::strlen(kWorldXml));
-  if (mj_makeEmptyFileVFS(&vfs, "operator_view.xml", size) != 0) throw std::runtime_error("MuJoCo VFS full");
-  const int i = mj_findFileVFS(&vfs, "operator_view.xml");
-  std::memcpy(vfs.filedata[i], kWorldXml, static_cast<std::size_t>(size));
-  char err[1000] = "";
-  mjModel* m = mj_loadXML("operator_view.xml", &vfs, err, sizeof err);
-  mj_deleteVFS(&vfs);
-  if (m == nullptr) throw std::runtime_error(std::string("view world: ") + err);
-  return view::MjModelPtr(m);
-}
+view::MjModelPtr load_world() { return view::load_model_xml("operator_view.xml", kWorldXml); }
 
 }  // namespace
 
@@ -85,20 +73,29 @@ OperatorLiveView::OperatorLiveView(const view::ViewOptions& o, LiveViewLinks lin
 
 OperatorLiveView::~OperatorLiveView() { stop(); }
 
+void start_view_thread(view::ViewThread& thread, std::function<void(const std::atomic<bool>& stop)> body) {
+  thread.start(std::move(body), [](const std::string& e) { spdlog::error("event=view_failed error=\"{}\"", e); });
+}
+
+LiveViewStats live_view_stats(const view::ViewLoopCounters& c, std::uint64_t dropped_geoms,
+                              const view::ViewThread& thread) {
+  LiveViewStats s;
+  s.frames = c.frames.load();
+  s.pngs = c.pngs.load();
+  s.dropped_geoms = dropped_geoms;
+  s.error = thread.error();
+  return s;
+}
+
 void OperatorLiveView::start() {
-  thread_.start([this](const std::atomic<bool>& stop) { run(stop); },
-                [](const std::string& e) { spdlog::error("event=view_failed error=\"{}\"", e); });
+  start_view_thread(thread_, [this](const std::atomic<bool>& stop) { run(stop); });
 }
 
 void OperatorLiveView::stop() { thread_.stop(); }
 
 LiveViewStats OperatorLiveView::stats() const {
-  LiveViewStats s;
-  s.frames = counters_.frames.load();
-  s.pngs = counters_.pngs.load();
+  LiveViewStats s = live_view_stats(counters_, dropped_.load(), thread_);
   s.model_copies = feed_.copies();
-  s.dropped_geoms = dropped_.load();
-  s.error = thread_.error();
   return s;
 }
 

@@ -47,6 +47,12 @@ struct LiveViewStats {
   std::string error;  // why the view stopped early, if it did
 };
 
+// What both operator views share about their thread: started with an error
+// log for what ends it, and its counters as LiveViewStats.
+void start_view_thread(view::ViewThread& thread, std::function<void(const std::atomic<bool>& stop)> body);
+LiveViewStats live_view_stats(const view::ViewLoopCounters& c, std::uint64_t dropped_geoms,
+                              const view::ViewThread& thread);
+
 class OperatorLiveView {
  public:
   // Attaches the view's feed to the station: call before station.start().

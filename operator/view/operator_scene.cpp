@@ -76,9 +76,7 @@ const char* mode_name(std::uint32_t m) {
   }
 }
 
-namespace {
-std::string fmt(const char* f, ...) __attribute__((format(printf, 1, 2)));
-std::string fmt(const char* f, ...) {
+std::string overlay_text(const char* f, ...) {
   char buf[256];
   va_list ap;
   va_start(ap, f);
@@ -86,7 +84,6 @@ std::string fmt(const char* f, ...) {
   va_end(ap);
   return buf;
 }
-}  // namespace
 
 view::Overlay make_operator_overlay(const OverlayInputs& in) {
   view::Overlay o;
@@ -99,18 +96,18 @@ view::Overlay make_operator_overlay(const OverlayInputs& in) {
   const ViewModel* m = in.model;
   const StationLogRecord* t = in.tick;
   if (t != nullptr) {
-    row("mode", fmt("%s  (scale %.1f: W m per device m)", mode_name(t->mode), t->scale));
-    row("robot (predicted)", fmt("x %.2f  y %.2f  heading %.1f deg", t->robot[0], t->robot[1], t->robot[2] * 180.0 / std::numbers::pi));
-    row("force", fmt("%.2f N  (contacts %d)", std::hypot(t->force_W[0], t->force_W[1]), t->contacts));
+    row("mode", overlay_text("%s  (scale %.1f: W m per device m)", mode_name(t->mode), t->scale));
+    row("robot (predicted)", overlay_text("x %.2f  y %.2f  heading %.1f deg", t->robot[0], t->robot[1], t->robot[2] * 180.0 / std::numbers::pi));
+    row("force", overlay_text("%.2f N  (contacts %d)", std::hypot(t->force_W[0], t->force_W[1]), t->contacts));
   } else {
     row("mode", "(no servo tick yet)");
   }
   if (m != nullptr && m->have_state) {
     const double age_ms = static_cast<double>(in.now_ns - m->state.stamp_local_ns) * 1e-6;
-    row("last robot state", fmt("x %.2f  y %.2f  age %.0f ms", m->state.T_W_R_odom.x, m->state.T_W_R_odom.y, age_ms));
+    row("last robot state", overlay_text("x %.2f  y %.2f  age %.0f ms", m->state.T_W_R_odom.x, m->state.T_W_R_odom.y, age_ms));
   }
   if (m != nullptr && m->version != 0) {
-    row("local map", fmt("%zu segments, %zu pieces%s  (model v%" PRIu64 ", %.0f ms old)", m->map_segments,
+    row("local map", overlay_text("%zu segments, %zu pieces%s  (model v%" PRIu64 ", %.0f ms old)", m->map_segments,
                          m->pieces_total, m->pieces_total > m->segments.size() ? " (some not drawn)" : "", m->version,
                          static_cast<double>(in.now_ns - m->stamp_ns) * 1e-6));
   }
@@ -119,14 +116,14 @@ view::Overlay make_operator_overlay(const OverlayInputs& in) {
     const std::uint64_t expected = s.rx.delivered + s.rx.lost;
     const double loss = expected > 0 ? 100.0 * static_cast<double>(s.rx.lost) / static_cast<double>(expected) : 0.0;
     if (s.clock.valid)
-      row("link", fmt("%s  RTT %.0f ms (median %.0f)  lost %" PRIu64 " (%.1f %%)", s.link_up ? "up" : "DOWN",
+      row("link", overlay_text("%s  RTT %.0f ms (median %.0f)  lost %" PRIu64 " (%.1f %%)", s.link_up ? "up" : "DOWN",
                       s.clock.rtt_last_ns * 1e-6, s.clock.rtt_median_ns * 1e-6, s.rx.lost, loss));
     else
-      row("link", fmt("%s  RTT -  lost %" PRIu64, s.link_up ? "up" : "DOWN", s.rx.lost));
+      row("link", overlay_text("%s  RTT -  lost %" PRIu64, s.link_up ? "up" : "DOWN", s.rx.lost));
   }
   if (in.servo != nullptr) {
     const ServoHealth& h = *in.servo;
-    row("servo loop", fmt("period %.3f ms (p99 %.3f)  misses %" PRIu64 " (+%" PRIu64 " in %.1f s)  ticks %" PRIu64,
+    row("servo loop", overlay_text("period %.3f ms (p99 %.3f)  misses %" PRIu64 " (+%" PRIu64 " in %.1f s)  ticks %" PRIu64,
                           h.period_median_ms, h.period_p99_ms, h.misses, h.window_misses, h.window_s, h.ticks));
   }
   if (!l.empty()) l.pop_back();

@@ -71,4 +71,7 @@ struct OverlayInputs {
 };
 view::Overlay make_operator_overlay(const OverlayInputs& in);
 
+// printf into a string (an overlay line; at most 255 characters).
+std::string overlay_text(const char* format, ...) __attribute__((format(printf, 1, 2)));
+
 }  // namespace hemm::op

@@ -7,6 +7,7 @@
 #include <thread>
 
 #include "common/config/config.h"
+#include "operator/device/bimanual/simulated_bimanual_device.h"
 #include "report.pb.h"
 
 namespace hemm::op {
@@ -23,6 +24,8 @@ VpsSessionSummary run_vps_session(device::HapticDevice& device, std::shared_ptr<
   VpsTaskParams tp = o.task;
   tp.period_s = static_cast<double>(o.servo.period_ns) * 1e-9;
   VpsServoTask task(model, device.limits(), tp, o.log_path.empty() ? nullptr : &log);
+  if (o.view.ticks != nullptr)
+    task.set_view(o.view.ticks, dynamic_cast<const device::bimanual::SimulatedBimanualDevice*>(&device));
   servo::ModelChannel channel;
   // The scene is static: published once for any other reader (a view).
   auto snap = std::make_unique<VpsModelSnapshot>();
@@ -32,12 +35,14 @@ VpsSessionSummary run_vps_session(device::HapticDevice& device, std::shared_ptr<
   servo::ServoLoop loop(device, task, channel, o.servo);
   const servo::RealtimeStatus rt = loop.start();
   if (on_start) on_start(rt);
+  if (o.view.started) o.view.started(loop.stats());
   const auto ticks =
       o.duration_s > 0 ? static_cast<std::uint64_t>(std::llround(o.duration_s / tp.period_s)) : ~std::uint64_t{0};
   while (loop.stats().ticks.load(std::memory_order_relaxed) < ticks &&
          !(stop != nullptr && stop->load(std::memory_order_relaxed)))
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   loop.stop();
+  if (o.view.stopped) o.view.stopped();
   log.stop();
   VpsSessionSummary s;
   s.device = std::string(device.name());

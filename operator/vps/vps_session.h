@@ -26,6 +26,7 @@ struct VpsSessionOptions {
   VpsTaskParams task;
   double duration_s = 0.0;  // > 0, or until *stop
   std::string log_path;     // 1 kHz VPS log CSV ("": none)
+  DeviceViewTaps view;      // a live view, if any
 };
 
 struct VpsSessionSummary {

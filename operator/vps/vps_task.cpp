@@ -209,6 +209,20 @@ void VpsServoTask::tick(const device::DeviceSample& in, const servo::ModelSnapsh
   rec.vps_ns = steady_now_ns() - t0;
   vps_ns_.record(rec.vps_ns);
   if (log_ != nullptr) log_->push(rec);
+  if (view_ != nullptr) {  // filled in place: one copy of the record
+    DeviceViewRecord& v = view_->back();
+    fill_device_view(in, out, view_arms_, stats_.ticks, v);
+    v.objects = objects_;
+    for (int k = 0; k < objects_; ++k) v.object_W[static_cast<std::size_t>(k)] = object_pose(k);
+    v.pairs = objects_ == 2 ? 3 : 1;
+    for (std::size_t i = 0; i < 3; ++i) {
+      v.contacts[i] = rec.contacts[i];
+      v.penetration_m[i] = rec.max_penetration[i];
+    }
+    for (std::size_t k = 0; k < 2; ++k) v.energy_J[k] = stats_.energy_J[k];
+    v.vps_ns = rec.vps_ns;
+    view_->publish();
+  }
 }
 
 }  // namespace hemm::op

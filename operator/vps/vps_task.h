@@ -34,6 +34,7 @@
 #include "operator/servo/csv_logger.h"
 #include "operator/servo/servo_loop.h"
 #include "operator/servo/timing_stats.h"
+#include "operator/view/device_view_record.h"
 #include "operator/vps/vps_model.h"
 
 namespace hemm::op {
@@ -120,6 +121,13 @@ class VpsServoTask final : public servo::ServoTask {
   // Servo thread (or after the loop stopped): object k's mesh-frame pose in W.
   Eigen::Isometry3d object_pose(int k) const;
   const VpsLocalModel& model() const noexcept { return *model_; }
+  // A live view's feed (device_view_record.h), before the loop starts: each
+  // tick is published there; `arms` (may be null) is the SIMULATED bimanual
+  // device whose joint angles go with it (read on the servo thread).
+  void set_view(DeviceViewMailbox* ticks, const device::bimanual::SimulatedBimanualDevice* arms) noexcept {
+    view_ = ticks;
+    view_arms_ = arms;
+  }
 
  private:
   std::shared_ptr<const VpsLocalModel> model_;
@@ -135,6 +143,8 @@ class VpsServoTask final : public servo::ServoTask {
   VpsTaskStats stats_;
   servo::LatencyHistogram vps_ns_;
   VpsLogger* log_;
+  DeviceViewMailbox* view_ = nullptr;
+  const device::bimanual::SimulatedBimanualDevice* view_arms_ = nullptr;
 };
 
 // Limits of SIMULATED rigid scripted hands as a two-end-effector device (the

@@ -21,7 +21,6 @@
 #include <gtest/gtest.h>
 #include <mujoco/mujoco.h>
 #include <numbers>
-#include <sys/stat.h>
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -37,6 +36,7 @@
 #include <vector>
 
 #include "common/view/png_io.h"
+#include "tests/integration/view/view_test_support.h"
 #include "tests/integration/latency/csv_columns.h"
 #include "tests/integration/link/child_process.h"
 
@@ -50,37 +50,6 @@ const std::string kConfigs = std::string(HEMM_SOURCE_DIR) + "/deploy/configs/";
 const std::string kScene = std::string(HEMM_SOURCE_DIR) + "/deploy/scenes/home.xml";
 constexpr double kRunS = 7.0;
 
-// A pinhole camera as MuJoCo's free camera is documented: forward from
-// azimuth/elevation, the camera at lookat - distance * forward, up
-// perpendicular to forward in the vertical plane, vertical field of view fovy.
-struct Camera {
-  Eigen::Vector3d pos, forward, up, right;
-  double f_px = 0;  // focal length in pixels
-  int width = 0, height = 0;
-
-  static std::optional<Camera> from_text(const std::string& text, int width, int height) {
-    std::istringstream in(text);
-    double lx, ly, lz, dist, az, el, fovy;
-    if (!(in >> lx >> ly >> lz >> dist >> az >> el >> fovy)) return std::nullopt;
-    const double a = az * std::numbers::pi / 180, e = el * std::numbers::pi / 180;
-    Camera c;
-    c.forward = Eigen::Vector3d(std::cos(e) * std::cos(a), std::cos(e) * std::sin(a), std::sin(e));
-    c.up = Eigen::Vector3d(-std::sin(e) * std::cos(a), -std::sin(e) * std::sin(a), std::cos(e));
-    c.right = c.forward.cross(c.up);
-    c.pos = Eigen::Vector3d(lx, ly, lz) - dist * c.forward;
-    c.f_px = 0.5 * height / std::tan(0.5 * fovy * std::numbers::pi / 180);
-    c.width = width;
-    c.height = height;
-    return c;
-  }
-  // Pixel (column, row from the top) of a W point.
-  Eigen::Vector2d project(const Eigen::Vector3d& p) const {
-    const Eigen::Vector3d v = p - pos;
-    const double z = v.dot(forward);
-    return Eigen::Vector2d(0.5 * width + f_px * v.dot(right) / z, 0.5 * height - f_px * v.dot(up) / z);
-  }
-};
-
 // Colour classes of the views' palettes (operator/view/operator_scene.h) as
 // they come out lit from above.
 bool is_blue(const std::uint8_t* p) { return p[2] > 180 && p[0] < 100 && p[1] < 160; }
@@ -92,17 +61,6 @@ bool is_teal(const std::uint8_t* p) { return p[0] < 110 && p[1] > 90 && p[1] >= 
 // A map surface: raw laser (orange) or fitted (teal).
 bool is_map_surface(const std::uint8_t* p) { return is_orange(p) || is_teal(p); }
 bool is_red(const std::uint8_t* p) { return p[0] > 120 && p[1] < 70 && p[2] < 70; }
-
-// Any pixel within `radius` of (u, v) of the class.
-template <class Pred>
-bool near(const view::Image& img, const Eigen::Vector2d& uv, int radius, Pred pred) {
-  for (int dy = -radius; dy <= radius; ++dy)
-    for (int dx = -radius; dx <= radius; ++dx) {
-      const int x = static_cast<int>(std::lround(uv.x())) + dx, y = static_cast<int>(std::lround(uv.y())) + dy;
-      if (x >= 0 && y >= 0 && x < img.width && y < img.height && pred(img.at(x, y))) return true;
-    }
-  return false;
-}
 
 // The scene's surfaces from MuJoCo (not from hemm's code): a geom's face.
 struct SceneFaces {
@@ -144,28 +102,6 @@ SceneFaces scene_faces() {
   mj_deleteModel(m);
   return f;
 }
-
-// Xvfb on a display it picks itself (-displayfd), for this test only.
-class Xvfb {
- public:
-  explicit Xvfb(const std::string& dir)
-      : out_(dir + "/xvfb.out"),
-        proc_({"/usr/bin/Xvfb", "-displayfd", "1", "-screen", "0", "1024x768x24", "-nolisten", "tcp"}, out_,
-              dir + "/xvfb.err") {
-    for (int i = 0; i < 100 && display_.empty(); ++i) {
-      std::this_thread::sleep_for(50ms);
-      const std::string s = read_file(out_);
-      if (!s.empty() && s.back() == '\n') display_ = ":" + s.substr(0, s.size() - 1);
-    }
-  }
-  ~Xvfb() { proc_.signal(SIGTERM); proc_.wait(5s); }
-  const std::string& display() const { return display_; }
-
- private:
-  std::string out_;
-  ChildProcess proc_;
-  std::string display_;
-};
 
 struct StationRun {
   bool ok = false;
@@ -224,26 +160,11 @@ StationRun run_stations(const std::string& dir, bool view) {
   return r;
 }
 
-std::vector<std::string> pngs_in(const std::string& dir) {
-  std::vector<std::string> out;
-  if (!std::filesystem::is_directory(dir)) return out;
-  for (const auto& e : std::filesystem::directory_iterator(dir))
-    if (e.path().filename().string().rfind("view_0", 0) == 0) out.push_back(e.path().string());
-  std::sort(out.begin(), out.end());
-  return out;
-}
-
 TEST(LiveView, UnderXvfbTheViewShowsRobotMapAndProxyWhereTheyAreAndTheServoKeepsItsTiming) {
-  struct stat st {};
-  ASSERT_EQ(::stat("/usr/bin/Xvfb", &st), 0) << "Xvfb is needed (Debian package xvfb; deploy/run.sh installs it)";
   const std::string dir = make_temp_dir();
-  Xvfb xvfb(dir);
-  ASSERT_FALSE(xvfb.display().empty()) << "Xvfb did not start: " << read_file(dir + "/xvfb.err");
-  ::setenv("DISPLAY", xvfb.display().c_str(), 1);
-  // Software OpenGL, one rasterizer thread: the view must not starve the
-  // 1 kHz servo and the 1 kHz simulation on two cores.
-  ::setenv("LIBGL_ALWAYS_SOFTWARE", "1", 1);
-  ::setenv("LP_NUM_THREADS", "1", 1);
+  std::unique_ptr<Xvfb> xvfb;
+  const auto display_error = start_test_display(dir, &xvfb);
+  ASSERT_FALSE(display_error) << *display_error;
 
   std::filesystem::create_directories(dir + "/off");
   std::filesystem::create_directories(dir + "/on");

@@ -72,10 +72,22 @@ TEST(VpsServoTask, PegInHoleWithScriptedHandsThroughTheDeviceApi) {
   VpsServoTask task(model, dev.limits(), tp);
   // The designed couplings meet the sampled-data passivity condition.
   for (int k = 0; k < 2; ++k) EXPECT_LE(task.coupling(k).passivity_lhs, task.coupling(k).passivity_bound);
+  // A live view attached: every tick published, still no allocation.
+  DeviceViewMailbox view;
+  task.set_view(&view, nullptr);
   const std::uint64_t allocs = test::counted_allocations();
   const std::uint64_t ticks = static_cast<std::uint64_t>(vps::kPegInHoleDuration * 1000) + 400;
   const servo::TimingSummary timing = run_loop(dev, task, ticks);
   EXPECT_EQ(test::counted_allocations() - allocs, 0u) << "allocations on the servo thread";
+  EXPECT_EQ(view.published(), task.stats().ticks);
+  const DeviceViewRecord* last = view.take();
+  ASSERT_NE(last, nullptr);
+  EXPECT_EQ(last->tick, task.stats().ticks);
+  EXPECT_EQ(last->objects, 2);
+  EXPECT_EQ(last->pairs, 3);
+  EXPECT_FALSE(last->has_arms);
+  for (int k = 0; k < 2; ++k)
+    EXPECT_LT((last->object_W[static_cast<std::size_t>(k)].matrix() - task.object_pose(k).matrix()).norm(), 1e-12);
   const VpsTaskStats& st = task.stats();
   const Eigen::Vector3d rel = task.object_pose(1).inverse() * task.object_pose(0).translation();
   const servo::HistogramSummary vps_us = servo::summarize(task.vps_compute());
