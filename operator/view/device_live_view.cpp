@@ -89,7 +89,7 @@ void DeviceLiveView::run(const std::atomic<bool>& stop) {
   ServoHealth health;
   std::int64_t next_health = 0;
   view::PrimitiveList prims;
-  const DeviceSceneStyle style;
+  const DeviceSceneStyle style = device_scene_style(setup_);
 
   view::ViewLoopHooks hooks;
   view::set_logging_hooks(o_, hooks);

@@ -173,6 +173,15 @@ void build_device_scene(const DeviceSceneSetup& s, const DeviceViewRecord* tick,
   }
 }
 
+DeviceSceneStyle device_scene_style(const DeviceSceneSetup& s) {
+  DeviceSceneStyle st;
+  if (s.arms) return st;
+  for (double* v : {&st.force_scale, &st.torque_scale, &st.max_arrow, &st.arrow_width, &st.end_effector_radius,
+                    &st.point_radius})
+    *v *= 0.25;
+  return st;
+}
+
 view::CameraSpec default_device_camera(const DeviceSceneSetup& s) {
   view::CameraSpec c;
   if (s.arms) {

@@ -125,6 +125,11 @@ struct DeviceSceneStyle {
   double point_radius = 0.003;        // pointshell points
 };
 
+// The style for a setup: as above with the arms; a quarter of every size
+// and arrow scale without them (the view then frames the scene alone, a few
+// centimetres across).
+DeviceSceneStyle device_scene_style(const DeviceSceneSetup& setup);
+
 // The primitives in H. tick may be null (no servo tick yet): then only what
 // does not move (table, column, scene).
 void build_device_scene(const DeviceSceneSetup& setup, const DeviceViewRecord* tick, const DeviceSceneStyle& style,
