@@ -68,6 +68,41 @@ struct OperatorRun {
   double ticks = NAN, misses = NAN;
 };
 
+struct ArmSeen {
+  bool arm = false, handle = false;
+};
+
+// Arm k of a picture: its joint angles put the hand where the picture says
+// it is (forward kinematics); the pixels at the projected elbow and
+// mid-forearm are the arms' blue, halfway along the handle yellow.
+ArmSeen check_arm(const view::Image& img, const Camera& cam, const hb::RigGeometry& rig, const hb::HandleSpec& handle,
+                  int k, const std::vector<double>& q, const Eigen::Vector3d& ee_H, const std::string& path) {
+  ArmSeen seen;
+  if (q.size() != 7) {
+    ADD_FAILURE() << path << ": no joint angles for arm " << k;
+    return seen;
+  }
+  kinematics::Arm7Vector qv;
+  for (int i = 0; i < 7; ++i) qv[i] = q[static_cast<std::size_t>(i)];
+  kinematics::Arm7Frames f;
+  kinematics::forward_kinematics(rig.arm, qv, f);
+  const Eigen::Isometry3d& T_D_A = rig.T_D_A[static_cast<std::size_t>(k)];
+  const Eigen::Isometry3d T_D_J7 = T_D_A * f.joint(7);
+  EXPECT_LT((T_D_J7 * handle.T_J7_E.translation() - ee_H).norm(), 1e-6) << path << " arm " << k;
+  seen.arm = true;
+  for (const Eigen::Vector3d& p : {Eigen::Vector3d(T_D_A * f.origin(4)), Eigen::Vector3d(T_D_A * f.origin(5))}) {
+    const bool a = near(img, cam.project(p), 2, is_blue);
+    if (!a) {
+      const Eigen::Vector2d uv = cam.project(p);
+      const std::uint8_t* px = img.at(static_cast<int>(std::lround(uv.x())), static_cast<int>(std::lround(uv.y())));
+      std::printf("%s: arm %d at (%.0f, %.0f) is %d %d %d\n", path.c_str(), k, uv.x(), uv.y(), px[0], px[1], px[2]);
+    }
+    seen.arm = seen.arm && a;
+  }
+  seen.handle = near(img, cam.project(T_D_J7 * Eigen::Vector3d(0, 0, 0.5 * handle.capsule_length)), 2, is_yellow);
+  return seen;
+}
+
 OperatorRun run_operator(const std::string& dir, const std::string& cfg, bool view, const std::string& name) {
   std::vector<std::string> args = {kBin + "hemm-operator", "--config", cfg, "--duration", std::to_string(kRunS),
                                    "--log", dir + "/" + name + ".csv", "--station-json", dir + "/" + name + ".json",
@@ -174,7 +209,6 @@ TEST(DeviceLiveView, UnderXvfbTheBimanualVpsViewShowsArmsHandlesAndObjectsWhereT
       const std::vector<double> q = numbers(view::find_text(tx, "hemm:q" + ks));
       const std::vector<double> e = numbers(view::find_text(tx, "hemm:ee" + ks + "_H"));
       const std::vector<double> o = numbers(view::find_text(tx, "hemm:object" + ks + "_W"));
-      ASSERT_EQ(q.size(), 7u);
       ASSERT_EQ(e.size(), 3u);
       ASSERT_EQ(o.size(), 7u);
       // Tied to the log: the hand in W through its arm's mapping, the object.
@@ -183,26 +217,9 @@ TEST(DeviceLiveView, UnderXvfbTheBimanualVpsViewShowsArmsHandlesAndObjectsWhereT
       const Eigen::Vector3d obj_W(log["obj" + ks + "_x"][row], log["obj" + ks + "_y"][row], log["obj" + ks + "_z"][row]);
       EXPECT_LT((ee_H + h_origin[k] - dev_W).norm(), 1e-6);
       EXPECT_LT((Eigen::Vector3d(o[0], o[1], o[2]) - obj_W).norm(), 1e-6);
-      // ... and to the arm's kinematics: the joint angles put the hand there.
-      kinematics::Arm7Vector qv;
-      for (int i = 0; i < 7; ++i) qv[i] = q[static_cast<std::size_t>(i)];
-      kinematics::Arm7Frames f;
-      kinematics::forward_kinematics(rig.arm, qv, f);
-      const Eigen::Isometry3d& T_D_A = rig.T_D_A[static_cast<std::size_t>(k)];
-      const Eigen::Isometry3d T_D_J7 = T_D_A * f.joint(7);
-      EXPECT_LT((T_D_J7 * handle.T_J7_E.translation() - ee_H).norm(), 1e-6);
-      // Pixels: the arm at the elbow and mid-forearm, the handle halfway along.
-      for (const Eigen::Vector3d& p : {Eigen::Vector3d(T_D_A * f.origin(4)), Eigen::Vector3d(T_D_A * f.origin(5))}) {
-        const bool a = near(img, cam->project(p), 2, is_blue);
-        if (!a) {
-          const Eigen::Vector2d uv = cam->project(p);
-          const std::uint8_t* px = img.at(static_cast<int>(std::lround(uv.x())), static_cast<int>(std::lround(uv.y())));
-          std::printf("%s: arm %d at (%.0f, %.0f) is %d %d %d\n", path.c_str(), k, uv.x(), uv.y(), px[0], px[1], px[2]);
-        }
-        arms = arms && a;
-      }
-      handles = handles && near(img, cam->project(T_D_J7 * Eigen::Vector3d(0, 0, 0.5 * handle.capsule_length)), 2,
-                                is_yellow);
+      const ArmSeen seen = check_arm(img, *cam, rig, handle, k, q, ee_H, path);
+      arms = arms && seen.arm;
+      handles = handles && seen.handle;
       // The object's box at its pose (W drawn at p_H_W): its colour inside
       // the box's projection, none in the same rectangle moved 3 widths aside.
       const Eigen::Quaterniond R(o[3], o[4], o[5], o[6]);
@@ -235,6 +252,62 @@ TEST(DeviceLiveView, UnderXvfbTheBimanualVpsViewShowsArmsHandlesAndObjectsWhereT
   EXPECT_EQ(handles_ok, checked);
   EXPECT_EQ(objects_ok, checked);
   EXPECT_EQ(empty_ok, checked);
+}
+
+// The bimanual device against its local planes (no VPS): the same arms and
+// handles (grip-force and joystick handles, as the shipped config has them).
+TEST(DeviceLiveView, UnderXvfbTheBimanualDeviceViewShowsItsArmsAndHandles) {
+  const std::string dir = make_temp_dir();
+  std::unique_ptr<Xvfb> xvfb;
+  const auto display_error = start_test_display(dir, &xvfb);
+  ASSERT_FALSE(display_error) << *display_error;
+  std::string text = read_file(std::string(HEMM_SOURCE_DIR) + "/deploy/configs/operator_bimanual.pbtxt");
+  text += "servo { realtime_priority: false }\n";
+  const std::string cfg_path = dir + "/bimanual.pbtxt";
+  std::ofstream(cfg_path) << text;
+  config::OperatorConfig cfg;
+  ASSERT_TRUE(google::protobuf::TextFormat::ParseFromString(text, &cfg));
+  hb::HandleSpec handles[2];
+  for (int k = 0; k < 2; ++k) {
+    const auto kind =
+        hb::handle_from_string(k == 0 ? cfg.device().bimanual().right().handle() : cfg.device().bimanual().left().handle());
+    ASSERT_TRUE(kind);
+    handles[k] = hb::handle_spec(*kind);
+  }
+  ChildProcess p({kBin + "hemm-operator", "--config", cfg_path, "--duration", "3", "--view-png", dir + "/png",
+                  "--view-interval", "1"},
+                 dir + "/op.out", dir + "/op.err");
+  const auto rc = p.wait(std::chrono::seconds(60));
+  ASSERT_TRUE(rc && *rc == 0) << read_file(dir + "/op.err");
+  std::vector<std::string> pictures = pngs_in(dir + "/png");
+  pictures.push_back(dir + "/png/view_last.png");
+  const hb::RigGeometry rig = hb::default_rig();
+  int checked = 0, arms = 0, handles_seen = 0;
+  for (const std::string& path : pictures) {
+    view::Image img;
+    view::TextChunks tx;
+    ASSERT_FALSE(read_png(path, &img, &tx)) << path;
+    if (std::stod(view::find_text(tx, "hemm:tick_ns").value_or("-1")) < 0) continue;  // before the first tick
+    const auto cam = Camera::from_text(view::find_text(tx, "hemm:camera").value_or(""), img.width, img.height);
+    ASSERT_TRUE(cam);
+    EXPECT_FALSE(view::find_text(tx, "hemm:object0_W"));  // no VPS objects
+    ++checked;
+    bool a = true, h = true;
+    for (int k = 0; k < 2; ++k) {
+      const std::vector<double> e = numbers(view::find_text(tx, "hemm:ee" + std::to_string(k) + "_H"));
+      ASSERT_EQ(e.size(), 3u) << path;
+      const ArmSeen seen = check_arm(img, *cam, rig, handles[k], k, numbers(view::find_text(tx, "hemm:q" + std::to_string(k))),
+                                     Eigen::Vector3d(e[0], e[1], e[2]), path);
+      a = a && seen.arm;
+      h = h && seen.handle;
+    }
+    arms += a;
+    handles_seen += h;
+  }
+  std::printf("bimanual pictures: %zu, checked %d: arms %d, handles %d\n", pictures.size(), checked, arms, handles_seen);
+  ASSERT_GE(checked, 3);
+  EXPECT_EQ(arms, checked);
+  EXPECT_EQ(handles_seen, checked);
 }
 
 }  // namespace
