@@ -233,7 +233,7 @@ view::Overlay make_device_overlay(const DeviceSceneSetup& s, const DeviceViewRec
   }
   if (!o.left.empty()) o.left.pop_back();
   if (!o.right.empty()) o.right.pop_back();
-  o.bottom = "c: camera (fixed / free)   mouse: rotate, move, zoom";
+  o.bottom = "c: camera back to the start   mouse: rotate, move, zoom";
   return o;
 }
 
