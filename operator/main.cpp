@@ -500,12 +500,6 @@ int run(int argc, char** argv) {
   so.log_path = servo_log;
   so.model.shapes.enabled = shape_completion == "on";
   so.command_rate_hz = cfg.net().command_rate_hz();
-  if (cfg.servo().rate_hz() < 100 || cfg.servo().rate_hz() > 4000 || so.command_rate_hz < 100 ||
-      so.command_rate_hz > 1000) {
-    std::cerr << "hemm-operator: bad config: servo.rate_hz must be in [100, 4000], net.command_rate_hz in "
-                 "[100, 1000]\n";
-    return net::kExitUsage;
-  }
   so.servo = servo_config(cfg);
   so.task.proxy.period = static_cast<double>(so.servo.period_ns) * 1e-9;
 
