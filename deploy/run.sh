@@ -5,10 +5,12 @@
 #          targets) configurations and run every test in both
 #   bench  build release and run the benchmarks
 #   build  build release only
-# Environment: HEMM_JOBS (default: nproc), HEMM_BUILD_DIR (default: build).
+# Environment: HEMM_JOBS (default: nproc), HEMM_BUILD_DIR (default: build),
+#   HEMM_UNITY (default: 1, the release build as a unity build; 0 builds it
+#   file by file, quicker to rebuild after editing one file).
 set -euo pipefail
 
-usage() { sed -n '2,9p' "$0" | sed 's/^# \{0,1\}//'; }
+usage() { sed -n '2,10p' "$0" | sed 's/^# \{0,1\}//'; }
 mode="${1:-}"
 case "$mode" in
   demo|test|bench|build) shift ;;
@@ -48,6 +50,14 @@ fi
 
 launcher=()
 command -v ccache >/dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_C_COMPILER_LAUNCHER=ccache)
+# The release build is a unity build (up to 8 files of a target compiled as
+# one): Eigen, protobuf and gtest are parsed once per batch instead of once
+# per file and their templates instantiated once, about a quarter less compile
+# CPU on a 2-core VM (436 -> 331 CPU s on a sample of six test targets).
+# The sanitizer build (clang) stays file by file until clang's unity build
+# has been checked on the whole tree.
+unity=(-DCMAKE_UNITY_BUILD=ON)
+if [[ "${HEMM_UNITY:-1}" == 0 ]]; then unity=(-DCMAKE_UNITY_BUILD=OFF); fi
 
 # Warnings are errors in these builds (CI and development); a plain CMake
 # build leaves HEMM_WERROR off.
@@ -57,7 +67,7 @@ command -v ccache >/dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache -
 configure_release() {
   cmake -S "$root" -B "$builds/release" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DHEMM_WERROR=ON \
     -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O2 -g1 -DNDEBUG" -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O2 -g1 -DNDEBUG" \
-    "${launcher[@]}" "$@" >/dev/null
+    "${launcher[@]}" "${unity[@]}" "$@" >/dev/null
 }
 configure_asan() {
   # Line tables are all a sanitizer report needs; full debug info only adds
