@@ -457,6 +457,7 @@ int run(int argc, char** argv) {
   }
   so.servo = servo_config(cfg);
   so.task.proxy.period = static_cast<double>(so.servo.period_ns) * 1e-9;
+  op::apply_probe3d_config(cfg.probe_3d(), &so);
 
   asio::io_context io;
   op::OperatorClient client(io, o);

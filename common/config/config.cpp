@@ -229,6 +229,19 @@ std::vector<FieldIssue> validate_operator_config(const pb::Message& m) {
   if (type == "replay" && c.device().replay_file().empty())
     out.push_back({"device.replay_file", "required when device.type is \"replay\""});
   if (!in_range(c.servo().rate_hz(), 100, 10000)) out.push_back({"servo.rate_hz", "must be 100..10000"});
+  const auto& p3 = c.probe_3d();
+  if (!(p3.voxel_size_m() >= 0.003 && p3.voxel_size_m() <= 0.05))
+    out.push_back({"probe_3d.voxel_size_m", "must be within [0.003, 0.05]"});
+  if (!(p3.probe_radius_m() > 0 && p3.probe_radius_m() < 3.5 * p3.voxel_size_m()))
+    out.push_back({"probe_3d.probe_radius_m", "must be > 0 and below 3.5 voxels (the voxmap's distance layers)"});
+  if (!(p3.range_m() > 0 && p3.range_m() <= 10)) out.push_back({"probe_3d.range_m", "must be within (0, 10]"});
+  if (!(std::abs(p3.origin_x_m()) <= 3 && std::abs(p3.origin_z_m()) <= 3))
+    out.push_back({"probe_3d.origin_x_m", "origin within 3 m"});
+  if (!(p3.roi_x_max_m() > p3.roi_x_min_m() && p3.roi_half_width_m() > 0 && p3.roi_z_max_m() > p3.roi_z_min_m() &&
+        p3.roi_x_max_m() - p3.roi_x_min_m() <= 10 && p3.roi_half_width_m() <= 5 && p3.roi_z_max_m() - p3.roi_z_min_m() <= 5))
+    out.push_back({"probe_3d.roi_x_min_m", "the region of interest must be a non-empty box within 10 x 10 x 5 m"});
+  if (!(p3.rebuild_rate_hz() > 0 && p3.rebuild_rate_hz() <= 50))
+    out.push_back({"probe_3d.rebuild_rate_hz", "must be within (0, 50]"});
   return out;
 }
 

@@ -37,7 +37,7 @@ std::uint64_t point_probe_max_work(const PointProbeParams& p, double voxel_size)
   // final contact test.
   const double h = p.march_step_voxels * voxel_size;
   const auto march = static_cast<std::uint64_t>(std::ceil(p.max_step / h));
-  return kDepenetrationSteps * 7 + static_cast<std::uint64_t>(p.max_iterations) * (7 + march + kBisections + 7) + 7;
+  return kDepenetrationSteps * 7 + static_cast<std::uint64_t>(p.max_iterations) * (7 + march + kBisections + 8 + 7) + 7;
 }
 
 void point_probe_tick(const PointProbeParams& p, const Voxmap* vm, PointProbeData& d, const Eigen::Vector3d& device_W,
@@ -61,7 +61,7 @@ void point_probe_tick(const PointProbeParams& p, const Voxmap* vm, PointProbeDat
     x = device_W;  // nothing to touch
   } else {
     const double h = p.march_step_voxels * vm->voxel_size;
-    const double tol = 1e-3 * vm->voxel_size;  // within this of rho counts as touching
+    const double tol = 1e-2 * vm->voxel_size;  // within this of rho counts as touching
     auto phi = [&](const Eigen::Vector3d& q) {
       ++d.work;
       return sdf_hermite(*vm, q);
@@ -125,6 +125,22 @@ void point_probe_tick(const PointProbeParams& p, const Voxmap* vm, PointProbeDat
         for (int b = 0; b < kBisections; ++b) {
           const double mid = 0.5 * (s_free + s_hit);
           if (phi(x + mid * delta) < rho - tol) s_hit = mid; else s_free = mid;
+        }
+      }
+      if (slid && s_hit > 0.0) {
+        // A slide that runs into the surface it slides on (a curved or
+        // bumpy field: the tangent plane is only local): step to the hit and
+        // back out onto phi = rho along the normal there, if that is a small
+        // correction (a real wall ahead, a concave corner, stops the slide).
+        Eigen::Vector3d y = x + s_hit * delta;
+        const double push = rho - phi(y);
+        const Eigen::Vector3d ny = normal(y);
+        if (push > 0.0 && push < 0.5 * vm->voxel_size && !ny.isZero()) {
+          y += push * ny;
+          if (phi(y) >= rho - tol) {
+            x = y;
+            continue;
+          }
         }
       }
       x += s_free * delta;

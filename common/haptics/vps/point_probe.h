@@ -10,7 +10,9 @@
 // phi = rho is refined by bisection, so the proxy never tunnels through a
 // surface layer; in contact the motion is projected onto the tangent plane
 // (normal: the field's gradient) and slides, then is retracted onto the
-// surface. Up to max_iterations such steps, at most max_step of motion per
+// surface; a slide that runs into the surface it slides on (a bumpy field
+// built from noisy clouds) steps back out along the normal there when that
+// takes less than half a voxel, and stops otherwise (a wall ahead). Up to max_iterations such steps, at most max_step of motion per
 // tick. A surface that appears through the proxy (a new snapshot) pushes it
 // out along the gradient (counted in depenetrations), the one motion not
 // swept.
