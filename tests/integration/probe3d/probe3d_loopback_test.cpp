@@ -40,7 +40,9 @@
 #include "robot_side/server/robot_server.h"
 #include "robot_side/station/robot_station.h"
 #include "robot_side/truth/scene_slice.h"
+#include "tests/operator/client/loopback_client.h"
 #include "tests/operator/servo/alloc_counter.h"
+#include "tests/robot_side/station/robot_side.h"
 
 namespace hr = hemm::robot;
 namespace ho = hemm::op;
@@ -58,41 +60,6 @@ hn::Key test_key() {
 }
 
 void servo_hook(bool started) noexcept { hemm::test::count_allocations_on_this_thread(started); }
-
-struct RobotSide {
-  asio::io_context io;
-  std::optional<asio::executor_work_guard<asio::io_context::executor_type>> work;
-  std::unique_ptr<hr::RobotServer> server;
-  std::unique_ptr<hr::RobotStation> station;
-  std::thread thread;
-
-  explicit RobotSide(const hemm::config::RobotConfig& cfg) {
-    hr::RobotServerOptions o;
-    o.session_port = 0;
-    o.stream_port = 0;
-    o.psk = test_key();
-    o.link_timeout_ms = cfg.link().link_timeout_ms();
-    server = std::make_unique<hr::RobotServer>(io, o);
-    hr::RobotStationOptions so;
-    so.state_rate_hz = cfg.net().state_rate_hz();
-    station = std::make_unique<hr::RobotStation>(io, *server, so);
-    std::string err;
-    EXPECT_TRUE(server->start(&err)) << err;
-    const auto load_err = station->load(cfg, kScene);
-    EXPECT_FALSE(load_err) << *load_err;
-    EXPECT_TRUE(station->start(&err)) << err;
-    work.emplace(io.get_executor());
-    thread = std::thread([this] { io.run(); });
-  }
-  ~RobotSide() {
-    station->stop();
-    asio::post(io, [this] { server->stop("test over"); });
-    work.reset();
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
-    io.stop();
-    if (thread.joinable()) thread.join();
-  }
-};
 
 // The world log (operator_task.h StationLogRecord) by column name.
 std::vector<std::map<std::string, double>> read_world_log(const std::string& path) {
@@ -132,22 +99,12 @@ TEST(Probe3dLoopback, ProbeRestsOnTheTrueTableTopAndTheServoHoldsItsPeriod) {
   rcfg.mutable_sim()->set_start_y_m(1.0);
   rcfg.mutable_sim()->set_start_theta_rad(std::numbers::pi / 2);
   rcfg.mutable_depth_camera()->set_enabled(true);
-  RobotSide robot(rcfg);
+  hemm::test::RobotSide robot(rcfg, test_key(), kScene);
+  robot.start();
 
   asio::io_context io;
-  ho::OperatorClientOptions co;
-  co.station_name = "probe3d-test";
-  co.robot_address = "127.0.0.1";
-  co.session_port = robot.server->session_port();
-  co.bind_address = "127.0.0.1";
-  co.psk = test_key();
-  co.reconnect_for_ms = 0;
-  ho::OperatorClient client(io, co);
-
-  ho::OperatorStationOptions so;
-  so.servo.realtime = false;
-  so.servo.lock_memory = false;
-  so.log_path = std::string(HEMM_BINARY_DIR) + "/probe3d_loopback_test.csv";
+  ho::OperatorClient client(io, hemm::test::loopback_client_options("probe3d-test", robot.server->session_port(), test_key()));
+  ho::OperatorStationOptions so = hemm::test::loopback_station_options("probe3d_loopback_test.csv");
   so.task.initial_mode = hemm::math::Mode::kExploration;
   hemm::config::OperatorConfig ocfg;
   ocfg.mutable_probe_3d()->set_enabled(true);
