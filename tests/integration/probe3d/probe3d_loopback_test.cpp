@@ -33,6 +33,7 @@
 #include "common/clock/steady_clock.h"
 #include "common/haptics/vps/point_probe.h"
 #include "common/haptics/vps/voxmap.h"
+#include "common/net/relay/relay.h"
 #include "config_operator.pb.h"
 #include "config_robot.pb.h"
 #include "operator/client/operator_client.h"
@@ -91,7 +92,16 @@ double median(std::vector<double> v) {
 
 }  // namespace
 
-TEST(Probe3dLoopback, ProbeRestsOnTheTrueTableTopAndTheServoHoldsItsPeriod) {
+// Round trip (ms, through hemm-relay's impairment in-process: half each way)
+// and datagram loss each way.
+struct Link {
+  int rtt_ms;
+  double loss;
+};
+class Probe3dLoopback : public ::testing::TestWithParam<Link> {};
+
+TEST_P(Probe3dLoopback, ProbeRestsOnTheTrueTableTopAndTheServoHoldsItsPeriod) {
+  const Link link = GetParam();
   // Robot: before the table (top 1.2 x 0.8 m at z 0.75, centre (1.5, 2.0)),
   // facing it, its front 0.38 m from the table's edge.
   hemm::config::RobotConfig rcfg;
@@ -103,8 +113,27 @@ TEST(Probe3dLoopback, ProbeRestsOnTheTrueTableTopAndTheServoHoldsItsPeriod) {
   robot.start();
 
   asio::io_context io;
-  ho::OperatorClient client(io, hemm::test::loopback_client_options("probe3d-test", robot.server->session_port(), test_key()));
-  ho::OperatorStationOptions so = hemm::test::loopback_station_options("probe3d_loopback_test.csv");
+  ho::OperatorClientOptions co =
+      hemm::test::loopback_client_options("probe3d-test", robot.server->session_port(), test_key());
+  std::unique_ptr<hemm::net::relay::Relay> relay;
+  if (link.rtt_ms > 0 || link.loss > 0) {
+    hemm::net::relay::RelayConfig rc;
+    rc.tcp_listen = hemm::net::relay::HostPort{"127.0.0.1", 0};
+    rc.tcp_forward = hemm::net::relay::HostPort{"127.0.0.1", robot.server->session_port()};
+    rc.udp_listen = hemm::net::relay::HostPort{"127.0.0.1", 0};
+    rc.udp_forward = hemm::net::relay::HostPort{"127.0.0.1", robot.server->stream_port()};
+    for (auto* d : {&rc.up, &rc.down}) {
+      d->delay_ns = static_cast<std::int64_t>(link.rtt_ms) * 500'000;
+      d->loss = link.loss;
+    }
+    rc.seed = 7;
+    relay = std::make_unique<hemm::net::relay::Relay>(rc);
+    co.session_port = relay->tcp_listen_port();
+    co.stream_port = relay->udp_listen_port();
+  }
+  ho::OperatorClient client(io, co);
+  const std::string log_name = "probe3d_loopback_test_" + std::to_string(link.rtt_ms) + "ms.csv";
+  ho::OperatorStationOptions so = hemm::test::loopback_station_options(log_name);
   so.task.initial_mode = hemm::math::Mode::kExploration;
   hemm::config::OperatorConfig ocfg;
   ocfg.mutable_probe_3d()->set_enabled(true);
@@ -120,8 +149,8 @@ TEST(Probe3dLoopback, ProbeRestsOnTheTrueTableTopAndTheServoHoldsItsPeriod) {
   const Eigen::Vector3d pressed_H = c_H + R_H_B * Eigen::Vector3d(0, 0, -down_B);
   const Eigen::Vector3d slid_H = pressed_H + R_H_B * Eigen::Vector3d(0, 0.15 / scale, 0);
   so.hand = std::make_shared<hemm::device::WaypointScript>(std::vector<hemm::device::Waypoint>{
-      {0.0, c_H, 0}, {3.0, c_H, 0}, {4.0, pressed_H, 0}, {5.0, pressed_H, 0}, {7.0, slid_H, 0}, {7.5, slid_H, 0},
-      {8.0, c_H, 0}});
+      {0.0, c_H, 0}, {4.0, c_H, 0}, {5.0, pressed_H, 0}, {6.0, pressed_H, 0}, {8.0, slid_H, 0}, {8.5, slid_H, 0},
+      {9.0, c_H, 0}});
   ho::OperatorStation station(io, client, so);
   station.task().set_servo_thread_hook(&servo_hook);
 
@@ -130,7 +159,7 @@ TEST(Probe3dLoopback, ProbeRestsOnTheTrueTableTopAndTheServoHoldsItsPeriod) {
   const std::uint64_t allocs_before = hemm::test::counted_allocations();
   station.start();
   std::thread net([&] { io.run(); });
-  std::this_thread::sleep_for(std::chrono::milliseconds(8500));
+  std::this_thread::sleep_for(std::chrono::milliseconds(9500));
   const hr::RobotStationStatistics rs = robot.station->statistics();
   station.stop();
   const std::uint64_t servo_allocs = hemm::test::counted_allocations() - allocs_before;
@@ -172,6 +201,13 @@ TEST(Probe3dLoopback, ProbeRestsOnTheTrueTableTopAndTheServoHoldsItsPeriod) {
   // The servo.
   EXPECT_EQ(servo_allocs, 0u);
   EXPECT_GT(sum.timing.ticks, 7000u);
+  if (relay) {
+    const auto st = relay->stats();
+    std::printf("relay: udp down %llu delivered %llu dropped; up %llu delivered %llu dropped\n",
+                static_cast<unsigned long long>(st.udp_down.forwarded), static_cast<unsigned long long>(st.udp_down.dropped_random),
+                static_cast<unsigned long long>(st.udp_up.forwarded), static_cast<unsigned long long>(st.udp_up.dropped_random));
+    relay->stop();
+  }
   EXPECT_NEAR(sum.timing.period.median_us, 1000.0, 100.0);
 
   // Simulation truth: the table top from the MJCF, meshed and voxelised exactly.
@@ -225,6 +261,7 @@ TEST(Probe3dLoopback, ProbeRestsOnTheTrueTableTopAndTheServoHoldsItsPeriod) {
     return v.empty() ? NAN : std::sqrt(s / static_cast<double>(v.size()));
   };
   const double rest = median(rest_z);
+  std::printf("rtt %d ms, loss %.0f %%: ", link.rtt_ms, 100 * link.loss);
   std::printf("truth: rest proxy z %.4f m (true top + rho %.4f m, %zu ticks); force error rms %.3f N (contact %.3f N, "
               "%zu ticks), max %.3f N, true peak %.3f N\n",
               rest, z_top + rho, rest_z.size(), rms(err2), rms(contact_err2), contact_err2.size(), max_err, peak);
@@ -234,3 +271,8 @@ TEST(Probe3dLoopback, ProbeRestsOnTheTrueTableTopAndTheServoHoldsItsPeriod) {
   EXPECT_GT(peak, 0.3);
   EXPECT_LT(rms(contact_err2), 0.15 * peak);
 }
+
+INSTANTIATE_TEST_SUITE_P(Links, Probe3dLoopback, ::testing::Values(Link{0, 0.0}, Link{300, 0.05}),
+                         [](const ::testing::TestParamInfo<Link>& i) {
+                           return "Rtt" + std::to_string(i.param.rtt_ms) + "ms";
+                         });
