@@ -222,7 +222,14 @@ bool load_scene_meshes(const std::string& path, const Eigen::AlignedBox3d& regio
         r.off_region.push_back(e);
         continue;
       }
-      const Eigen::AlignedBox3d bound(c - Eigen::Vector3d::Constant(rb), c + Eigen::Vector3d::Constant(rb));
+      const mjtNum* size = m->geom_size + 3 * g;
+      // A box's own bounds (|R| size); a bounding sphere for the rest.
+      Eigen::Vector3d half = Eigen::Vector3d::Constant(rb);
+      if (m->geom_type[g] == mjGEOM_BOX) {
+        half.setZero();
+        for (int j = 0; j < 3; ++j) half += axis(xmat, j).cwiseAbs() * size[j];
+      }
+      const Eigen::AlignedBox3d bound(c - half, c + half);
       if (!bound.intersects(region_W)) {
         e.detail = "outside the region";
         r.off_region.push_back(e);
@@ -233,7 +240,6 @@ bool load_scene_meshes(const std::string& path, const Eigen::AlignedBox3d& regio
         r.skipped.push_back(e);
         continue;
       }
-      const mjtNum* size = m->geom_size + 3 * g;
       SceneMeshPart part;
       part.name = e.name;
       part.mesh = mesh::make_box(Eigen::Vector3d(size[0], size[1], size[2]), 1);
