@@ -125,3 +125,67 @@ TEST(DepthVoxmap, WorkerCastingKeepsTheCaptureStepShort) {
   EXPECT_LT(worker_ms, 0.5);
   EXPECT_LT(worker_ms, 0.25 * inline_ms);
 }
+
+// Memory and update time against voxel size and region of interest (printed
+// for the README; the table top's height is asserted for each): the same 1.5 s
+// of SIMULATED mast-camera frames integrated into each voxmap.
+TEST(DepthVoxmap, MemoryAndTimeAgainstVoxelSizeAndRegionOfInterest) {
+  const hemm::config::RobotConfig cfg = before_the_table();
+  hr::SimulatedRobot robot;
+  ASSERT_FALSE(robot.load(cfg, kScene));
+  ASSERT_FALSE(robot.enable_depth_camera(hr::depth_camera_params_from_config(cfg)));
+  std::vector<hm::DepthChunkData> chunks;
+  hm::DepthStreamReceiver rx;
+  for (int i = 0; i < 1500; ++i) {
+    robot.step(1);
+    for (const hm::DepthImage& img : robot.take_depth_images()) {
+      std::vector<hemm::wire::DepthChunk> wire;
+      ASSERT_FALSE(hm::encode_depth_chunks(img, "depth", hm::DepthStreamParams{}, &wire));
+      for (const auto& c : wire) {
+        chunks.emplace_back();
+        ASSERT_EQ(rx.receive(c, 0, &chunks.back()), hm::DepthStreamReceiver::Verdict::kAccepted);
+      }
+    }
+  }
+  struct Roi {
+    const char* name;
+    Eigen::AlignedBox3d box;
+  };
+  const Roi rois[] = {
+      {"tool 0.4x0.4x0.3 m", Eigen::AlignedBox3d(Eigen::Vector3d(1.3, 1.7, 0.6), Eigen::Vector3d(1.7, 2.1, 0.9))},
+      {"ahead 1.4x1.35x1.0 m", Eigen::AlignedBox3d(Eigen::Vector3d(0.8, 1.25, 0.3), Eigen::Vector3d(2.2, 2.6, 1.3))},
+  };
+  std::printf("%zu chunks\n%-22s %6s %8s %10s %12s %12s %12s %10s\n", chunks.size(), "roi", "voxel", "cells",
+              "cells kB", "snapshot kB", "integrate ms", "per chunk ms", "build ms");
+  for (const Roi& roi : rois) {
+    for (double s : {0.005, 0.01, 0.02}) {
+      hm::LiveVoxmapParams vp;
+      vp.voxel_size = s;
+      vp.downsample_leaf = 0.5 * s;
+      vp.normal_radius = std::max(0.05, 2.5 * s);
+      vp.clear_margin = std::max(vp.clear_margin, 1.5 * s);
+      vp.roi = roi.box;
+      hm::LiveVoxmap map(vp);
+      const auto t0 = std::chrono::steady_clock::now();
+      for (const auto& c : chunks) map.integrate(c);
+      const auto t1 = std::chrono::steady_clock::now();
+      vps::Voxmap vm;
+      ASSERT_FALSE(map.snapshot(&vm));
+      const auto t2 = std::chrono::steady_clock::now();
+      const double integrate_ms = std::chrono::duration<double, std::milli>(t1 - t0).count();
+      std::printf("%-22s %6.3f %8zu %10.1f %12.1f %12.1f %12.3f %10.1f\n", roi.name, s, map.cells(),
+                  map.memory_bytes() / 1e3, vm.memory_bytes() / 1e3, integrate_ms,
+                  integrate_ms / static_cast<double>(chunks.size()),
+                  std::chrono::duration<double, std::milli>(t2 - t1).count());
+      // The top's zero crossing above (1.5, 1.9), within half a voxel + 3 mm.
+      double lo = 0.75 - 2 * s, hi = 0.75 + 2 * s;
+      ASSERT_LT(vps::sdf_hermite(vm, {1.5, 1.9, lo}), 0.0) << s;
+      ASSERT_GT(vps::sdf_hermite(vm, {1.5, 1.9, hi}), 0.0) << s;
+      for (int k = 0; k < 40; ++k) {
+        const double mid = 0.5 * (lo + hi);
+        (vps::sdf_hermite(vm, {1.5, 1.9, mid}) < 0.0 ? lo : hi) = mid;
+      }
+      EXPECT_NEAR(lo, 0.75, 0.5 * s + 0.003) << roi.name << " " << s;
+    }
+  }
+}
