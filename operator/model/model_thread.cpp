@@ -229,7 +229,7 @@ void ModelThread::step(std::int64_t now_ns) {
       voxmap_have_pose_ = have_state_ && !resyncing_;
       voxmap_offset_ns_ = offset;
     }
-    if (!voxmap_thread_.joinable()) step_voxmap(now_ns);  // tests stepping by hand
+    if (!voxmap_threaded_.load(std::memory_order_acquire)) step_voxmap(now_ns);  // stepped by hand (tests)
     std::lock_guard<std::mutex> lock(voxmap_mu_);
     snap->voxmap = voxmap_published_;
     snap->voxmap_builds = voxmap_published_builds_;
@@ -372,14 +372,20 @@ void ModelThread::run_voxmap() {
 void ModelThread::start() {
   if (thread_.joinable()) throw std::logic_error("ModelThread already running");
   stop_.store(false);
+  // The voxmap thread first, and the flag before either: step() must never
+  // do the voxmap work while that thread does.
+  if (voxmap_) {
+    voxmap_threaded_.store(true, std::memory_order_release);
+    voxmap_thread_ = std::thread([this] { run_voxmap(); });
+  }
   thread_ = std::thread([this] { run(); });
-  if (voxmap_) voxmap_thread_ = std::thread([this] { run_voxmap(); });
 }
 
 void ModelThread::stop() {
   stop_.store(true);
   if (thread_.joinable()) thread_.join();
   if (voxmap_thread_.joinable()) voxmap_thread_.join();
+  voxmap_threaded_.store(false, std::memory_order_release);
 }
 
 void ModelThread::run() {

@@ -278,6 +278,7 @@ class ModelThread {
   std::atomic<bool> stop_{false};
   std::thread thread_;
   std::thread voxmap_thread_;
+  std::atomic<bool> voxmap_threaded_{false};  // set before voxmap_thread_ starts, cleared after it joined
 };
 
 }  // namespace hemm::op
