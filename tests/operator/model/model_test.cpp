@@ -132,6 +132,14 @@ TEST(StateFromWire, MapsClockAndRejectsNonFinite) {
   EXPECT_EQ(s.v, 9);
 }
 
+// A robot standing at the origin of W, stamped t.
+void submit_state_at(ho::ModelThread& mt, std::int64_t t) {
+  hw::RobotState st;
+  st.set_stamp_ns(t);
+  st.mutable_t_w_r_odom()->set_x(0.0);
+  mt.submit_state(st);
+}
+
 const ho::OperatorModelSnapshot* newest(hemm::servo::ModelChannel& ch) {
   return static_cast<const ho::OperatorModelSnapshot*>(ch.acquire());
 }
@@ -274,10 +282,7 @@ TEST(ModelThread, StaleAfterIsTheOneWayDelayPlusFreshCappedByTheMapWindow) {
   ho::ModelThreadParams p;  // fresh 0.25 s, fade 1 s, window 3 s
   ho::ModelThread mt(ch, p);
   const std::int64_t t0 = 1'000'000'000;
-  hw::RobotState st;
-  st.set_stamp_ns(t0);
-  st.mutable_t_w_r_odom()->set_x(0.0);
-  mt.submit_state(st);
+  submit_state_at(mt, t0);
   mt.set_command_delay(300'000'000);
   mt.step(t0 + 10'000'000);
   const auto* snap = newest(ch);
@@ -382,10 +387,7 @@ TEST(ModelThread, DepthChunksBuildTheLiveVoxmapOfASeenPlane) {
   p.voxmap.normal_radius = 0.05;
   ho::ModelThread mt(ch, p);
   const std::int64_t t0 = 10'000'000'000;
-  hw::RobotState st;
-  st.set_stamp_ns(t0);
-  st.mutable_t_w_r_odom()->set_x(0.0);
-  mt.submit_state(st);
+  submit_state_at(mt, t0);
   mt.step(t0);  // the pose places the region of interest
   hemm::mapping::DepthImage img;
   img.stamp_ns = t0;
