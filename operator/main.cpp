@@ -502,6 +502,7 @@ int run(int argc, char** argv) {
   so.command_rate_hz = cfg.net().command_rate_hz();
   so.servo = servo_config(cfg);
   so.task.proxy.period = static_cast<double>(so.servo.period_ns) * 1e-9;
+  op::apply_probe3d_config(cfg.probe_3d(), &so);
 
   asio::io_context io;
   op::OperatorClient client(io, o);

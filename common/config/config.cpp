@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <memory>
+#include <cmath>
 #include <sstream>
 #include <stdexcept>
 
@@ -196,6 +197,20 @@ std::vector<FieldIssue> validate_robot_config(const pb::Message& m) {
     out.push_back({"safety.collision_margin_m", "must be within [0, 5)"});
   if (!(c.safety().guard_reaction_time_s() >= 0 && c.safety().guard_reaction_time_s() <= 1))
     out.push_back({"safety.guard_reaction_time_s", "must be within [0, 1]"});
+  for (double v : {c.sim().start_x_m(), c.sim().start_y_m(), c.sim().start_theta_rad()})
+    if (!(std::abs(v) <= 1000)) out.push_back({"sim.start_*", "must be finite, within 1000"});
+  const auto& dc = c.depth_camera();
+  if (dc.mount() != "mast" && dc.mount() != "wrist") out.push_back({"depth_camera.mount", "must be mast or wrist"});
+  if (!in_range(dc.width(), 1, 1024)) out.push_back({"depth_camera.width", "must be 1..1024"});
+  if (!in_range(dc.height(), 1, 1024)) out.push_back({"depth_camera.height", "must be 1..1024"});
+  if (!(dc.hfov_deg() > 0 && dc.hfov_deg() < 170)) out.push_back({"depth_camera.hfov_deg", "must be within (0, 170)"});
+  check_positive(dc.range_min_m(), "depth_camera.range_min_m", out);
+  if (!(dc.range_max_m() > dc.range_min_m() && dc.range_max_m() <= 100))
+    out.push_back({"depth_camera.range_max_m", "must exceed range_min_m, at most 100"});
+  if (!(dc.rate_hz() > 0 && dc.rate_hz() <= 60)) out.push_back({"depth_camera.rate_hz", "must be within (0, 60]"});
+  if (!(std::abs(dc.mast_x_m()) <= 1 && dc.mast_z_m() >= 0 && dc.mast_z_m() <= 3))
+    out.push_back({"depth_camera.mast_x_m", "mast within 1 m of the base centre, 0..3 m high"});
+  if (!(std::abs(dc.mast_pitch_deg()) <= 90)) out.push_back({"depth_camera.mast_pitch_deg", "must be within [-90, 90]"});
   return out;
 }
 
@@ -214,6 +229,19 @@ std::vector<FieldIssue> validate_operator_config(const pb::Message& m) {
   if (type == "replay" && c.device().replay_file().empty())
     out.push_back({"device.replay_file", "required when device.type is \"replay\""});
   if (!in_range(c.servo().rate_hz(), 100, 10000)) out.push_back({"servo.rate_hz", "must be 100..10000"});
+  const auto& p3 = c.probe_3d();
+  if (!(p3.voxel_size_m() >= 0.003 && p3.voxel_size_m() <= 0.05))
+    out.push_back({"probe_3d.voxel_size_m", "must be within [0.003, 0.05]"});
+  if (!(p3.probe_radius_m() > 0 && p3.probe_radius_m() < 3.5 * p3.voxel_size_m()))
+    out.push_back({"probe_3d.probe_radius_m", "must be > 0 and below 3.5 voxels (the voxmap's distance layers)"});
+  if (!(p3.range_m() > 0 && p3.range_m() <= 10)) out.push_back({"probe_3d.range_m", "must be within (0, 10]"});
+  if (!(std::abs(p3.origin_x_m()) <= 3 && std::abs(p3.origin_z_m()) <= 3))
+    out.push_back({"probe_3d.origin_x_m", "origin within 3 m"});
+  if (!(p3.roi_x_max_m() > p3.roi_x_min_m() && p3.roi_half_width_m() > 0 && p3.roi_z_max_m() > p3.roi_z_min_m() &&
+        p3.roi_x_max_m() - p3.roi_x_min_m() <= 10 && p3.roi_half_width_m() <= 5 && p3.roi_z_max_m() - p3.roi_z_min_m() <= 5))
+    out.push_back({"probe_3d.roi_x_min_m", "the region of interest must be a non-empty box within 10 x 10 x 5 m"});
+  if (!(p3.rebuild_rate_hz() > 0 && p3.rebuild_rate_hz() <= 50))
+    out.push_back({"probe_3d.rebuild_rate_hz", "must be within (0, 50]"});
   return out;
 }
 

@@ -159,6 +159,7 @@ std::optional<std::string> LiveVoxmap::check(const LiveVoxmapParams& p) {
   if (!(p.clear_margin >= 0) || !(p.normal_radius >= p.voxel_size)) return "live voxmap: bad margin or normal radius";
   if (p.layers < 1 || p.layers > 20) return "live voxmap: layers not in 1..20";
   if (p.min_support < 1) return "live voxmap: min_support must be positive";
+  if (!(p.min_view_cosine >= 0.0 && p.min_view_cosine < 1.0)) return "live voxmap: min_view_cosine must be in [0, 1)";
   if (p.max_cells < 1) return "live voxmap: max_cells must be positive";
   return std::nullopt;
 }
@@ -316,6 +317,12 @@ std::optional<std::string> LiveVoxmap::snapshot(vps::Voxmap* out) const {
     Eigen::Vector3d n(pn.normal_x, pn.normal_y, pn.normal_z);
     if (!n.allFinite() || n.norm() < 0.5) continue;
     if (n.dot(view[i]) < 0) n = -n;
+    // A normal the cell was seen almost edge-on along is not a surface the
+    // sensor could measure: it comes from a neighbourhood of collinear means
+    // (one image row across a surface seen at a grazing angle, rows farther
+    // apart than normal_radius), whose covariance leaves the normal anywhere
+    // in the plane across the row. Such a cell is not rendered.
+    if (n.dot(view[i]) < p.min_view_cosine) continue;
     const Eigen::Vector3d& c = centroid[i];
     const Eigen::Vector3i base = idx[i] - org;
     for (int dz = -L; dz <= L; ++dz) {

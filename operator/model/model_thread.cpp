@@ -3,9 +3,12 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <numbers>
 #include <stdexcept>
+#include <utility>
 
 #include "common/clock/steady_clock.h"
+#include "common/haptics/vps/voxmap.h"
 
 namespace hemm::op {
 namespace {
@@ -15,6 +18,7 @@ ModelThread::ModelThread(servo::ModelChannel& channel, const ModelThreadParams& 
     : channel_(channel),
       p_(p),
       scans_(p.scan_queue),
+      depth_(p.depth_queue),
       commands_(p.command_queue),
       localizer_(p.registration),
       history_(p.history) {
@@ -24,6 +28,14 @@ ModelThread::ModelThread(servo::ModelChannel& channel, const ModelThreadParams& 
   if (!(p.rate_hz > 0.0 && p.rate_hz <= 1000.0)) throw std::invalid_argument("ModelThread: rate_hz outside (0, 1000]");
   if (!(p.fresh_s >= 0.0 && p.fade_s > 0.0 && p.fade_s < 60.0 && p.fresh_s < 60.0))
     throw std::invalid_argument("ModelThread: need fresh_s >= 0 and fade_s > 0 (both under a minute)");
+  if (p.live_voxmap) {
+    mapping::LiveVoxmapParams vp = p.voxmap;
+    vp.roi = p.voxmap_roi_R;  // placed at the robot once a pose is known
+    if (auto e = mapping::LiveVoxmap::check(vp)) throw std::invalid_argument("ModelThread: live voxmap: " + *e);
+    if (!(p.voxmap_rate_hz > 0.0 && p.voxmap_rate_hz <= 100.0))
+      throw std::invalid_argument("ModelThread: voxmap_rate_hz outside (0, 100]");
+    voxmap_ = std::make_unique<mapping::LiveVoxmap>(vp);
+  }
 }
 
 ModelThread::~ModelThread() { stop(); }
@@ -31,6 +43,11 @@ ModelThread::~ModelThread() { stop(); }
 void ModelThread::submit_scan(std::shared_ptr<const wire::RangeScan> scan) {
   if (!scan) return;
   if (!scans_.try_push(std::move(scan))) scans_dropped_.fetch_add(1, std::memory_order_relaxed);
+}
+
+void ModelThread::submit_depth_chunk(std::shared_ptr<const wire::DepthChunk> chunk) {
+  if (!chunk) return;
+  if (!depth_.try_push(std::move(chunk))) depth_dropped_.fetch_add(1, std::memory_order_relaxed);
 }
 
 void ModelThread::submit_state(const wire::RobotState& state) { state_box_.publish(state); }
@@ -54,6 +71,8 @@ ModelStats ModelThread::stats() const {
   s.shapes = shape_stats_;
   s.resyncs = resyncs_.load();
   s.old_epoch_dropped = old_epoch_dropped_.load();
+  s.voxmap = voxmap_stats_out_;
+  s.voxmap.chunks_dropped = depth_dropped_.load();
   return s;
 }
 
@@ -203,6 +222,21 @@ void ModelThread::step(std::int64_t now_ns) {
     }
   }
   last_pose_ = snap->T_W_R;
+  if (voxmap_) {
+    {
+      std::lock_guard<std::mutex> lock(voxmap_mu_);
+      voxmap_pose_ = snap->T_W_R;
+      voxmap_have_pose_ = have_state_ && !resyncing_;
+      voxmap_offset_ns_ = offset;
+    }
+    if (!voxmap_threaded_.load(std::memory_order_acquire)) step_voxmap(now_ns);  // stepped by hand (tests)
+    std::lock_guard<std::mutex> lock(voxmap_mu_);
+    snap->voxmap = voxmap_published_;
+    snap->voxmap_builds = voxmap_published_builds_;
+  } else {
+    std::shared_ptr<const wire::DepthChunk> chunk;
+    while (depth_.try_pop(chunk)) chunk.reset();  // no live voxmap: the stream is not used
+  }
   snap->have_data = have_data_;
   snap->data_stamp_ns = data_stamp_ns_;
   const double stale_after_s =
@@ -251,15 +285,107 @@ void ModelThread::step(std::int64_t now_ns) {
   freed_.store(channel_.freed_by_collect());
 }
 
+void ModelThread::step_voxmap(std::int64_t now_ns) {
+  math::Pose2 T_W_R;
+  bool have_pose = false;
+  std::int64_t offset_ns = 0;
+  {
+    std::lock_guard<std::mutex> lock(voxmap_mu_);
+    T_W_R = voxmap_pose_;
+    have_pose = voxmap_have_pose_;
+    offset_ns = voxmap_offset_ns_;
+  }
+  VoxmapStats st = voxmap_stats_;  // written only here
+  // The region of interest follows the robot (moved only when the robot did:
+  // moving it drops what falls outside).
+  const double moved = std::hypot(T_W_R.x - voxmap_roi_pose_.x, T_W_R.y - voxmap_roi_pose_.y);
+  const double turned = std::abs(std::remainder(T_W_R.theta - voxmap_roi_pose_.theta, 2.0 * std::numbers::pi));
+  if (have_pose && (!voxmap_roi_set_ || moved > 0.05 || turned > 0.05)) {
+    Eigen::AlignedBox3d roi_W;
+    const Eigen::Matrix2d R = Eigen::Rotation2Dd(T_W_R.theta).toRotationMatrix();
+    for (int c = 0; c < 8; ++c) {
+      const Eigen::Vector3d q = p_.voxmap_roi_R.corner(static_cast<Eigen::AlignedBox3d::CornerType>(c));
+      const Eigen::Vector2d xy = R * q.head<2>() + Eigen::Vector2d(T_W_R.x, T_W_R.y);
+      roi_W.extend(Eigen::Vector3d(xy.x(), xy.y(), q.z()));
+    }
+    voxmap_->set_roi(roi_W);
+    voxmap_roi_pose_ = T_W_R;
+    voxmap_roi_set_ = true;
+    voxmap_dirty_ = true;
+  }
+  const std::int64_t t0 = steady_now_ns();
+  std::uint64_t integrated = 0;
+  std::shared_ptr<const wire::DepthChunk> m;
+  while (depth_.try_pop(m)) {
+    const auto verdict = depth_rx_.receive(*m, offset_ns, &depth_chunk_);
+    m.reset();
+    if (verdict != mapping::DepthStreamReceiver::Verdict::kAccepted) continue;
+    if (!voxmap_roi_set_) continue;  // no pose yet: the ROI is not placed
+    voxmap_->integrate(depth_chunk_);
+    ++integrated;
+  }
+  if (integrated > 0) {
+    const double ms = static_cast<double>(steady_now_ns() - t0) * 1e-6;
+    st.last_integrate_ms = ms;
+    st.max_integrate_ms = std::max(st.max_integrate_ms, ms);
+    st.chunks_integrated += integrated;
+    voxmap_dirty_ = true;
+  }
+  st.stream = depth_rx_.counters();
+  if (voxmap_dirty_ && now_ns >= voxmap_next_build_ns_) {
+    voxmap_next_build_ns_ = now_ns + static_cast<std::int64_t>(1e9 / p_.voxmap_rate_hz);
+    voxmap_dirty_ = false;
+    const std::int64_t b0 = steady_now_ns();
+    auto vm = std::make_shared<vps::Voxmap>();
+    std::shared_ptr<const vps::Voxmap> retired;  // released after the lock
+    if (!voxmap_->snapshot(vm.get())) {
+      st.snapshot_bytes = vm->memory_bytes();
+      ++st.builds;
+      std::lock_guard<std::mutex> lock(voxmap_mu_);
+      retired = std::exchange(voxmap_published_, std::move(vm));
+      voxmap_published_builds_ = st.builds;
+    } else if (voxmap_->occupied_cells() == 0) {
+      std::lock_guard<std::mutex> lock(voxmap_mu_);
+      retired = std::exchange(voxmap_published_, nullptr);  // everything was cleared (or left the ROI)
+    }
+    const double ms = static_cast<double>(steady_now_ns() - b0) * 1e-6;
+    st.last_build_ms = ms;
+    st.max_build_ms = std::max(st.max_build_ms, ms);
+  }
+  st.cells = voxmap_->cells();
+  st.occupied_cells = voxmap_->occupied_cells();
+  st.memory_bytes = voxmap_->memory_bytes();
+  voxmap_stats_ = st;
+  std::lock_guard<std::mutex> lock(stats_mutex_);
+  voxmap_stats_out_ = st;
+}
+
+void ModelThread::run_voxmap() {
+  // Depth chunks arrive at ~180 per second; a 10 ms poll keeps the voxmap
+  // within a frame of them without spinning.
+  while (!stop_.load()) {
+    step_voxmap(steady_now_ns());
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+}
+
 void ModelThread::start() {
   if (thread_.joinable()) throw std::logic_error("ModelThread already running");
   stop_.store(false);
+  // The voxmap thread first, and the flag before either: step() must never
+  // do the voxmap work while that thread does.
+  if (voxmap_) {
+    voxmap_threaded_.store(true, std::memory_order_release);
+    voxmap_thread_ = std::thread([this] { run_voxmap(); });
+  }
   thread_ = std::thread([this] { run(); });
 }
 
 void ModelThread::stop() {
   stop_.store(true);
   if (thread_.joinable()) thread_.join();
+  if (voxmap_thread_.joinable()) voxmap_thread_.join();
+  voxmap_threaded_.store(false, std::memory_order_release);
 }
 
 void ModelThread::run() {

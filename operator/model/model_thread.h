@@ -21,6 +21,16 @@
 // fade_s (OperatorServoTask). stale_after is capped at the map's window age
 // minus fade_s, so the force is gone before the map's segments age out.
 //
+// Live voxmap (params.live_voxmap): the robot's depth chunks (DepthChunk
+// stream, newest cloud wins) are integrated into a LiveVoxmap in W, kept to
+// a region of interest in front of the robot (voxmap_roi_R, moved with the
+// predicted pose); at voxmap_rate_hz, when chunks came in, its signed
+// vps::Voxmap is rebuilt on a voxmap thread of its own (never on the servo
+// thread, and not holding up the 2D map) and every snapshot carries the
+// newest one as a shared_ptr (freed off the servo thread when retired). The
+// chunks carry no frame epoch yet: a restarted robot's clouds go into the
+// same voxmap.
+//
 // Robot restarts. The robot stamps its states and scans with its frame
 // epoch (random per start of its odometry frame W). An epoch the model has
 // not seen means the robot restarted and W with it: the model resynchronises.
@@ -43,6 +53,8 @@
 #include <thread>
 #include <vector>
 
+#include "common/mapping/depth_stream.h"
+#include "common/mapping/live_voxmap.h"
 #include "common/mapping/local_map.h"
 #include "common/mapping/shape_completion.h"
 #include "operator/model/pose_prediction.h"
@@ -74,6 +86,9 @@ struct OperatorModelSnapshot final : servo::ModelSnapshot {
   std::int64_t fade_ns = 1;
   bool resyncing = false;       // a robot restart is being taken in: the map and pose are the old robot's
   std::uint64_t resyncs = 0;    // robot restarts taken in so far
+  // The live voxmap (frame W), null until one was built (or live_voxmap off).
+  std::shared_ptr<const vps::Voxmap> voxmap;
+  std::uint64_t voxmap_builds = 0;  // which build it is
 };
 
 struct ModelThreadParams {
@@ -87,6 +102,27 @@ struct ModelThreadParams {
   mapping::ShapeParams shapes;      // shape completion of the snapshot (enabled by default)
   double fresh_s = 0.25;   // model age beyond the one-way delay that still counts as fresh
   double fade_s = 1.0;     // a going-stale model's force fades to zero over this
+  // The live voxmap from depth clouds (off: depth chunks are counted and dropped).
+  bool live_voxmap = false;
+  mapping::LiveVoxmapParams voxmap;  // its roi is replaced by voxmap_roi_R placed at the robot
+                                     // (apply_probe3d_config: normal_radius 5 cm for the mast's rows)
+  // Region of interest in R (ahead of the robot, where the 3D probe reaches).
+  Eigen::AlignedBox3d voxmap_roi_R{Eigen::Vector3d(0.25, -0.7, 0.3), Eigen::Vector3d(1.6, 0.7, 1.3)};
+  double voxmap_rate_hz = 5.0;        // rebuilds per second at most
+  std::size_t depth_queue = 256;      // power of two
+};
+
+// The live voxmap's figures (model thread, copied out under stats_mutex_).
+struct VoxmapStats {
+  mapping::DepthStreamCounters stream;
+  std::uint64_t chunks_dropped = 0;     // queue full
+  std::uint64_t chunks_integrated = 0;
+  std::uint64_t builds = 0;
+  std::size_t cells = 0, occupied_cells = 0;
+  std::size_t memory_bytes = 0;         // the LiveVoxmap's cells
+  std::size_t snapshot_bytes = 0;       // the newest vps::Voxmap
+  double last_integrate_ms = 0.0, max_integrate_ms = 0.0;  // one step's chunks
+  double last_build_ms = 0.0, max_build_ms = 0.0;
 };
 
 // Shape completion (mapping::complete_shapes) as of the newest snapshot, and
@@ -117,6 +153,7 @@ struct ModelStats {
   ShapeStats shapes;
   std::uint64_t resyncs = 0;          // robot restarts (new frame epochs) taken in
   std::uint64_t old_epoch_dropped = 0;  // states and scans of a robot that restarted
+  VoxmapStats voxmap;
 };
 
 class ModelThread {
@@ -129,6 +166,7 @@ class ModelThread {
 
   // ---- network thread (one producer) ----
   void submit_scan(std::shared_ptr<const wire::RangeScan> scan);
+  void submit_depth_chunk(std::shared_ptr<const wire::DepthChunk> chunk);
   void submit_state(const wire::RobotState& state);
   void record_command(const SentCommand& c);
   // ---- any thread ----
@@ -168,6 +206,7 @@ class ModelThread {
   servo::ModelChannel& channel_;
   ModelThreadParams p_;
   servo::SpscRing<std::shared_ptr<const wire::RangeScan>> scans_;
+  servo::SpscRing<std::shared_ptr<const wire::DepthChunk>> depth_;
   servo::SpscRing<SentCommand> commands_;
   NewestMailbox<wire::RobotState> state_box_;
   std::atomic<std::int64_t> offset_ns_{0}, delay_ns_{0};
@@ -214,8 +253,32 @@ class ModelThread {
   mapping::ShapeModel shapes_;        // model thread: the newest completion
   std::int64_t shapes_stamp_ = std::numeric_limits<std::int64_t>::min();  // map state it was fitted on
   std::size_t shapes_size_ = 0;
+  // Live voxmap: its own thread (voxmap_thread_, started with the model
+  // thread) integrates and rebuilds, so a 100 ms rebuild never delays the 2D
+  // map or makes the model stale; step() hands it the pose and takes the
+  // newest build (both under voxmap_mu_, never the servo thread). Stepped by
+  // hand (tests), step() does the voxmap work itself.
+  void step_voxmap(std::int64_t now_ns);
+  void run_voxmap();
+  std::unique_ptr<mapping::LiveVoxmap> voxmap_;
+  mapping::DepthStreamReceiver depth_rx_;
+  mapping::DepthChunkData depth_chunk_;  // reused
+  bool voxmap_dirty_ = false, voxmap_roi_set_ = false;
+  math::Pose2 voxmap_roi_pose_;
+  std::int64_t voxmap_next_build_ns_ = 0;
+  VoxmapStats voxmap_stats_;          // voxmap work only
+  VoxmapStats voxmap_stats_out_;      // under stats_mutex_
+  std::mutex voxmap_mu_;              // guards the four below
+  math::Pose2 voxmap_pose_;
+  bool voxmap_have_pose_ = false;
+  std::int64_t voxmap_offset_ns_ = 0;
+  std::shared_ptr<const vps::Voxmap> voxmap_published_;
+  std::uint64_t voxmap_published_builds_ = 0;
+  std::atomic<std::uint64_t> depth_dropped_{0};
   std::atomic<bool> stop_{false};
   std::thread thread_;
+  std::thread voxmap_thread_;
+  std::atomic<bool> voxmap_threaded_{false};  // set before voxmap_thread_ starts, cleared after it joined
 };
 
 }  // namespace hemm::op

@@ -1,5 +1,6 @@
 #include "operator/station/operator_station.h"
 
+#include <algorithm>
 #include <cinttypes>
 #include <cmath>
 #include <cstdio>
@@ -16,9 +17,29 @@
 #include "operator/device/simulated_omni.h"
 #include "operator/device/trajectory_csv.h"
 #include "operator/station/demo_scripts.h"
+#include "config_operator.pb.h"
 #include "report.pb.h"
 
 namespace hemm::op {
+
+void apply_probe3d_config(const config::Probe3dConfig& c, OperatorStationOptions* o) {
+  if (!c.enabled()) return;
+  o->model.live_voxmap = true;
+  o->model.voxmap.voxel_size = c.voxel_size_m();
+  o->model.voxmap.downsample_leaf = 0.5 * c.voxel_size_m();
+  // Two image rows of the SIMULATED mast camera on a table top (live_voxmap.h).
+  o->model.voxmap.normal_radius = std::max(0.05, 2.5 * c.voxel_size_m());
+  o->model.voxmap.clear_margin = std::max(o->model.voxmap.clear_margin, 1.5 * c.voxel_size_m());
+  o->model.voxmap_roi_R = Eigen::AlignedBox3d(Eigen::Vector3d(c.roi_x_min_m(), -c.roi_half_width_m(), c.roi_z_min_m()),
+                                              Eigen::Vector3d(c.roi_x_max_m(), c.roi_half_width_m(), c.roi_z_max_m()));
+  o->model.voxmap_rate_hz = c.rebuild_rate_hz();
+  o->task.probe_3d = true;
+  o->task.probe3d.force = o->task.proxy;
+  o->task.probe3d.force.probe_radius = c.probe_radius_m();
+  o->task.probe3d_range = c.range_m();
+  o->task.probe3d_origin_R = Eigen::Vector3d(c.origin_x_m(), 0.0, c.origin_z_m());
+}
+
 namespace {
 // The robot answers an EStop within a round trip and a simulation step; this
 // allows for round trips of seconds (the link's own limit is 2 s).
@@ -100,6 +121,20 @@ report::OperatorStation to_report(const OperatorStationSummary& s) {
   m.set_shape_outline_bytes(sh.outline_bytes);
   m.set_resyncs(s.model.resyncs);
   m.set_old_epoch_dropped(s.model.old_epoch_dropped);
+  const VoxmapStats& vx = s.model.voxmap;
+  m.set_voxmap_chunks_accepted(vx.stream.accepted);
+  m.set_voxmap_chunks_stale(vx.stream.stale);
+  m.set_voxmap_chunks_malformed(vx.stream.malformed);
+  m.set_voxmap_chunks_dropped(vx.chunks_dropped);
+  m.set_voxmap_chunks_integrated(vx.chunks_integrated);
+  m.set_voxmap_builds(vx.builds);
+  m.set_voxmap_cells(vx.cells);
+  m.set_voxmap_occupied_cells(vx.occupied_cells);
+  m.set_voxmap_cell_bytes(vx.memory_bytes);
+  m.set_voxmap_snapshot_bytes(vx.snapshot_bytes);
+  m.set_voxmap_last_build_ms(vx.last_build_ms);
+  m.set_voxmap_max_build_ms(vx.max_build_ms);
+  m.set_voxmap_max_integrate_ms(vx.max_integrate_ms);
   report::CommandStream& c = *r.mutable_commands();
   c.set_sent(s.commands.commands_sent);
   c.set_send_failures(s.commands.send_failures);
@@ -233,6 +268,12 @@ servo::RealtimeStatus OperatorStation::start() {
                          if (taps_.on_stream) taps_.on_stream(recv_ns, false, m);
                          model_->submit_scan(std::make_shared<const wire::RangeScan>(m.range_scan()));
                        });
+  client_.streams().on(wire::StreamMessage::kDepthChunk,
+                       [this](const net::DatagramHeader&, int64_t recv_ns, const wire::StreamMessage& m) {
+                         // Not recorded (1.6 Mbit/s; a replay does not rebuild the voxmap yet).
+                         (void)recv_ns;
+                         model_->submit_depth_chunk(std::make_shared<const wire::DepthChunk>(m.depth_chunk()));
+                       });
   client_.on_session_frame(wire::SessionFrame::kAck, [this](const wire::SessionFrame& f) { on_ack(f.ack()); });
   client_.on_session_frame(wire::SessionFrame::kEstop,
                            [this](const wire::SessionFrame& f) { on_robot_estop(f.estop()); });
@@ -326,6 +367,7 @@ void OperatorStation::stop() {
     link_timer_.cancel();
     client_.streams().on(wire::StreamMessage::kRobotState, nullptr);
     client_.streams().on(wire::StreamMessage::kRangeScan, nullptr);
+    client_.streams().on(wire::StreamMessage::kDepthChunk, nullptr);
     client_.on_session_frame(wire::SessionFrame::kAck, nullptr);
     client_.on_session_frame(wire::SessionFrame::kEstop, nullptr);
     client_.set_session_frame_tap(nullptr);

@@ -33,6 +33,10 @@ namespace hemm::report {
 class OperatorStation;  // report.pb.h
 }  // namespace hemm::report
 
+namespace hemm::config {
+class Probe3dConfig;  // config_operator.pb.h
+}  // namespace hemm::config
+
 namespace hemm::op {
 
 struct OperatorStationOptions {
@@ -172,6 +176,10 @@ class OperatorStation {
   bool started_ = false;
   bool stopped_ = false;
 };
+
+// config probe_3d (validated) -> the model's live voxmap and the task's
+// 3-DoF point probe; nothing changes when it is not enabled.
+void apply_probe3d_config(const config::Probe3dConfig& c, OperatorStationOptions* o);
 
 // Writes the map's segments as CSV (ax,ay,bx,by,nx,ny,stamp_ns,kind).
 bool write_map_csv(const mapping::LocalMap& map, const std::string& path, std::string* error);

@@ -27,18 +27,19 @@ wire::Mode to_wire_mode(math::Mode m) {
 const char* station_log_header() {
   return "t_ns,mode,robot_x,robot_y,robot_theta,goal_x,goal_y,goal_z,proxy_x,proxy_y,fw_x,fw_y,"
          "fh_x,fh_y,fh_z,v,omega,contacts,model_version,model_age_ns,scale,state_stamp_ns,odom_x,odom_y,odom_theta,"
-         "truth_x,truth_y,truth_theta,has_truth,force_gain";
+         "truth_x,truth_y,truth_theta,has_truth,force_gain,proxy3_x,proxy3_y,proxy3_z,fw_z,probe3_contact";
 }
 
 std::size_t format_station_log_record(const StationLogRecord& r, char* buf, std::size_t size) {
   const int n = std::snprintf(
       buf, size,
       "%" PRId64 ",%u,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%d,%" PRIu64
-      ",%" PRId64 ",%.6f,%" PRId64 ",%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%d,%.4f\n",
+      ",%" PRId64 ",%.6f,%" PRId64 ",%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%d,%.4f,%.6f,%.6f,%.6f,%.5f,%d\n",
       r.t_ns, r.mode, r.robot[0], r.robot[1], r.robot[2], r.goal_W[0], r.goal_W[1], r.goal_W[2], r.proxy_W[0],
       r.proxy_W[1], r.force_W[0], r.force_W[1], r.force_H[0], r.force_H[1], r.force_H[2], r.v, r.omega, r.contacts,
       r.model_version, r.model_age_ns, r.scale, r.state_stamp_ns, r.odom[0], r.odom[1], r.odom[2], r.truth[0],
-      r.truth[1], r.truth[2], r.has_truth, r.force_gain);
+      r.truth[1], r.truth[2], r.has_truth, r.force_gain, r.proxy3_W[0], r.proxy3_W[1], r.proxy3_W[2], r.force_W_z,
+      r.probe3_contact);
   if (n < 0 || static_cast<std::size_t>(n) >= size) return 0;
   return static_cast<std::size_t>(n);
 }
@@ -60,6 +61,17 @@ OperatorServoTask::OperatorServoTask(const OperatorTaskParams& p, StationLogger*
   if (std::string e = math::validate(navigate_); !e.empty())
     throw std::invalid_argument("OperatorServoTask: navigation map: " + e);
   proxy_ = haptics::make_proxy_data(p.proxy);
+  if (p.probe_3d) {
+    p_.probe3d.force.period = p.proxy.period;
+    if (std::string e = vps::validate(p_.probe3d); !e.empty())
+      throw std::invalid_argument("OperatorServoTask: probe3d: " + e);
+    if (!(p.probe3d_range > 0.0 && p.probe3d_range <= 10.0) || !p.probe3d_origin_R.allFinite() ||
+        p.probe3d_origin_R.norm() > 5.0)
+      throw std::invalid_argument("OperatorServoTask: probe3d_range in (0, 10] m, origin within 5 m");
+  }
+  probe3d_map_.scale = p.probe3d_range / math::horizontal_half_extent(p.workspace);
+  probe3d_map_.centre_B = p.workspace.centre_B;
+  probe3d_map_.origin_R = p.probe3d_origin_R;
   empty_map_ = mapping::build_snapshot(mapping::MapParams{}, mapping::LocalMap{});
   last_.mode = mode_;
 }
@@ -167,7 +179,19 @@ void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelS
   // The proxy seen from the device: R frame, then B of the active map.
   const Eigen::Vector2d proxy_R2 = math::apply(math::inverse(T_W_R_), proxy_.proxy_W);
   const Eigen::Vector3d proxy_R(proxy_R2.x(), proxy_R2.y(), math::map_point(sm, p_B + anchor_.offset_B).z());
-  const Eigen::Vector3d proxy_B = math::unmap_point(sm, proxy_R) - anchor_.offset_B;
+  Eigen::Vector3d proxy_B = math::unmap_point(sm, proxy_R) - anchor_.offset_B;
+
+  // The 3-DoF point probe on the live voxmap (exploration): its force
+  // replaces the 2D proxy's; the 2D proxy keeps running for the mode switches.
+  const bool probe3 = p_.probe_3d && mode_ == math::Mode::kExploration;
+  if (probe3) {
+    probe3d_goal_W_ = math::anchored_point_W(probe3d_map_, anchor_, T_W_R_, p_B);
+    if (resynced || !probe3d_.initialized) vps::point_probe_reset(probe3d_, probe3d_goal_W_);
+    const vps::Voxmap* vm = snap != nullptr && !snap->resyncing ? snap->voxmap.get() : nullptr;
+    vps::point_probe_tick(p_.probe3d, vm, probe3d_, probe3d_goal_W_, probe3d_map_.scale);
+    const Eigen::Vector3d proxy3_R = math::apply(math::inverse(T_W_R_), probe3d_.proxy_W);
+    proxy_B = math::unmap_point(probe3d_map_, proxy3_R) - anchor_.offset_B;
+  }
 
   StationSetpoint sp;
   sp.t_ns = in.t_ns;
@@ -196,7 +220,7 @@ void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelS
   last_ = sp;
   setpoints_.publish(sp);
 
-  const Eigen::Vector3d F_W = force_gain_ * proxy_.force_W;  // rendered
+  const Eigen::Vector3d F_W = force_gain_ * (probe3 ? probe3d_.force_W : proxy_.force_W);  // rendered
   const Eigen::Vector3d F_B = math::force_W_to_B(T_W_R_, F_W);
   const Eigen::Vector3d F_H = R.transpose() * F_B;
   out.command.ee[0].force_H = F_H.allFinite() ? F_H : Eigen::Vector3d::Zero();
@@ -220,16 +244,21 @@ void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelS
     r.robot[0] = T_W_R_.x;
     r.robot[1] = T_W_R_.y;
     r.robot[2] = T_W_R_.theta;
-    for (int i = 0; i < 3; ++i) r.goal_W[i] = goal_W_[i];
+    for (int i = 0; i < 3; ++i) r.goal_W[i] = probe3 ? probe3d_goal_W_[i] : goal_W_[i];
     r.proxy_W[0] = proxy_.proxy_W.x();
     r.proxy_W[1] = proxy_.proxy_W.y();
     r.force_W[0] = F_W.x();
     r.force_W[1] = F_W.y();
+    r.force_W_z = F_W.z();
+    if (probe3) {
+      for (int i = 0; i < 3; ++i) r.proxy3_W[i] = probe3d_.proxy_W[i];
+      r.probe3_contact = probe3d_.contact ? 1 : 0;
+    }
     r.force_gain = force_gain_;
     for (int i = 0; i < 3; ++i) r.force_H[i] = out.command.ee[0].force_H[i];
     r.v = sp.v;
     r.omega = sp.omega;
-    r.contacts = proxy_.contact_count;
+    r.contacts = probe3 ? (probe3d_.contact ? 1 : 0) : proxy_.contact_count;
     r.model_version = model.version;
     r.model_age_ns = model.version != 0 ? in.t_ns - model.stamp_ns : -1;
     r.scale = sm.scale;

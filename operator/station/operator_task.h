@@ -60,6 +60,7 @@
 #include <cstdint>
 
 #include "common/haptics/proxy/virtual_proxy.h"
+#include "common/haptics/vps/point_probe.h"
 #include "common/math/workspace_maps.h"
 #include "operator/model/model_thread.h"
 #include "operator/servo/csv_logger.h"
@@ -109,6 +110,11 @@ struct StationLogRecord {
   double truth[3] = {0, 0, 0};
   int has_truth = 0;
   double force_gain = 1.0;          // the stale-model fade (1: fresh)
+  // The 3-DoF point probe (probe_3d, exploration): its proxy in W, the force's
+  // z (fw_x / fw_y are the force's x, y), whether it touches.
+  double proxy3_W[3] = {0, 0, 0};
+  double force_W_z = 0.0;
+  int probe3_contact = 0;
 };
 const char* station_log_header();
 std::size_t format_station_log_record(const StationLogRecord& r, char* buf, std::size_t size);
@@ -175,6 +181,16 @@ struct OperatorTaskParams {
   double engage_move = 0.002;
   double max_extrapolation_s = 0.5;
   math::Mode initial_mode = math::Mode::kExploration;
+  // The 3-DoF point probe against the live voxmap (OperatorModelSnapshot::
+  // voxmap) in place of the 2D proxy's force in exploration mode (the robot
+  // stands still, HEMM Fig. 9 in 3D). Its own map: the stylus centred points
+  // at probe3d_origin_R, the device's horizontal half extent spans
+  // probe3d_range of W (a 1 cm voxmap needs a finer scale than the 2D
+  // exploration's sensor range), z included.
+  bool probe_3d = false;
+  vps::PointProbeParams probe3d;  // force.period is set from proxy.period
+  double probe3d_range = 0.6;
+  Eigen::Vector3d probe3d_origin_R{0.9, 0.0, 0.85};
 };
 
 class OperatorServoTask final : public servo::ServoTask {
@@ -192,6 +208,8 @@ class OperatorServoTask final : public servo::ServoTask {
   // Servo-thread side (or after the loop stopped).
   math::Mode mode() const noexcept { return mode_; }
   const haptics::ProxyData& proxy() const noexcept { return proxy_; }
+  const vps::PointProbeData& probe3d() const noexcept { return probe3d_; }
+  const math::ScaledMap& probe3d_map() const noexcept { return probe3d_map_; }
   const math::ModeAnchor& anchor() const noexcept { return anchor_; }
   const StationSetpoint& last_setpoint() const noexcept { return last_; }
   const math::Pose2& robot_pose() const noexcept { return T_W_R_; }
@@ -216,6 +234,16 @@ class OperatorServoTask final : public servo::ServoTask {
   // For the session recorder (before the servo starts; may be null): one
   // ServoTickRecord per tick.
   void set_tick_tap(ServoTickTap* tap) noexcept { tick_tap_ = tap; }
+  // For tests (before the servo starts): called on the servo thread when it
+  // starts and stops (an allocation counter around the whole loop).
+  using ServoThreadHook = void (*)(bool started) noexcept;
+  void set_servo_thread_hook(ServoThreadHook hook) noexcept { servo_hook_ = hook; }
+  void on_servo_start() noexcept override {
+    if (servo_hook_ != nullptr) servo_hook_(true);
+  }
+  void on_servo_stop() noexcept override {
+    if (servo_hook_ != nullptr) servo_hook_(false);
+  }
 
  private:
   void switch_to(math::Mode next, const Eigen::Vector3d& p_B) noexcept;
@@ -226,6 +254,9 @@ class OperatorServoTask final : public servo::ServoTask {
   math::NavigationMap navigate_;
   math::ManipulationMap manipulate_;
   haptics::ProxyData proxy_;
+  vps::PointProbeData probe3d_;
+  Eigen::Vector3d probe3d_goal_W_ = Eigen::Vector3d::Zero();
+  math::ScaledMap probe3d_map_;
   mapping::MapSnapshot empty_map_;
   math::Mode mode_;
   math::ModeAnchor anchor_;
@@ -249,6 +280,7 @@ class OperatorServoTask final : public servo::ServoTask {
   NewestMailbox<StationLogRecord>* view_ticks_ = nullptr;
   std::atomic<std::uint32_t>* view_presses_ = nullptr;
   ServoTickTap* tick_tap_ = nullptr;
+  ServoThreadHook servo_hook_ = nullptr;
   ServoTickRecord tap_record_;  // filled in place (no large stack copy per tick)
 };
 

@@ -13,6 +13,7 @@
 // 4800 mj_ray calls per frame fit the station's budget at that rate.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <numbers>
 #include <optional>
@@ -50,6 +51,24 @@ struct SimDepthCameraParams {
   // robot carries its camera there) and the tool's own region of interest
   // is always the best seen.
   Eigen::Isometry3d T_mount_S = default_wrist_mount();
+  // True: T_mount_S is in the base frame R (a mast), not in E. The station
+  // mounts it there by default (config depth_camera.mount): in exploration
+  // the robot and its arm stand still (HEMM Fig. 9), so a wrist camera would
+  // hold one view anyway, and from 1.1 m a mast sees the tops of table-high
+  // objects the folded arm's wrist cannot; its pose at acquisition is the
+  // odometry's alone (no arm kinematics error).
+  bool mount_on_base = false;
+
+  // A mast at (x, 0, z) in R looking along +x_R, pitched down by pitch (rad).
+  static Eigen::Isometry3d mast_mount(double x, double z, double pitch) {
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    const Eigen::Vector3d fwd(std::cos(pitch), 0.0, -std::sin(pitch));
+    T.linear().col(0) = Eigen::Vector3d(0, -1, 0);              // x_S: right
+    T.linear().col(2) = fwd;                                     // z_S: optical axis
+    T.linear().col(1) = fwd.cross(Eigen::Vector3d(0, -1, 0));    // y_S = z_S x x_S: down
+    T.translation() << x, 0.0, z;
+    return T;
+  }
 
   static Eigen::Isometry3d default_wrist_mount() {
     Eigen::Isometry3d T = Eigen::Isometry3d::Identity();

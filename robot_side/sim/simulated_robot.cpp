@@ -3,10 +3,13 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <condition_variable>
 #include <deque>
 #include <filesystem>
 #include <numbers>
+#include <mutex>
 #include <random>
+#include <thread>
 
 #include <mujoco/mujoco.h>
 
@@ -85,6 +88,80 @@ SimSonarParams sonar_params_from_config(const config::RobotConfig& c) {
   return p;
 }
 
+// Casts depth frames on its own thread (DepthCasting::kWorker): one frame
+// is 4800 mj_ray calls against every geom, several milliseconds, which would
+// make the 1 kHz simulation thread late. The simulation thread hands over
+// the geoms' poses of the step (a copy into the worker's own mjData: mj_ray
+// reads only geom_xpos / geom_xmat there, and the const mjModel) and goes
+// on; a frame due while the last is still being cast is skipped (counted),
+// never waited for.
+struct DepthWorker {
+  const mjModel* m = nullptr;
+  std::unique_ptr<mjData, DataDeleter> d;
+  SimDepthCameraParams params;
+  std::mt19937_64 rng;
+  std::mutex mu;
+  std::condition_variable cv;
+  bool busy = false, have_job = false, stop = false;  // guarded by mu
+  mapping::DepthImage job;                            // poses and stamp; guarded by mu
+  std::deque<mapping::DepthImage> done;               // guarded by mu
+  std::uint64_t skipped = 0;                          // simulation thread only
+  std::thread thread;
+
+  DepthWorker(const mjModel* model, const SimDepthCameraParams& p, std::uint64_t seed)
+      : m(model), d(mj_makeData(model)), params(p), rng(seed) {
+    thread = std::thread([this] { run(); });
+  }
+  ~DepthWorker() {
+    {
+      std::lock_guard<std::mutex> lk(mu);
+      stop = true;
+    }
+    cv.notify_one();
+    thread.join();
+  }
+  // Simulation thread: never blocks on the worker.
+  void submit(const mjData* src, mapping::DepthImage&& meta) {
+    std::unique_lock<std::mutex> lk(mu, std::try_to_lock);
+    if (!lk.owns_lock() || busy) {
+      ++skipped;
+      return;
+    }
+    mju_copy(d->geom_xpos, src->geom_xpos, 3 * m->ngeom);
+    mju_copy(d->geom_xmat, src->geom_xmat, 9 * m->ngeom);
+    job = std::move(meta);
+    busy = have_job = true;
+    lk.unlock();
+    cv.notify_one();
+  }
+  void take(std::vector<mapping::DepthImage>* out) {
+    std::unique_lock<std::mutex> lk(mu, std::try_to_lock);
+    if (!lk.owns_lock()) return;  // next step
+    for (auto& img : done) out->push_back(std::move(img));
+    done.clear();
+  }
+  void run() {
+    std::unique_lock<std::mutex> lk(mu);
+    for (;;) {
+      cv.wait(lk, [this] { return stop || have_job; });
+      if (stop) return;
+      have_job = false;
+      mapping::DepthImage meta = std::move(job);
+      lk.unlock();  // the simulation thread does not touch d while busy
+      MujocoRayCaster caster(m, d.get());
+      mapping::DepthImage img = simulate_depth_image(params, caster, meta.T_W_S_truth, rng);
+      img.stamp_ns = meta.stamp_ns;
+      img.cloud_id = meta.cloud_id;
+      img.T_W_S = meta.T_W_S;
+      img.T_W_S_truth = meta.T_W_S_truth;
+      lk.lock();
+      done.push_back(std::move(img));
+      while (done.size() > 4) done.pop_front();
+      busy = false;
+    }
+  }
+};
+
 struct SimulatedRobot::Impl {
   std::unique_ptr<mjModel, ModelDeleter> m;
   std::unique_ptr<mjData, DataDeleter> d;
@@ -110,6 +187,7 @@ struct SimulatedRobot::Impl {
   int depth_period = 67;
   uint32_t depth_id = 0;
   std::deque<mapping::DepthImage> depth_images;
+  std::unique_ptr<DepthWorker> depth_worker;  // DepthCasting::kWorker; declared after m, destroyed before it
 
   // Clock.
   int64_t origin_ns = 0, dt_ns = 1'000'000;
@@ -234,17 +312,28 @@ struct SimulatedRobot::Impl {
   // A wrist camera frame: cast from the true pose, reported with the pose
   // the robot believes (odometry, planar: the base height is the mount's).
   void take_depth_image() {
-    MujocoRayCaster caster(m.get(), d.get());
     const Eigen::Isometry3d T_W_R = base_pose();
-    const Eigen::Isometry3d T_R_S = T_R_A * kinematics::forward_kinematics(arm, q()) * depth.T_mount_S;
+    const Eigen::Isometry3d T_R_S = depth.mount_on_base
+                                        ? depth.T_mount_S
+                                        : T_R_A * kinematics::forward_kinematics(arm, q()) * depth.T_mount_S;
     Eigen::Isometry3d T_W_R_odom = Eigen::Isometry3d::Identity();
     T_W_R_odom.translation() << odom.x, odom.y, T_W_R.translation().z();
     T_W_R_odom.linear() = Eigen::AngleAxisd(odom.theta, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-    mapping::DepthImage img = simulate_depth_image(depth, caster, T_W_R * T_R_S, rng);
-    img.stamp_ns = now();
-    img.cloud_id = depth_id++;
-    img.T_W_S = T_W_R_odom * T_R_S;
-    img.T_W_S_truth = T_W_R * T_R_S;
+    mapping::DepthImage meta;
+    meta.stamp_ns = now();
+    meta.cloud_id = depth_id++;
+    meta.T_W_S = T_W_R_odom * T_R_S;
+    meta.T_W_S_truth = T_W_R * T_R_S;
+    if (depth_worker) {
+      depth_worker->submit(d.get(), std::move(meta));
+      return;
+    }
+    MujocoRayCaster caster(m.get(), d.get());
+    mapping::DepthImage img = simulate_depth_image(depth, caster, meta.T_W_S_truth, rng);
+    img.stamp_ns = meta.stamp_ns;
+    img.cloud_id = meta.cloud_id;
+    img.T_W_S = meta.T_W_S;
+    img.T_W_S_truth = meta.T_W_S_truth;
     depth_images.push_back(std::move(img));
     while (depth_images.size() > 4) depth_images.pop_front();
   }
@@ -457,6 +546,8 @@ std::optional<std::string> SimulatedRobot::load(const config::RobotConfig& cfg, 
   Pose2 start;
   const int start_site = id(mjOBJ_SITE, "robot_start");
   if (start_site >= 0) start = planar(pose_from(m->site_pos + 3 * start_site, m->site_quat + 4 * start_site));
+  if (cfg.sim().has_start_x_m() || cfg.sim().has_start_y_m() || cfg.sim().has_start_theta_rad())
+    start = {cfg.sim().start_x_m(), cfg.sim().start_y_m(), cfg.sim().start_theta_rad()};
   impl_ = std::move(impl);
   set_base_pose_sim(start);
   // The arm starts folded over the base (inside the footprint).
@@ -598,10 +689,14 @@ void SimulatedRobot::enable_sensors(bool laser, bool sonar) {
   impl_->sonar_on = sonar;
 }
 
-std::optional<std::string> SimulatedRobot::enable_depth_camera(const SimDepthCameraParams& params) {
+std::optional<std::string> SimulatedRobot::enable_depth_camera(const SimDepthCameraParams& params,
+                                                               DepthCasting casting) {
   if (!impl_) return "depth camera: no scene loaded";
   if (auto e = check_params(params)) return e;
   if (!params.T_mount_S.matrix().allFinite()) return "depth camera: mount not finite";
+  impl_->depth_worker.reset();
+  if (casting == DepthCasting::kWorker)
+    impl_->depth_worker = std::make_unique<DepthWorker>(impl_->m.get(), params, impl_->rng());
   impl_->depth = params;
   impl_->depth_period =
       std::max(1, static_cast<int>(std::lround(1.0 / (params.rate_hz * impl_->m->opt.timestep))));
@@ -610,7 +705,9 @@ std::optional<std::string> SimulatedRobot::enable_depth_camera(const SimDepthCam
 }
 
 void SimulatedRobot::disable_depth_camera() {
-  if (impl_) impl_->depth_on = false;
+  if (!impl_) return;
+  impl_->depth_on = false;
+  impl_->depth_worker.reset();
 }
 
 std::vector<mapping::DepthImage> SimulatedRobot::take_depth_images() {
@@ -618,7 +715,26 @@ std::vector<mapping::DepthImage> SimulatedRobot::take_depth_images() {
   if (!impl_) return out;
   for (auto& img : impl_->depth_images) out.push_back(std::move(img));
   impl_->depth_images.clear();
+  if (impl_->depth_worker) impl_->depth_worker->take(&out);
   return out;
+}
+
+std::uint64_t SimulatedRobot::depth_frames_skipped() const {
+  return impl_ && impl_->depth_worker ? impl_->depth_worker->skipped : 0;
+}
+
+SimDepthCameraParams depth_camera_params_from_config(const config::RobotConfig& c) {
+  const auto& dc = c.depth_camera();
+  SimDepthCameraParams p;
+  p.width = static_cast<int>(dc.width());
+  p.height = static_cast<int>(dc.height());
+  p.hfov = dc.hfov_deg() * kDeg;
+  p.range_min = dc.range_min_m();
+  p.range_max = dc.range_max_m();
+  p.rate_hz = dc.rate_hz();
+  p.mount_on_base = dc.mount() == "mast";
+  if (p.mount_on_base) p.T_mount_S = SimDepthCameraParams::mast_mount(dc.mast_x_m(), dc.mast_z_m(), dc.mast_pitch_deg() * kDeg);
+  return p;
 }
 
 void SimulatedRobot::set_base_pose_sim(const Pose2& p) {

@@ -98,7 +98,14 @@ class SimulatedRobot {
   // cast at params.rate_hz; each carries the odometry pose T_W_S at
   // acquisition (odometry x arm forward kinematics of the measured joints)
   // and the true one. A reason if params are invalid (nothing changes then).
-  std::optional<std::string> enable_depth_camera(const SimDepthCameraParams& params);
+  // kInline casts within the step that takes the frame (deterministic, for
+  // tests); kWorker on a thread of its own from that step's geometry, so the
+  // simulation thread is not made late (frames due while one is being cast
+  // are skipped: depth_frames_skipped()).
+  enum class DepthCasting { kInline, kWorker };
+  std::optional<std::string> enable_depth_camera(const SimDepthCameraParams& params,
+                                                 DepthCasting casting = DepthCasting::kInline);
+  std::uint64_t depth_frames_skipped() const;
   void disable_depth_camera();
   // Depth frames completed since the last call, oldest first (at most 4 kept:
   // newest wins).
@@ -127,5 +134,7 @@ class SimulatedRobot {
 // Sensor parameters from the config (also used by the station to describe them).
 SimLaserParams laser_params_from_config(const config::RobotConfig& config);
 SimSonarParams sonar_params_from_config(const config::RobotConfig& config);
+// The depth camera of config depth_camera (enabled or not).
+SimDepthCameraParams depth_camera_params_from_config(const config::RobotConfig& config);
 
 }  // namespace hemm::robot

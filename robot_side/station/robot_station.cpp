@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "common/config/config.h"
+#include "common/mapping/depth_stream.h"
 #include "common/concurrency/newest_mailbox.h"
 #include "common/net/station_cli.h"
 #include "config_robot.pb.h"
@@ -72,6 +73,7 @@ struct RobotStation::Shared {
       commands_mode_mismatch{0}, commands_stale{0}, commands_applied{0}, commands_rejected{0};
   std::atomic<uint64_t> arm_refused_floor{0}, arm_refused_base{0}, arm_refused_scene{0};
   std::atomic<uint64_t> states_sent{0}, scans_sent{0}, scan_chunks_sent{0}, send_failures{0};
+  std::atomic<uint64_t> depth_frames_sent{0}, depth_chunks_sent{0}, depth_frames_skipped{0}, depth_bytes_sent{0};
   std::atomic<uint64_t> mode_changes{0}, estop_changes{0}, requests_refused{0};
   std::atomic<bool> estop{false}, estop_local{false};
   std::atomic<int> mode{0};
@@ -131,6 +133,10 @@ report::RobotStation to_report(const RobotStationStatistics& s) {
   r.set_scans_sent(s.scans_sent);
   r.set_scan_chunks_sent(s.scan_chunks_sent);
   r.set_send_failures(s.send_failures);
+  r.set_depth_frames_sent(s.depth_frames_sent);
+  r.set_depth_chunks_sent(s.depth_chunks_sent);
+  r.set_depth_frames_skipped(s.depth_frames_skipped);
+  r.set_depth_bytes_sent(s.depth_bytes_sent);
   r.set_mode_changes(s.mode_changes);
   r.set_estop_changes(s.estop_changes);
   r.set_requests_refused(s.requests_refused);
@@ -153,7 +159,9 @@ std::string to_log_fields(const RobotStationStatistics& s) {
      << " commands_malformed=" << s.commands_malformed << " commands_mode_mismatch=" << s.commands_mode_mismatch
      << " commands_stale=" << s.commands_stale
      << " states_sent=" << s.states_sent << " scans_sent=" << s.scans_sent
-     << " scan_chunks_sent=" << s.scan_chunks_sent << " send_failures=" << s.send_failures
+     << " scan_chunks_sent=" << s.scan_chunks_sent << " depth_frames_sent=" << s.depth_frames_sent
+     << " depth_chunks_sent=" << s.depth_chunks_sent << " depth_frames_skipped=" << s.depth_frames_skipped
+     << " depth_bytes_sent=" << s.depth_bytes_sent << " send_failures=" << s.send_failures
      << " mode_changes=" << s.mode_changes << " estop_changes=" << s.estop_changes
      << " requests_refused=" << s.requests_refused << " estop=" << s.estop << " estop_local=" << s.estop_local
      << " mode=" << s.mode
@@ -198,6 +206,12 @@ std::optional<std::string> RobotStation::load(const config::RobotConfig& config,
   if (auto err = robot_.load(config, scene_path)) return err;
   laser_on_ = config.laser().enabled();
   sonar_on_ = config.sonar().enabled();
+  depth_on_ = config.depth_camera().enabled();
+  if (depth_on_) {
+    if (auto err = robot_.enable_depth_camera(depth_camera_params_from_config(config),
+                                              SimulatedRobot::DepthCasting::kWorker))
+      return err;
+  }
   return std::nullopt;
 }
 
@@ -326,6 +340,10 @@ RobotStationStatistics RobotStation::statistics() const {
   s.scans_sent = sh.scans_sent.load();
   s.scan_chunks_sent = sh.scan_chunks_sent.load();
   s.send_failures = sh.send_failures.load();
+  s.depth_frames_sent = sh.depth_frames_sent.load();
+  s.depth_chunks_sent = sh.depth_chunks_sent.load();
+  s.depth_frames_skipped = sh.depth_frames_skipped.load();
+  s.depth_bytes_sent = sh.depth_bytes_sent.load();
   s.mode_changes = sh.mode_changes.load();
   s.estop_changes = sh.estop_changes.load();
   s.requests_refused = sh.requests_refused.load();
@@ -549,6 +567,37 @@ void RobotStation::run() {
             }
           }
           if (all) ++s.scans_sent;
+        });
+      }
+    }
+
+    if (depth_on_) {
+      std::vector<mapping::DepthImage> frames = robot_.take_depth_images();
+      sh.depth_frames_skipped.store(robot_.depth_frames_skipped(), std::memory_order_relaxed);
+      // Only the newest frame is worth sending; the chunks are cut on the
+      // network thread (protobuf work off the simulation thread).
+      if (streaming && !frames.empty()) {
+        asio::post(io_, [sp, img = std::move(frames.back())] {
+          Shared& s = *sp;
+          if (!s.server->link_up()) return;
+          std::vector<wire::DepthChunk> chunks;
+          if (auto err = mapping::encode_depth_chunks(img, "depth", mapping::DepthStreamParams{}, &chunks)) {
+            spdlog::warn("event=depth_encode_failed error=\"{}\"", *err);
+            return;
+          }
+          bool all = true;
+          wire::StreamMessage m;
+          for (wire::DepthChunk& c : chunks) {
+            *m.mutable_depth_chunk() = std::move(c);
+            if (s.server->streams().send(m)) {
+              ++s.depth_chunks_sent;
+              s.depth_bytes_sent += m.ByteSizeLong();
+            } else {
+              ++s.send_failures;
+              all = false;
+            }
+          }
+          if (all) ++s.depth_frames_sent;
         });
       }
     }

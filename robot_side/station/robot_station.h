@@ -5,7 +5,10 @@
 //     realtime = false); each tick it applies the newest command, the
 //     session's requests (mode, e-stop) and the link/control state, steps,
 //     and hands robot states (at state_rate_hz) and new scans (chunked) to
-//     the network thread with asio::post;
+//     the network thread with asio::post; with depth_camera enabled, the
+//     SIMULATED depth camera's frames (cast on a worker thread of the
+//     SimulatedRobot, so the step is not made late) go the same way, cut
+//     into DepthChunks on the network thread;
 //   * the network thread (whoever runs the io_context) owns the RobotServer:
 //     it validates commands and publishes them into a newest-wins mailbox,
 //     queues ModeChange/EStop requests, and does every send.
@@ -87,6 +90,10 @@ struct RobotStationStatistics {
   uint64_t states_sent = 0;
   uint64_t scans_sent = 0;               // scans whose every chunk was sent
   uint64_t scan_chunks_sent = 0;
+  uint64_t depth_frames_sent = 0;        // SIMULATED depth frames whose every chunk was sent
+  uint64_t depth_chunks_sent = 0;
+  uint64_t depth_frames_skipped = 0;     // due while the last was still being cast
+  uint64_t depth_bytes_sent = 0;         // serialised DepthChunk stream messages
   uint64_t send_failures = 0;            // StreamLink::send returned false with the link up
   uint64_t mode_changes = 0;
   uint64_t estop_changes = 0;
@@ -139,6 +146,7 @@ class RobotStation {
   const SimLaserParams& laser_params() const { return robot_.laser_params(); }
   const SimSonarParams& sonar_params() const { return robot_.sonar_params(); }
   bool laser_enabled() const { return laser_on_; }
+  bool depth_camera_enabled() const { return depth_on_; }
   bool sonar_enabled() const { return sonar_on_; }
   int64_t timestep_ns() const { return robot_.timestep_ns(); }
   const RobotStationOptions& options() const { return o_; }
@@ -155,7 +163,7 @@ class RobotStation {
   RobotServer& server_;
   RobotStationOptions o_;
   SimulatedRobot robot_;
-  bool laser_on_ = false, sonar_on_ = false;
+  bool laser_on_ = false, sonar_on_ = false, depth_on_ = false;
   std::shared_ptr<Shared> shared_;
   std::shared_ptr<SimViewFeed> view_;
   std::thread thread_;

@@ -2,6 +2,8 @@
 
 #include <mujoco/mujoco.h>
 
+#include "common/mesh/primitives.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -168,22 +170,85 @@ SceneSlice slice_scene(const mjModel_* m, const mjData_* d, double z) {
   return out;
 }
 
-bool load_scene_slice(const std::string& path, double z, SceneSlice* out, std::string* error) {
-  auto fail = [&](const std::string& msg) {
-    if (error) *error = msg;
-    return false;
-  };
-  if (!std::isfinite(z)) return fail(path + ": slice height must be finite");
+namespace {
+
+// Loads the MJCF file, runs mj_forward at qpos0 and hands the model to f.
+template <class F>
+bool with_scene(const std::string& path, std::string* error, F&& f) {
   std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) return fail(path + ": no such scene file");
+  if (!std::filesystem::is_regular_file(path, ec)) {
+    if (error) *error = path + ": no such scene file";
+    return false;
+  }
   char err[1024] = "";
   std::unique_ptr<mjModel, void (*)(mjModel*)> m(mj_loadXML(path.c_str(), nullptr, err, sizeof err), mj_deleteModel);
-  if (!m) return fail(path + ": MuJoCo could not load the scene: " + err);
+  if (!m) {
+    if (error) *error = path + ": MuJoCo could not load the scene: " + err;
+    return false;
+  }
   std::unique_ptr<mjData, void (*)(mjData*)> d(mj_makeData(m.get()), mj_deleteData);
-  if (!d) return fail(path + ": MuJoCo could not allocate data for the scene");
+  if (!d) {
+    if (error) *error = path + ": MuJoCo could not allocate data for the scene";
+    return false;
+  }
   mj_forward(m.get(), d.get());
-  *out = slice_scene(m.get(), d.get(), z);
+  f(m.get(), d.get());
   return true;
+}
+
+}  // namespace
+
+bool load_scene_slice(const std::string& path, double z, SceneSlice* out, std::string* error) {
+  if (!std::isfinite(z)) {
+    if (error) *error = path + ": slice height must be finite";
+    return false;
+  }
+  return with_scene(path, error, [&](const mjModel* m, const mjData* d) { *out = slice_scene(m, d, z); });
+}
+
+bool load_scene_meshes(const std::string& path, const Eigen::AlignedBox3d& region_W, SceneMeshes* out,
+                       std::string* error) {
+  return with_scene(path, error, [&](const mjModel* m, const mjData* d) {
+    SceneMeshes r;
+    for (int g = 0; g < m->ngeom; ++g) {
+      const int body = m->geom_bodyid[g];
+      if (m->body_weldid[body] != 0 || m->body_mocapid[body] >= 0) continue;  // the robot
+      SliceEntry e{geom_name(m, g), type_name(m->geom_type[g]), ""};
+      const mjtNum* xmat = d->geom_xmat + 9 * g;
+      const Eigen::Vector3d c(d->geom_xpos[3 * g], d->geom_xpos[3 * g + 1], d->geom_xpos[3 * g + 2]);
+      const double rb = m->geom_rbound[g];  // bounding sphere (0 for planes: infinite)
+      if (m->geom_type[g] == mjGEOM_PLANE || rb <= 0.0) {
+        e.detail = "plane";
+        r.off_region.push_back(e);
+        continue;
+      }
+      const mjtNum* size = m->geom_size + 3 * g;
+      // A box's own bounds (|R| size); a bounding sphere for the rest.
+      Eigen::Vector3d half = Eigen::Vector3d::Constant(rb);
+      if (m->geom_type[g] == mjGEOM_BOX) {
+        half.setZero();
+        for (int j = 0; j < 3; ++j) half += axis(xmat, j).cwiseAbs() * size[j];
+      }
+      const Eigen::AlignedBox3d bound(c - half, c + half);
+      if (!bound.intersects(region_W)) {
+        e.detail = "outside the region";
+        r.off_region.push_back(e);
+        continue;
+      }
+      if (m->geom_type[g] != mjGEOM_BOX) {
+        e.detail = "only boxes are meshed";
+        r.skipped.push_back(e);
+        continue;
+      }
+      SceneMeshPart part;
+      part.name = e.name;
+      part.mesh = mesh::make_box(Eigen::Vector3d(size[0], size[1], size[2]), 1);
+      for (Eigen::Vector3d& v : part.mesh.vertices)
+        v = c + axis(xmat, 0) * v.x() + axis(xmat, 1) * v.y() + axis(xmat, 2) * v.z();
+      r.parts.push_back(std::move(part));
+    }
+    *out = std::move(r);
+  });
 }
 
 }  // namespace hemm::robot

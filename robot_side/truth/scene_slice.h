@@ -16,10 +16,12 @@
 // that reaches the slice height (tilted shapes, ellipsoids, meshes, height
 // fields, non-horizontal planes) is reported in `skipped`, never dropped
 // silently. Horizontal planes (floors) are ignored.
+#include <Eigen/Geometry>
 #include <string>
 #include <vector>
 
 #include "common/haptics/proxy/reference_scene.h"
+#include "common/mesh/triangle_mesh.h"
 
 // MuJoCo's types, forward-declared so its header stays out of ours.
 struct mjModel_;
@@ -49,5 +51,29 @@ SceneSlice slice_scene(const mjModel_* m, const mjData_* d, double z);
 // qpos0 and slices it. On error returns false, sets *error (names the file)
 // and leaves *out untouched.
 bool load_scene_slice(const std::string& path, double z, SceneSlice* out, std::string* error);
+
+// The ground truth for the 3D probe on the live voxmap: the static geometry
+// inside a region of W as triangle meshes (frame W), one closed mesh per
+// geom, to be voxelised exactly (vps::build_voxmap) and probed along the
+// same path as the live model. Static as above. Boxes (any orientation) are
+// meshed exactly; other shapes that reach the region are reported in
+// `skipped`, never dropped silently; planes (the floor) and geoms outside the
+// region go to `off_region`.
+struct SceneMeshPart {
+  std::string name;
+  mesh::TriangleMesh mesh;  // closed, frame W
+};
+
+struct SceneMeshes {
+  std::vector<SceneMeshPart> parts;
+  std::vector<SliceEntry> skipped;     // reach the region but cannot be meshed
+  std::vector<SliceEntry> off_region;  // static but outside it, or planes
+};
+
+// Loads an MJCF file, runs mj_forward at qpos0 and meshes its static geoms
+// whose bounding box meets region_W. False with *error (names the file) on
+// failure; *out untouched then.
+bool load_scene_meshes(const std::string& path, const Eigen::AlignedBox3d& region_W, SceneMeshes* out,
+                       std::string* error);
 
 }  // namespace hemm::robot

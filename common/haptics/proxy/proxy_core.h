@@ -98,6 +98,37 @@ inline Vector2d project_cone(const Vector2d* normals, int count, const Vector2d&
   return best;  // zero: wedged in a concave corner
 }
 
+// The force law of every proxy (2D scan proxy, 3D point probe): e is the
+// spring vector (proxy - device) in device metres; spring + damping along it
+// while in contact, unilateral (never pulls), clamped to the peak /
+// continuous rating (see ProxyModel). Updates the spring and limiter state.
+template <int N>
+Eigen::Matrix<double, N, 1> proxy_force(const ProxyModel& m, const Eigen::Matrix<double, N, 1>& e, bool contact,
+                                        Eigen::Matrix<double, N, 1>& spring_prev, double& force_filtered,
+                                        double& force_limit, bool& clamped) {
+  using V = Eigen::Matrix<double, N, 1>;
+  const double e_len = e.norm();
+  V F = V::Zero();
+  if (contact && e_len > 1e-12) {
+    const V e_hat = e / e_len;
+    const V e_dot = (e - spring_prev) / m.period;
+    F = m.stiffness * e + m.damping * e_dot.dot(e_hat) * e_hat;
+    if (F.dot(e_hat) < 0.0) F.setZero();  // a surface pushes, never pulls
+    spring_prev = e;
+  } else {
+    spring_prev.setZero();
+  }
+  const double cont = m.force_continuous;
+  const double ramp = std::clamp((force_filtered - 0.5 * cont) / (0.5 * cont), 0.0, 1.0);
+  force_limit = m.force_peak - (m.force_peak - cont) * ramp;
+  const double f_len = F.norm();
+  clamped = f_len > force_limit;
+  if (clamped) F *= force_limit / f_len;
+  const double alpha = std::min(1.0, m.period / m.continuous_time_constant);
+  force_filtered += alpha * (F.norm() - force_filtered);
+  return F;
+}
+
 template <class Scene>
 void god_object_tick(const ProxyModel& m, const Scene& scene, ProxyData& d, const Eigen::Vector3d& device_W,
                      double scale) {
@@ -232,26 +263,8 @@ void god_object_tick(const ProxyModel& m, const Scene& scene, ProxyData& d, cons
   d.proxy_W = x;
 
   // 4. Force: spring + damping along the spring, unilateral, clamped.
-  const Vector2d e = (x - device_W.head<2>()) / scale;
-  const double e_len = e.norm();
-  Vector2d F = Vector2d::Zero();
-  if (active > 0 && e_len > 1e-12) {
-    const Vector2d e_hat = e / e_len;
-    const Vector2d e_dot = (e - d.spring_prev) / m.period;
-    F = m.stiffness * e + m.damping * e_dot.dot(e_hat) * e_hat;
-    if (F.dot(e_hat) < 0.0) F.setZero();  // a surface pushes, never pulls
-    d.spring_prev = e;
-  } else {
-    d.spring_prev.setZero();
-  }
-  const double cont = m.force_continuous;
-  const double ramp = std::clamp((d.force_filtered - 0.5 * cont) / (0.5 * cont), 0.0, 1.0);
-  d.force_limit = m.force_peak - (m.force_peak - cont) * ramp;
-  const double f_len = F.norm();
-  d.clamped = f_len > d.force_limit;
-  if (d.clamped) F *= d.force_limit / f_len;
-  const double alpha = std::min(1.0, m.period / m.continuous_time_constant);
-  d.force_filtered += alpha * (F.norm() - d.force_filtered);
+  const Vector2d F = proxy_force<2>(m, Vector2d((x - device_W.head<2>()) / scale), active > 0, d.spring_prev,
+                                    d.force_filtered, d.force_limit, d.clamped);
   d.force_W = Eigen::Vector3d(F.x(), F.y(), 0.0);
   d.max_work = std::max(d.max_work, d.work);
 }

@@ -92,6 +92,28 @@ TEST(ConfigTest, ShippedConfigsLoad) {
   EXPECT_FALSE(e2) << e2->to_string();
 }
 
+TEST(ConfigTest, ShippedProbe3dConfigsLoadAndBadValuesAreNamed) {
+  const std::string src = HEMM_SOURCE_DIR;
+  RobotConfig r;
+  auto e1 = load_robot_config(src + "/deploy/configs/robot_depth.pbtxt", &r);
+  EXPECT_FALSE(e1) << e1->to_string();
+  EXPECT_TRUE(r.depth_camera().enabled());
+  OperatorConfig o;
+  auto e2 = load_operator_config(src + "/deploy/configs/operator_probe3d.pbtxt", &o);
+  EXPECT_FALSE(e2) << e2->to_string();
+  EXPECT_TRUE(o.probe_3d().enabled());
+  RobotConfig rb;
+  auto e3 = parse_text_config("depth_camera {\n  mount: \"roof\"\n}\n", "r.pbtxt", &validate_robot_config, &rb);
+  ASSERT_TRUE(e3);
+  EXPECT_EQ(e3->field, "depth_camera.mount");
+  EXPECT_FALSE(rb.has_depth_camera());
+  OperatorConfig ob;
+  // A probe larger than the voxmap's distance layers would sink into the far field.
+  auto e4 = parse_text_config("probe_3d { probe_radius_m: 0.05 }", "o.pbtxt", &validate_operator_config, &ob);
+  ASSERT_TRUE(e4);
+  EXPECT_EQ(e4->field, "probe_3d.probe_radius_m");
+}
+
 TEST(ConfigTest, ResolveRelative) {
   EXPECT_EQ(resolve_relative_to("/a/b/c.pbtxt", "k.key"), "/a/b/k.key");
   EXPECT_EQ(resolve_relative_to("/a/b/c.pbtxt", "/k.key"), "/k.key");

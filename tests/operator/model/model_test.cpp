@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <thread>
 
+#include "common/haptics/vps/voxmap.h"
 #include "operator/model/model_thread.h"
 
 namespace ho = hemm::op;
@@ -129,6 +130,14 @@ TEST(StateFromWire, MapsClockAndRejectsNonFinite) {
   s.v = 9;
   EXPECT_TRUE(ho::state_from_wire(st, 0, &s).has_value());
   EXPECT_EQ(s.v, 9);
+}
+
+// A robot standing at the origin of W, stamped t.
+void submit_state_at(ho::ModelThread& mt, std::int64_t t) {
+  hw::RobotState st;
+  st.set_stamp_ns(t);
+  st.mutable_t_w_r_odom()->set_x(0.0);
+  mt.submit_state(st);
 }
 
 const ho::OperatorModelSnapshot* newest(hemm::servo::ModelChannel& ch) {
@@ -273,10 +282,7 @@ TEST(ModelThread, StaleAfterIsTheOneWayDelayPlusFreshCappedByTheMapWindow) {
   ho::ModelThreadParams p;  // fresh 0.25 s, fade 1 s, window 3 s
   ho::ModelThread mt(ch, p);
   const std::int64_t t0 = 1'000'000'000;
-  hw::RobotState st;
-  st.set_stamp_ns(t0);
-  st.mutable_t_w_r_odom()->set_x(0.0);
-  mt.submit_state(st);
+  submit_state_at(mt, t0);
   mt.set_command_delay(300'000'000);
   mt.step(t0 + 10'000'000);
   const auto* snap = newest(ch);
@@ -369,3 +375,45 @@ TEST(ModelThread, ThreadPublishes) {
 }
 
 }  // namespace
+
+// The live voxmap path, stepped by hand: a SIMULATED (closed-form) camera
+// 0.5 m above a table plane at z = 0.5, its chunks through the wire encoding
+// into the model; the snapshot's voxmap has the plane at its true height, and
+// a malformed chunk is counted and changes nothing.
+TEST(ModelThread, DepthChunksBuildTheLiveVoxmapOfASeenPlane) {
+  hemm::servo::ModelChannel ch;
+  ho::ModelThreadParams p;
+  p.live_voxmap = true;
+  p.voxmap.normal_radius = 0.05;
+  ho::ModelThread mt(ch, p);
+  const std::int64_t t0 = 10'000'000'000;
+  submit_state_at(mt, t0);
+  mt.step(t0);  // the pose places the region of interest
+  hemm::mapping::DepthImage img;
+  img.stamp_ns = t0;
+  img.cloud_id = 1;
+  img.K = hemm::mapping::intrinsics_from_hfov(80, 60, std::numbers::pi / 3, 0.2, 3.0);
+  img.T_W_S.linear() << 1, 0, 0, 0, -1, 0, 0, 0, -1;  // looking straight down
+  img.T_W_S.translation() << 1.0, 0.0, 1.0;
+  img.T_W_S_truth = img.T_W_S;
+  img.depth.assign(80 * 60, 0.5f);
+  img.status.assign(80 * 60, hemm::mapping::DepthStatus::kValid);
+  std::vector<hw::DepthChunk> chunks;
+  ASSERT_FALSE(hemm::mapping::encode_depth_chunks(img, "depth", {}, &chunks));
+  hw::DepthChunk bad = chunks[0];
+  bad.set_depth("x");  // payload length does not match its rows
+  mt.submit_depth_chunk(std::make_shared<const hw::DepthChunk>(bad));
+  for (const auto& c : chunks) mt.submit_depth_chunk(std::make_shared<const hw::DepthChunk>(c));
+  mt.step(t0 + 300'000'000);  // after the rebuild interval (5 Hz) the first step started
+  const ho::ModelStats s = mt.stats();
+  EXPECT_EQ(s.voxmap.stream.malformed, 1u);
+  EXPECT_EQ(s.voxmap.chunks_integrated, chunks.size());
+  EXPECT_EQ(s.voxmap.builds, 1u);
+  const auto* snap = newest(ch);
+  ASSERT_NE(snap, nullptr);
+  ASSERT_NE(snap->voxmap, nullptr);
+  for (const Eigen::Vector2d& xy : {Eigen::Vector2d(1.0, 0.0), Eigen::Vector2d(0.9, 0.1), Eigen::Vector2d(1.1, -0.1)}) {
+    EXPECT_NEAR(hemm::vps::sdf_hermite(*snap->voxmap, {xy.x(), xy.y(), 0.52}), 0.02, 0.002);
+    EXPECT_NEAR(hemm::vps::sdf_hermite(*snap->voxmap, {xy.x(), xy.y(), 0.49}), -0.01, 0.002);
+  }
+}

@@ -22,6 +22,7 @@
 #include "operator/client/operator_client.h"
 #include "operator/station/operator_station.h"
 #include "robot_side/server/robot_server.h"
+#include "tests/operator/client/loopback_client.h"
 
 namespace ho = hemm::op;
 namespace hw = hemm::wire;
@@ -138,19 +139,8 @@ struct FakeRobot {
 TEST(StationLoopback, CommandsFlowModelHoldsTheWallAndTheProbeFeelsIt) {
   FakeRobot robot;
   asio::io_context io;
-  ho::OperatorClientOptions co;
-  co.station_name = "station-test";
-  co.robot_address = "127.0.0.1";
-  co.session_port = robot.server->session_port();
-  co.bind_address = "127.0.0.1";
-  co.psk = test_key();
-  co.reconnect_for_ms = 0;
-  ho::OperatorClient client(io, co);
-
-  ho::OperatorStationOptions so;
-  so.servo.realtime = false;
-  so.servo.lock_memory = false;
-  so.log_path = std::string(HEMM_BINARY_DIR) + "/station_loopback_test.csv";
+  ho::OperatorClient client(io, hemm::test::loopback_client_options("station-test", robot.server->session_port(), test_key()));
+  ho::OperatorStationOptions so = hemm::test::loopback_station_options("station_loopback_test.csv");
   // Exploration (scale 50): the hand moves the stylus 22 mm forward -> 1.1 m
   // ahead, 0.13 m past the proxy's stop at the wall.
   so.task.initial_mode = hm::Mode::kExploration;

@@ -25,6 +25,7 @@
 #include "robot_side/sim/realtime.h"
 #include "robot_side/sim/wire_convert.h"
 #include "robot_side/station/robot_station.h"
+#include "tests/robot_side/station/robot_side.h"
 
 namespace hr = hemm::robot;
 namespace hw = hemm::wire;
@@ -53,42 +54,8 @@ bool wait_until(const std::function<bool()>& pred, double timeout_s) {
 }
 
 // The robot station: server + station on one network thread.
-struct RobotSide {
-  asio::io_context io;
-  std::optional<asio::executor_work_guard<asio::io_context::executor_type>> work;
-  std::unique_ptr<hr::RobotServer> server;
-  std::unique_ptr<hr::RobotStation> station;
-  std::thread thread;
-  hemm::config::RobotConfig cfg;
-
-  explicit RobotSide(const hemm::config::RobotConfig& c) : cfg(c) {
-    hr::RobotServerOptions o;
-    o.session_port = 0;
-    o.stream_port = 0;
-    o.psk = test_key();
-    o.link_timeout_ms = cfg.link().link_timeout_ms();
-    server = std::make_unique<hr::RobotServer>(io, o);
-    hr::RobotStationOptions so;
-    so.state_rate_hz = cfg.net().state_rate_hz();
-    station = std::make_unique<hr::RobotStation>(io, *server, so);
-  }
-  void start() {
-    std::string err;
-    ASSERT_TRUE(server->start(&err)) << err;
-    const auto load_err = station->load(cfg, kScene);
-    ASSERT_FALSE(load_err) << *load_err;
-    ASSERT_TRUE(station->start(&err)) << err;
-    work.emplace(io.get_executor());
-    thread = std::thread([this] { io.run(); });
-  }
-  ~RobotSide() {
-    station->stop();
-    asio::post(io, [this] { server->stop("test over"); });
-    work.reset();
-    sleep_s(0.05);
-    io.stop();
-    if (thread.joinable()) thread.join();
-  }
+struct RobotSide : hemm::test::RobotSide {
+  explicit RobotSide(const hemm::config::RobotConfig& c) : hemm::test::RobotSide(c, test_key(), kScene) {}
 };
 
 struct StateRec {

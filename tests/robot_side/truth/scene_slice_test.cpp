@@ -143,6 +143,27 @@ TEST(SceneSlice, BadInputs) {
   EXPECT_DOUBLE_EQ(s.height, -7.0);
 }
 
+// The truth meshes of the 3D probe: home.xml's table top, exactly, and its
+// cylinder legs reported as skipped (not dropped).
+TEST(SceneMeshes, HomeTableTopIsMeshedAndTheLegsAreReported) {
+  SceneMeshes m;
+  std::string err;
+  const Eigen::AlignedBox3d region(Eigen::Vector3d(0.8, 1.5, 0.6), Eigen::Vector3d(2.2, 2.5, 0.9));
+  ASSERT_TRUE(load_scene_meshes(HEMM_SOURCE_DIR "/deploy/scenes/home.xml", region, &m, &err)) << err;
+  ASSERT_EQ(m.parts.size(), 1u);
+  EXPECT_EQ(m.parts[0].name, "table_top");
+  Eigen::AlignedBox3d box;
+  for (const Eigen::Vector3d& v : m.parts[0].mesh.vertices) box.extend(v);
+  // MJCF: body at (1.5, 2.0, 0), geom at z 0.73, half sizes 0.6 0.4 0.02.
+  EXPECT_LT((box.min() - Eigen::Vector3d(0.9, 1.6, 0.71)).norm(), 1e-9);
+  EXPECT_LT((box.max() - Eigen::Vector3d(2.1, 2.4, 0.75)).norm(), 1e-9);
+  std::set<std::string> skipped;
+  for (const auto& e : m.skipped) skipped.insert(e.name);
+  EXPECT_EQ(skipped.count("table_leg1"), 1u);
+  EXPECT_FALSE(load_scene_meshes("/nonexistent/scene.xml", region, &m, &err));
+  EXPECT_EQ(m.parts.size(), 1u);  // untouched on error
+}
+
 TEST(SceneSlice, HomeSceneKnownFacts) {
   const std::string home = HEMM_SOURCE_DIR "/deploy/scenes/home.xml";
   SceneSlice s;

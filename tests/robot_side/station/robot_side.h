@@ -1,0 +1,61 @@
+// Test helper: the SIMULATED robot station (RobotStation behind a RobotServer
+// on ephemeral loopback ports) on its own network thread, started and torn
+// down the way the loopback tests need it.
+#pragma once
+
+#include <asio.hpp>
+#include <chrono>
+#include <memory>
+#include <optional>
+#include <string>
+#include <thread>
+
+#include <gtest/gtest.h>
+
+#include "config_robot.pb.h"
+#include "robot_side/server/robot_server.h"
+#include "robot_side/station/robot_station.h"
+
+namespace hemm::test {
+
+struct RobotSide {
+  asio::io_context io;
+  std::optional<asio::executor_work_guard<asio::io_context::executor_type>> work;
+  std::unique_ptr<robot::RobotServer> server;
+  std::unique_ptr<robot::RobotStation> station;
+  std::thread thread;
+  config::RobotConfig cfg;
+  std::string scene;
+
+  RobotSide(const config::RobotConfig& c, const net::Key& key, std::string scene_path)
+      : cfg(c), scene(std::move(scene_path)) {
+    robot::RobotServerOptions o;
+    o.session_port = 0;
+    o.stream_port = 0;
+    o.psk = key;
+    o.link_timeout_ms = cfg.link().link_timeout_ms();
+    server = std::make_unique<robot::RobotServer>(io, o);
+    robot::RobotStationOptions so;
+    so.state_rate_hz = cfg.net().state_rate_hz();
+    station = std::make_unique<robot::RobotStation>(io, *server, so);
+  }
+  void start() {
+    std::string err;
+    ASSERT_TRUE(server->start(&err)) << err;
+    const auto load_err = station->load(cfg, scene);
+    ASSERT_FALSE(load_err) << *load_err;
+    ASSERT_TRUE(station->start(&err)) << err;
+    work.emplace(io.get_executor());
+    thread = std::thread([this] { io.run(); });
+  }
+  ~RobotSide() {
+    station->stop();
+    asio::post(io, [this] { server->stop("test over"); });
+    work.reset();
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    io.stop();
+    if (thread.joinable()) thread.join();
+  }
+};
+
+}  // namespace hemm::test
