@@ -13,14 +13,16 @@ namespace hemm::op {
 
 namespace hb = hemm::device::bimanual;
 
-SceneHandScript::SceneHandScript(SceneHands path, int arm, const VpsEndEffectorParams& mapping)
-    : path_(path), arm_(arm), mapping_(mapping) {
+SceneHandScript::SceneHandScript(SceneHands path, int arm, const VpsEndEffectorParams& mapping, double start_hold_s)
+    : path_(path), arm_(arm), mapping_(mapping), start_hold_s_(start_hold_s) {
   if (path_.at == nullptr) throw std::invalid_argument("SceneHandScript: no path");
+  if (!(start_hold_s_ >= 0.0 && start_hold_s_ < 60.0))
+    throw std::invalid_argument("SceneHandScript: start hold must be in [0, 60) s");
   if (arm_ != 0 && arm_ != 1) throw std::invalid_argument("SceneHandScript: arm must be 0 (right) or 1 (left)");
 }
 
 Eigen::Isometry3d SceneHandScript::T_D_E(double t_s) const noexcept {
-  const vps::BimanualPoses p = path_.at(t_s);
+  const vps::BimanualPoses p = path_.at(std::max(0.0, t_s - start_hold_s_));
   return end_effector_pose_H(mapping_, arm_ == 0 ? p.right : p.left);
 }
 
@@ -55,7 +57,7 @@ std::unique_ptr<hb::SimulatedBimanualDevice> make_vps_bimanual_device(
   std::array<std::shared_ptr<const SceneHandScript>, hb::kArms> scripts;
   for (int a = 0; a < hb::kArms; ++a) {
     const auto k = static_cast<std::size_t>(a);
-    scripts[k] = std::make_shared<const SceneHandScript>(path, a, mapping[k]);
+    scripts[k] = std::make_shared<const SceneHandScript>(path, a, mapping[k], kStartHold_s);
     hands[k] = scripts[k];
   }
   auto dev = std::make_unique<hb::SimulatedBimanualDevice>(setup.sim, hands);

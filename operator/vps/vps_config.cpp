@@ -134,8 +134,9 @@ double vps_default_duration_s(const config::OperatorConfig& cfg) {
   if (v.hands().empty()) return 0.0;
   // The rigid hands are at rest when their path ends; the SIMULATED humans
   // of the bimanual device lag it and settle after it (hand and felt arm
-  // ~2.5 kg on the arm's 300 N/m spring with ~30 N s/m: ~0.7 s).
-  const double hold = cfg.device().type() == "sim-bimanual" ? 1.5 : 0.5;
+  // ~2.5 kg on the arm's 300 N/m spring with ~30 N s/m: ~0.7 s), and hold
+  // the start first (kStartHold_s).
+  const double hold = cfg.device().type() == "sim-bimanual" ? kStartHold_s + 1.5 : 0.5;
   return scene_hands(v.hands()).duration_s + hold;
 }
 

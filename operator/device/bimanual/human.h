@@ -35,6 +35,16 @@ struct HumanModel {
   double finger_stiffness = 400.0;              // [N/m] forefinger on the grip lever
   double finger_damping = 4.0;                  // [N s/m]
   bool carries_own_weight = true;               // the human holds up its own hand
+  // Voluntary effort: a real hand pushes harder while its motion stalls short
+  // of where it wants to be (against friction, a weight it misjudged, a
+  // contact it means to seat). The integral of the position error towards
+  // the target, times voluntary_gain, adds a force bounded by
+  // max_voluntary_force (anti-windup: the integral is clamped there, so it
+  // unwinds at once when the error turns). 0: off, the pure arm spring.
+  // The gain keeps the hand-arm loop stable (Routh: voluntary_gain < arm_damping
+  // x arm_stiffness / felt mass, ~3000 N/(m s) for ~2.5 kg felt).
+  double max_voluntary_force = 0.0;  // [N]
+  double voluntary_gain = 1000.0;    // [N/(m s)]: 1 mm of error adds 1 N per second
 };
 
 // Empty when usable (finite, masses > 0, stiffness/damping >= 0).

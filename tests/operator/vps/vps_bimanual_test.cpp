@@ -118,7 +118,7 @@ TEST(VpsBimanualDevice, ShippedPegConfigStartsEachPathWhereItsHandRests) {
     EXPECT_LT((T_W_M.translation() - want.translation()).norm(), 0.004) << k;
     EXPECT_LT(Eigen::AngleAxisd(T_W_M.linear() * want.linear().transpose()).angle(), 0.03) << k;
   }
-  EXPECT_DOUBLE_EQ(vps_default_duration_s(cfg), vps::kPegInHoleDuration + 1.5);
+  EXPECT_DOUBLE_EQ(vps_default_duration_s(cfg), kStartHold_s + vps::kPegInHoleDuration + 1.5);
 }
 
 TEST(VpsBimanualDevice, RefusesAPathThatDoesNotStartAtTheHandOrLeavesTheWorkspace) {
@@ -203,21 +203,22 @@ TEST(VpsBimanualDevice, RefusesADrillPathBeyondTheArmsReachOrIntoTheTableZone) {
 
 // The shipped assembly mapping: in free space (nothing rendered) the left
 // hand follows the drill's path, also while it slides round boss 0 slowly
-// (2.5-4.5 s), where the unturned mapping left it ~20 mm short.
+// (2.5-4.5 s into the path), where the unturned mapping left it ~20 mm
+// short.
 TEST(VpsBimanualDevice, ShippedAssemblyConfigLetsTheLeftHandFollowTheDrillPath) {
   const config::OperatorConfig cfg = shipped_assembly_bimanual();
   const auto dev = make_vps_device(cfg, "");
   ASSERT_TRUE(dev);
   const VpsSetup setup =
       vps_setup(cfg, std::string(HEMM_SOURCE_DIR) + "/deploy/configs/operator_vps_assembly_bimanual.pbtxt");
-  const SceneHandScript left(scene_hands("assembly"), 1, setup.task.ee[1]);
+  const SceneHandScript left(scene_hands("assembly"), 1, setup.task.ee[1], kStartHold_s);
   device::DeviceSample in;
   double worst_slide = 0.0;
-  for (int i = 1; i <= 4500; ++i) {
+  for (int i = 1; i <= static_cast<int>(std::lround((kStartHold_s + 4.5) * 1e3)); ++i) {
     dev->write(device::DeviceCommand{});
     dev->read(in);
     const double t = i * 1e-3;
-    if (t >= 2.5) worst_slide = std::max(worst_slide, (in.ee[1].position_H - left.T_D_E(t).translation()).norm());
+    if (t >= kStartHold_s + 2.5) worst_slide = std::max(worst_slide, (in.ee[1].position_H - left.T_D_E(t).translation()).norm());
   }
   std::printf("left hand at most %.1f mm from the drill path's target while sliding\n", worst_slide * 1e3);
   EXPECT_LT(worst_slide, 0.010);
