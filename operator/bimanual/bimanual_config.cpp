@@ -115,6 +115,7 @@ BimanualSetup bimanual_setup(const config::BimanualDeviceConfig& c) {
     if (!handle) throw std::invalid_argument("unknown handle '" + ac.handle() + "'");
     s.sim.plant.handles[k] = *handle;
     s.sim.control[k] = arm_params(ac, c.collision_activation_m());
+    if (c.human_co_contracting()) s.sim.plant.humans[k] = hb::co_contracting_human(0.0);
     s.sim.plant.humans[k].max_voluntary_force = c.human_voluntary_force_n();
     HandEnvironment& e = s.env[k];
     e.plane_point_H = Eigen::Vector3d(ac.plane_point_x(), ac.plane_point_y(), ac.plane_point_z());

@@ -21,6 +21,17 @@ std::optional<std::string> validate(const HumanModel& h) {
   return std::nullopt;
 }
 
+HumanModel co_contracting_human(double max_voluntary_force) {
+  HumanModel h;
+  h.arm_stiffness = 1000.0;
+  h.arm_damping = 40.0;
+  h.arm_rot_stiffness = 10.0;
+  h.arm_rot_damping = 0.4;
+  h.max_voluntary_force = max_voluntary_force;
+  h.voluntary_gain = 4000.0;
+  return h;
+}
+
 namespace {
 bool finite(const HumanTarget& t) {
   return t.position_D.allFinite() && t.orientation_D.coeffs().allFinite() && t.orientation_D.norm() > 0.5 &&

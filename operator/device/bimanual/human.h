@@ -47,6 +47,16 @@ struct HumanModel {
   double voluntary_gain = 1000.0;    // [N/(m s)]: 1 mm of error adds 1 N per second
 };
 
+// A human co-contracting for a precise task (inserting pins, seating a
+// part): stiffer arm and wrist (1000 N/m, 10 N m/rad; measured human arm
+// stiffness reaches ~1000-2000 N/m and wrist stiffness 5-20 N m/rad when
+// co-contracting), damping to match, and voluntary effort up to
+// max_voluntary_force at 4000 N/(m s) (a quarter of a second per its error
+// times stiffness; a third of the Routh bound for ~3 kg felt). The VPS
+// scenes with LWR-like actuators need it: with the relaxed defaults the
+// hand runs ~1 mm beside a 30 mm/s path and the pins strike a hole's rim.
+HumanModel co_contracting_human(double max_voluntary_force);
+
 // Empty when usable (finite, masses > 0, stiffness/damping >= 0).
 std::optional<std::string> validate(const HumanModel& h);
 
