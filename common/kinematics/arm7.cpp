@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <stdexcept>
+#include <string>
 
 #include <Eigen/Eigenvalues>
 
@@ -243,6 +245,33 @@ Arm7Matrix mass_matrix(const Arm7Model& m, const Arm7Frames& f) {
   }
   M.diagonal() += m.armature;
   return M;
+}
+
+}  // namespace hemm::kinematics
+
+namespace hemm::kinematics {
+
+Arm7Elbow arm7_elbow(const Arm7Model& m) {
+  for (int i = 0; i < kArm7Dof; ++i) {
+    const auto k = static_cast<std::size_t>(i);
+    const bool along = i % 2 == 0 ? std::abs(std::abs(m.axis[k].z()) - 1.0) < 1e-12 : std::abs(m.axis[k].z()) < 1e-12;
+    if (!along || m.offset[k].head<2>().norm() > 1e-12)
+      throw std::invalid_argument("arm7_elbow: joint " + std::to_string(i + 1) + " does not fit the S-R-S layout");
+  }
+  Arm7Frames f;
+  forward_kinematics(m, Arm7Vector::Zero(), f);
+  Arm7Elbow e;
+  e.shoulder_A = f.origin(2);
+  e.wrist_J7 = f.joint(7).inverse() * f.origin(6);
+  e.upper_arm_m = (f.origin(4) - f.origin(2)).norm();
+  e.forearm_m = (f.origin(6) - f.origin(4)).norm();
+  return e;
+}
+
+double elbow_bend(const Arm7Elbow& e, const Eigen::Vector3d& wrist_A) {
+  const double a = e.upper_arm_m, b = e.forearm_m, d = (wrist_A - e.shoulder_A).norm();
+  if (d > a + b) return -(d - a - b);
+  return std::acos(std::clamp((d * d - a * a - b * b) / (2.0 * a * b), -1.0, 1.0));
 }
 
 }  // namespace hemm::kinematics

@@ -119,6 +119,25 @@ void forward_kinematics(const Arm7Model& model, const Arm7Vector& q, Arm7Frames&
 // ^0T_7: the flange pose T_A_J7.
 Eigen::Isometry3d flange_pose(const Arm7Model& model, const Arm7Vector& q);
 
+// The elbow of the S-R-S arm (joints 1, 3, 5, 7 along their links, every
+// offset along z, as lwr_arm_model): the shoulder (J2's origin, fixed in A)
+// and the wrist centre (J6's origin, fixed in the flange frame J7) are
+// sqrt(a^2 + b^2 + 2 a b cos q4) apart whatever the other joints (a: upper
+// arm J2-J4, b: forearm J4-J6). So a flange pose alone fixes the elbow bend
+// |q4| it needs; near |q4| = 0 (stretched) the arm is singular and cannot
+// follow a hand that pulls it further.
+struct Arm7Elbow {
+  Eigen::Vector3d shoulder_A = Eigen::Vector3d::Zero();
+  Eigen::Vector3d wrist_J7 = Eigen::Vector3d::Zero();  // the wrist centre in J7
+  double upper_arm_m = 0.0;
+  double forearm_m = 0.0;
+};
+// Throws std::invalid_argument if the model is not S-R-S as above.
+Arm7Elbow arm7_elbow(const Arm7Model& model);
+// The elbow bend |q4| (rad) that puts the wrist centre at wrist_A; beyond
+// full reach, minus the shortfall in metres (a negative number).
+double elbow_bend(const Arm7Elbow& elbow, const Eigen::Vector3d& wrist_A);
+
 // Geometric Jacobian ^0J_k of a point p_A rigidly attached to link k
 // (1..7), in A: column i <= k is [a_i x (p - o_i); a_i], columns i > k are
 // zero (joints beyond k do not move link k). [v; omega] = J qd, and a wrench

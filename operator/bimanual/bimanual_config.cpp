@@ -68,6 +68,8 @@ std::vector<config::FieldIssue> validate_bimanual_config(const config::BimanualD
   std::vector<config::FieldIssue> out;
   if (!in(c.collision_activation_m(), 0.0, 0.5) || c.collision_activation_m() <= 0.0)
     out.push_back({prefix + "collision_activation_m", "must be in (0, 0.5] m"});
+  if (!in(c.human_voluntary_force_n(), 0.0, 50.0))
+    out.push_back({prefix + "human_voluntary_force_n", "must be in [0, 50] N"});
   const double max_k = hb::bimanual_limits(hb::SimulationConfig{}).ee[0].max_stiffness;
   check_arm(c.right(), prefix + "right.", max_k, out);
   check_arm(c.left(), prefix + "left.", max_k, out);
@@ -113,6 +115,8 @@ BimanualSetup bimanual_setup(const config::BimanualDeviceConfig& c) {
     if (!handle) throw std::invalid_argument("unknown handle '" + ac.handle() + "'");
     s.sim.plant.handles[k] = *handle;
     s.sim.control[k] = arm_params(ac, c.collision_activation_m());
+    if (c.human_co_contracting()) s.sim.plant.humans[k] = hb::co_contracting_human(0.0);
+    s.sim.plant.humans[k].max_voluntary_force = c.human_voluntary_force_n();
     HandEnvironment& e = s.env[k];
     e.plane_point_H = Eigen::Vector3d(ac.plane_point_x(), ac.plane_point_y(), ac.plane_point_z());
     e.plane_normal_H = Eigen::Vector3d(ac.plane_normal_x(), ac.plane_normal_y(), ac.plane_normal_z()).normalized();

@@ -30,30 +30,46 @@ namespace hemm::op {
 // the servo thread by the device's write()).
 class SceneHandScript final : public device::bimanual::HumanScript {
  public:
-  // arm 0: the right object's path, 1: the left's.
-  SceneHandScript(SceneHands path, int arm, const VpsEndEffectorParams& mapping);
+  // arm 0: the right object's path, 1: the left's; the hand holds the
+  // path's start for start_hold_s before following it.
+  SceneHandScript(SceneHands path, int arm, const VpsEndEffectorParams& mapping, double start_hold_s = 0.0);
   device::bimanual::HumanTarget at(double t_s) const noexcept override;
   Eigen::Isometry3d T_D_E(double t_s) const noexcept;
-  double duration_s() const noexcept { return path_.duration_s; }
+  double duration_s() const noexcept { return start_hold_s_ + path_.duration_s; }
 
  private:
   SceneHands path_;
   int arm_;
   VpsEndEffectorParams mapping_;
+  double start_hold_s_;
 };
+
+// How long the SIMULATED humans hold their paths' starts in
+// make_vps_bimanual_device: the device starts at rest on the plant's true
+// model, and its controllers, on the nominal one (a few per cent off), let
+// the held hands sag by ~2-3 mm at first with LWR-like actuators; a real
+// operator takes hold and steadies the handles before starting, and the
+// humans' voluntary effort (human.h) takes the sag out in well under 1 s.
+inline constexpr double kStartHold_s = 1.0;
 
 // How far a path's start may be from where the hand rests: the object
 // appears where the hand holds it at the first tick, so a larger jump would
 // start it somewhere the path does not go (possibly inside the other object).
 inline constexpr double kStartTolerance_m = 0.005;
 inline constexpr double kStartTolerance_rad = 0.05;
+// The least elbow bend a path may need (|q4|, kinematics::elbow_bend): 20
+// degrees keeps the arm's Jacobian well away from the stretched-elbow
+// singularity where the SIMULATED hand stalled (assembly drill, README).
+inline constexpr double kMinElbowBend_rad = 0.35;
 
 // The SIMULATED bimanual device of cfg.device().bimanual() at `period_s`,
 // its humans following scene `scene`'s paths through `mapping` (right: 0,
 // left: 1). Checks, with errors "field: message" (std::invalid_argument):
-// the bimanual block; each path inside its arm's workspace; each path's
-// start within kStartTolerance of where that hand rests (the message gives
-// the h_origin and grasp that would put it there).
+// the bimanual block; each path's start within kStartTolerance of where
+// that hand rests (the message gives the h_origin and grasp that would put
+// it there); each whole path inside its arm's workspace, within its reach
+// with the elbow bent at least kMinElbowBend_rad, and with the wrist and
+// handle out of the table's collision-avoidance zone.
 std::unique_ptr<device::bimanual::SimulatedBimanualDevice> make_vps_bimanual_device(
     const config::OperatorConfig& cfg, const std::string& scene,
     const std::array<VpsEndEffectorParams, device::kMaxEndEffectors>& mapping, double period_s);

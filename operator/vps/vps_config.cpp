@@ -41,6 +41,10 @@ VpsEndEffectorParams ee_params(const config::VpsEndEffectorConfig& c, const std:
   if (!o.allFinite() || o.cwiseAbs().maxCoeff() > 100) fail(field + ".h_origin", "must be finite, within 100 m");
   p.T_W_H.translation() = o;
   if (c.h_y_up()) p.T_W_H.linear() << 1, 0, 0, 0, 0, -1, 0, 1, 0;  // x_W = x_H, y_W = -z_H, z_W = y_H
+  const Eigen::Vector3d h_r(c.h_rx(), c.h_ry(), c.h_rz());
+  if (!h_r.allFinite() || h_r.norm() > std::numbers::pi + 1e-9)
+    fail(field + ".h_rx", "the device frame's rotation vector must be finite, at most pi rad");
+  if (h_r.norm() > 0) p.T_W_H.linear() = Eigen::AngleAxisd(h_r.norm(), h_r.normalized()).toRotationMatrix() * p.T_W_H.linear();
   // A hand-held object: its mesh frame within half a metre of the hand.
   const Eigen::Vector3d g(c.grasp_x(), c.grasp_y(), c.grasp_z());
   if (!g.allFinite() || g.norm() > 0.5) fail(field + ".grasp_x", "the grasp's origin must be finite, within 0.5 m of E");
@@ -130,8 +134,9 @@ double vps_default_duration_s(const config::OperatorConfig& cfg) {
   if (v.hands().empty()) return 0.0;
   // The rigid hands are at rest when their path ends; the SIMULATED humans
   // of the bimanual device lag it and settle after it (hand and felt arm
-  // ~2.5 kg on the arm's 300 N/m spring with ~30 N s/m: ~0.7 s).
-  const double hold = cfg.device().type() == "sim-bimanual" ? 1.5 : 0.5;
+  // ~2.5 kg on the arm's 300 N/m spring with ~30 N s/m: ~0.7 s), and hold
+  // the start first (kStartHold_s).
+  const double hold = cfg.device().type() == "sim-bimanual" ? kStartHold_s + 1.5 : 0.5;
   return scene_hands(v.hands()).duration_s + hold;
 }
 

@@ -12,11 +12,24 @@ std::optional<std::string> validate(const HumanModel& h) {
   if (!pos(h.hand_mass) || !h.hand_inertia.allFinite() || !(h.hand_inertia.array() > 0.0).all())
     return "hand mass and inertia must be finite and > 0";
   for (double v : {h.arm_stiffness, h.arm_damping, h.arm_rot_stiffness, h.arm_rot_damping, h.grasp_damping,
-                   h.grasp_rot_damping, h.finger_stiffness, h.finger_damping}) {
+                   h.grasp_rot_damping, h.finger_stiffness, h.finger_damping, h.voluntary_gain}) {
     if (!nonneg(v)) return "human stiffness and damping must be finite and >= 0";
   }
   if (!pos(h.grasp_stiffness) || !pos(h.grasp_rot_stiffness)) return "grasp stiffness must be > 0";
+  if (!(nonneg(h.max_voluntary_force) && h.max_voluntary_force <= 100.0))
+    return "max_voluntary_force must be in [0, 100] N";
   return std::nullopt;
+}
+
+HumanModel co_contracting_human(double max_voluntary_force) {
+  HumanModel h;
+  h.arm_stiffness = 1000.0;
+  h.arm_damping = 40.0;
+  h.arm_rot_stiffness = 10.0;
+  h.arm_rot_damping = 0.4;
+  h.max_voluntary_force = max_voluntary_force;
+  h.voluntary_gain = 4000.0;
+  return h;
 }
 
 namespace {

@@ -145,6 +145,7 @@ struct BimanualPlant::Impl {
     bool attached = true, grasping = true, powered = true, brakes = false;
     double t_power_off = 0.0;
     hk::Arm7Vector tau_applied = hk::Arm7Vector::Zero();
+    Eigen::Vector3d voluntary_D = Eigen::Vector3d::Zero();  // the human's voluntary force (human.h)
     ArmReading reading;
   };
   std::array<Arm, kArms> arm;
@@ -211,6 +212,7 @@ struct BimanualPlant::Impl {
       A.brakes = false;
       A.act = ArmActuation{};
       A.tau_applied.setZero();
+      A.voluntary_D.setZero();
       for (int i = 0; i < hk::kArm7Dof; ++i)
         m->dof_frictionloss[A.dof[static_cast<std::size_t>(i)]] = cfg.actuators.coulomb_friction(i);
     }
@@ -300,7 +302,16 @@ struct BimanualPlant::Impl {
       }
     }
     const HumanTarget& g = A.human;
-    Eigen::Vector3d F_arm = hm.arm_stiffness * (g.position_D - p_h) - hm.arm_damping * v_h.head<3>() + g.push_force_D;
+    // Voluntary effort while holding on: integral of the error, clamped.
+    if (A.grasping && hm.max_voluntary_force > 0.0) {
+      A.voluntary_D += hm.voluntary_gain * h * (g.position_D - p_h);
+      const double n = A.voluntary_D.norm();
+      if (n > hm.max_voluntary_force) A.voluntary_D *= hm.max_voluntary_force / n;
+    } else {
+      A.voluntary_D.setZero();
+    }
+    Eigen::Vector3d F_arm = hm.arm_stiffness * (g.position_D - p_h) - hm.arm_damping * v_h.head<3>() + g.push_force_D +
+                            A.voluntary_D;
     if (hm.carries_own_weight) F_arm -= hm.hand_mass * cfg.rig.gravity_D;
     const Eigen::Vector3d T_arm = hm.arm_rot_stiffness * rotation_vector(g.orientation_D.toRotationMatrix() * R_h.transpose()) -
                                   hm.arm_rot_damping * v_h.tail<3>() + g.push_torque_D;

@@ -100,6 +100,32 @@ TEST(Arm7Kinematics, EveryJointFrameMatchesMujoco) {
   EXPECT_LT(worst, 1e-9);
 }
 
+// The S-R-S elbow: the wrist centre's distance from the shoulder depends on
+// q4 alone, so elbow_bend recovers |q4| from the flange pose whatever the
+// other joints; beyond the reach it gives minus the shortfall.
+TEST(Arm7Kinematics, ElbowBendIsTheElbowJointWhateverTheOtherJoints) {
+  const hk::Arm7Model m = hk::lwr_arm_model();
+  const hk::Arm7Elbow e = hk::arm7_elbow(m);
+  EXPECT_NEAR(e.upper_arm_m, 0.40, 1e-12);
+  EXPECT_NEAR(e.forearm_m, 0.39, 1e-12);
+  std::mt19937_64 rng(11);
+  double worst = 0.0;
+  for (int i = 0; i < 200; ++i) {
+    const Arm7Vector q = random_q(m, rng);
+    const Eigen::Isometry3d T = hk::flange_pose(m, q);
+    worst = std::max(worst, std::abs(hk::elbow_bend(e, T * e.wrist_J7) - std::abs(q(3))));
+  }
+  EXPECT_LT(worst, 1e-7);
+  // Stretched along the shoulder's axis, then 5 cm further.
+  const Eigen::Vector3d dir = Eigen::Vector3d(1, 2, -0.5).normalized();
+  EXPECT_NEAR(hk::elbow_bend(e, e.shoulder_A + 0.79 * dir), 0.0, 1e-6);
+  EXPECT_NEAR(hk::elbow_bend(e, e.shoulder_A + 0.84 * dir), -0.05, 1e-12);
+  // Not an S-R-S arm: refused.
+  hk::Arm7Model bent = m;
+  bent.offset[3] = Eigen::Vector3d(0.01, 0.0, 0.2085);
+  EXPECT_THROW(hk::arm7_elbow(bent), std::invalid_argument);
+}
+
 TEST(Arm7Kinematics, PartialJacobiansMatchFiniteDifferencesAndMujoco) {
   const hk::Arm7Model m = hk::lwr_arm_model();
   auto mj = hemm::test::make_mj_arm7(m);

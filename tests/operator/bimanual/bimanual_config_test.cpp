@@ -67,6 +67,17 @@ TEST(BimanualConfig, ArmsAndEnvironmentFromTheBlock) {
   EXPECT_DOUBLE_EQ(s.env[0].plane_stiffness, 2500.0);
   EXPECT_FALSE(s.env[1].grip_object);
   EXPECT_EQ(s.sim.plant.actuators.coulomb_friction.maxCoeff(), 0.0);
+  // The humans: relaxed, spring only, unless asked.
+  EXPECT_DOUBLE_EQ(s.sim.plant.humans[0].max_voluntary_force, 0.0);
+  EXPECT_DOUBLE_EQ(s.sim.plant.humans[0].arm_stiffness, hb::HumanModel{}.arm_stiffness);
+  ASSERT_FALSE(parse(R"(device { type: "sim-bimanual" bimanual { human_voluntary_force_n: 12 human_co_contracting: true } })",
+                     &c));
+  const hemm::op::BimanualSetup h = hemm::op::bimanual_setup(c.device().bimanual());
+  for (const hb::HumanModel& m : h.sim.plant.humans) {
+    EXPECT_DOUBLE_EQ(m.max_voluntary_force, 12.0);
+    EXPECT_DOUBLE_EQ(m.arm_stiffness, hb::co_contracting_human(0.0).arm_stiffness);
+    EXPECT_DOUBLE_EQ(m.arm_rot_stiffness, hb::co_contracting_human(0.0).arm_rot_stiffness);
+  }
 }
 
 TEST(BimanualConfig, BadValuesAreRefusedWithFileLineAndField) {
@@ -87,6 +98,8 @@ TEST(BimanualConfig, BadValuesAreRefusedWithFileLineAndField) {
             std::string::npos);
   EXPECT_NE(error_of("    right { null_space_projector: \"magic\" }").find("null_space_projector"), std::string::npos);
   EXPECT_NE(error_of("    collision_activation_m: 0"), std::string());
+  EXPECT_NE(error_of("    human_voluntary_force_n: 80").find("human_voluntary_force_n: must be in [0, 50] N"),
+            std::string::npos);
   EXPECT_NE(error_of("    script: \"dance\"").find("script: must be one of: features, idle"), std::string::npos);
   EXPECT_NE(error_of("    right { no_such_field: 1 }").find("no_such_field"), std::string::npos);
   EXPECT_EQ(error_of(""), "");  // the defaults pass
