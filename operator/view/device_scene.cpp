@@ -4,8 +4,6 @@
 #include <cinttypes>
 #include <cmath>
 #include <cstdio>
-#include <set>
-#include <tuple>
 
 #include "operator/view/operator_scene.h"
 
@@ -13,41 +11,6 @@ namespace hemm::op {
 
 namespace hb = hemm::device::bimanual;
 namespace colours = device_view_colours;
-
-DeviceViewVoxels surface_cubes(const vps::Voxmap& vm, std::size_t budget) {
-  DeviceViewVoxels out;
-  std::vector<Eigen::Vector3i> surface;
-  const Eigen::Vector3i bd = vm.block_dims;
-  for (int bz = 0; bz < bd.z(); ++bz)
-    for (int by = 0; by < bd.y(); ++by)
-      for (int bx = 0; bx < bd.x(); ++bx) {
-        const Eigen::Vector3i b(bx, by, bz);
-        const std::int32_t bi = vm.top[vps::block_linear(vm, b)];
-        if (bi < 0) continue;  // empty or uniformly inside: no surface
-        const vps::VoxelBlock& blk = vm.blocks[static_cast<std::size_t>(bi)];
-        for (int z = 0; z < vps::kBlockDim; ++z)
-          for (int y = 0; y < vps::kBlockDim; ++y)
-            for (int x = 0; x < vps::kBlockDim; ++x) {
-              const Eigen::Vector3i v = b * vps::kBlockDim + Eigen::Vector3i(x, y, z);
-              if (blk.v[static_cast<std::size_t>(vps::voxel_in_block(v))].layer == 0) surface.push_back(v);
-            }
-      }
-  out.surface_voxels = surface.size();
-  if (surface.empty() || budget == 0) return out;
-  // Merge into cells of 2^k voxels until they fit.
-  for (int k = 0; k < 16; ++k) {
-    std::set<std::tuple<int, int, int>> cells;
-    for (const Eigen::Vector3i& v : surface) cells.emplace(v.x() >> k, v.y() >> k, v.z() >> k);
-    if (cells.size() > budget) continue;
-    const double edge = vm.voxel_size * static_cast<double>(1 << k);
-    out.half = 0.5 * edge;
-    out.centres_W.reserve(cells.size());
-    for (const auto& [x, y, z] : cells)
-      out.centres_W.push_back(vm.origin + edge * (Eigen::Vector3d(x, y, z) + Eigen::Vector3d::Constant(0.5)));
-    return out;
-  }
-  return out;
-}
 
 DeviceViewObject view_object(const vps::PointShell& shell, std::size_t max_points) {
   DeviceViewObject o;
@@ -113,7 +76,7 @@ void build_device_scene(const DeviceSceneSetup& s, const DeviceViewRecord* tick,
   }
   // The static scene, as placed in H.
   const Eigen::Matrix3d R_H_W = s.T_H_W.linear();
-  for (const Eigen::Vector3d& c : s.scene.centres_W)
+  for (const Eigen::Vector3d& c : s.scene.centres)
     out.box(s.T_H_W * c, R_H_W, Eigen::Vector3d::Constant(s.scene.half), colours::kScene);
   for (const auto& p : s.planes) {
     if (!p) continue;

@@ -35,6 +35,7 @@
 #include "operator/device/bimanual/simulation.h"
 #include "operator/view/device_view_record.h"
 #include "operator/view/view_feed.h"
+#include "operator/view/voxmap_cubes.h"
 #include "operator/vps/vps_model.h"
 #include "operator/vps/vps_task.h"
 
@@ -67,13 +68,6 @@ struct DeviceViewObject {
   std::vector<Eigen::Vector3d> points_M;
 };
 
-// Surface voxels as cubes of edge 2 * half (merged cells), frame W.
-struct DeviceViewVoxels {
-  std::vector<Eigen::Vector3d> centres_W;
-  double half = 0.0;
-  std::size_t surface_voxels = 0;  // before merging
-};
-
 struct DeviceViewPlane {
   Eigen::Vector3d point_H = Eigen::Vector3d::Zero();
   Eigen::Vector3d normal_H = Eigen::Vector3d::UnitZ();
@@ -88,7 +82,7 @@ struct DeviceSceneSetup {
                                                                 Eigen::Isometry3d::Identity()};
   Eigen::Isometry3d T_H_W = Eigen::Isometry3d::Identity();  // where W is drawn (see above)
   std::vector<DeviceViewObject> objects;
-  DeviceViewVoxels scene;
+  VoxmapCubes scene;  // frame W
   std::array<std::optional<DeviceViewPlane>, device::kMaxEndEffectors> planes;
 };
 
@@ -97,9 +91,6 @@ struct DeviceSceneBudget {
   std::size_t object_points = 200;  // per object
 };
 
-// The surface voxels (layer 0) of `vm`, merged into cubes of 2^k voxels
-// (smallest k) until at most `budget` remain; centres in vm's frame.
-DeviceViewVoxels surface_cubes(const vps::Voxmap& vm, std::size_t budget);
 // Every n-th point (n the smallest that keeps at most max_points) and the
 // box of all points.
 DeviceViewObject view_object(const vps::PointShell& shell, std::size_t max_points);

@@ -128,7 +128,7 @@ void OperatorLiveView::run(const std::atomic<bool>& stop) {
     }
   };
   hooks.draw = [&](view::MujocoWindow& win, std::int64_t now, view::Image* capture) {
-    feed_.take_model(vm);
+    if (feed_.take_model(vm)) update_voxmap_cubes(vm, style.voxmap_cubes);
     while (feed_.take_tick(tick)) have_tick = true;
     if (servo_stats_ != nullptr && now >= next_health) {
       health = meter.update(*servo_stats_, now);

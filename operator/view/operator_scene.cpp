@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <numbers>
 
+#include "common/haptics/vps/voxmap.h"
 #include "wire.pb.h"
 
 namespace hemm::op {
@@ -26,6 +27,9 @@ void build_operator_scene(const ViewModel& model, const StationLogRecord* tick, 
             : s.kind == mapping::SensorKind::kLaser ? view_colours::kMapLaser
                                                     : view_colours::kMapSonar);
   }
+  // The live voxmap: its surface cubes (model.voxmap_cubes, frame W).
+  const Eigen::Vector3d cube_half = Eigen::Vector3d::Constant(model.voxmap_cubes.half);
+  for (const Eigen::Vector3d& c : model.voxmap_cubes.centres) out.box(c, 0.0, cube_half, view_colours::kVoxmap);
   const double top = 2.0 * st.robot_half.z();
   // The last received pose: an outline of the footprint with its heading.
   if (model.have_state) {
@@ -110,6 +114,11 @@ view::Overlay make_operator_overlay(const OverlayInputs& in) {
     row("local map", overlay_text("%zu segments, %zu pieces%s  (model v%" PRIu64 ", %.0f ms old)", m->map_segments,
                          m->pieces_total, m->pieces_total > m->segments.size() ? " (some not drawn)" : "", m->version,
                          static_cast<double>(in.now_ns - m->stamp_ns) * 1e-6));
+  }
+  if (m != nullptr && m->voxmap) {
+    row("live voxmap", overlay_text("build %" PRIu64 ": %zu surface voxels of %.0f mm, drawn as %zu cubes", m->voxmap_builds,
+                                    m->voxmap_cubes.surface_voxels, m->voxmap->voxel_size * 1e3,
+                                    m->voxmap_cubes.centres.size()));
   }
   if (in.link != nullptr) {
     const net::LinkStatistics& s = *in.link;

@@ -11,6 +11,8 @@
 //  - the proxy (green), the device point mapped into W (the proxy's goal,
 //    yellow), the spring between them, and the rendered force as an arrow
 //    (magenta) from the proxy;
+//  - the live voxmap (when the station builds one from depth clouds): its
+//    surface voxels as sand-coloured cubes, merged to a geom budget;
 //  - text: mode and workspace scale, robot pose and state age, force and
 //    contacts, map and model age, link (RTT, loss, link down), the servo
 //    loop's period and misses; banners for LINK DOWN, E-STOP, NO ROBOT STATE.
@@ -34,6 +36,8 @@ inline constexpr view::Rgba kMapSonar{0.60f, 0.25f, 0.85f, 1.0f};
 inline constexpr view::Rgba kMapShadow{0.55f, 0.55f, 0.60f, 0.45f};
 // Shape completion: a fitted circle's outline or a wall bridged through dropouts.
 inline constexpr view::Rgba kMapFitted{0.15f, 0.70f, 0.65f, 0.85f};
+// The live voxmap's surface (built from the robot's depth clouds).
+inline constexpr view::Rgba kVoxmap{0.85f, 0.80f, 0.50f, 0.9f};
 inline constexpr view::Rgba kRobot{0.10f, 0.30f, 0.95f, 1.0f};
 inline constexpr view::Rgba kRobotReceived{0.20f, 0.90f, 0.95f, 1.0f};
 inline constexpr view::Rgba kProxy{0.10f, 0.85f, 0.15f, 1.0f};
@@ -52,6 +56,7 @@ struct OperatorSceneStyle {
   double proxy_radius = 0.06;    // m, drawn (the probe itself is smaller)
   double device_radius = 0.045;  // m
   double force_scale = 0.4;      // m of arrow per N
+  std::size_t voxmap_cubes = 1500;  // geoms for the live voxmap's surface
 };
 
 // The scene's primitives in W. tick may be null (no servo tick yet).

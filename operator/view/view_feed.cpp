@@ -19,6 +19,8 @@ void ViewFeed::on_snapshot(const OperatorModelSnapshot& s) {
   slot_.segments.assign(s.map.segments.begin(), s.map.segments.begin() + static_cast<std::ptrdiff_t>(n));
   slot_.pieces_total = s.map.segments.size();
   slot_.map_segments = s.segments;
+  slot_.voxmap = s.voxmap;  // shared, not copied: the view only reads it
+  slot_.voxmap_builds = s.voxmap_builds;
   fresh_ = true;
   copies_.fetch_add(1, std::memory_order_relaxed);
 }
@@ -29,6 +31,17 @@ bool ViewFeed::take_model(ViewModel& out) {
   std::swap(out, slot_);
   fresh_ = false;
   return true;
+}
+
+void update_voxmap_cubes(ViewModel& model, std::size_t budget) {
+  if (!model.voxmap) {
+    model.voxmap_cubes = VoxmapCubes{};
+    model.voxmap_cubes_of = 0;
+    return;
+  }
+  if (model.voxmap_cubes_of == model.voxmap_builds && !model.voxmap_cubes.centres.empty()) return;
+  model.voxmap_cubes = surface_cubes(*model.voxmap, budget);
+  model.voxmap_cubes_of = model.voxmap_builds;
 }
 
 namespace {

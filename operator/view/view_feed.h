@@ -17,6 +17,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <memory>
 #include <mutex>
 #include <vector>
 
@@ -25,6 +26,7 @@
 #include "common/concurrency/newest_mailbox.h"
 #include "operator/servo/timing_stats.h"
 #include "operator/station/operator_task.h"
+#include "operator/view/voxmap_cubes.h"
 
 namespace hemm::op {
 
@@ -38,7 +40,17 @@ struct ViewModel {
   std::vector<mapping::Segment2> segments;  // the snapshot's map pieces (at most max_segments)
   std::size_t pieces_total = 0;    // pieces in the snapshot
   std::size_t map_segments = 0;    // map segments before splitting
+  // The live voxmap from the robot's depth clouds (null: none built, or off).
+  std::shared_ptr<const vps::Voxmap> voxmap;
+  std::uint64_t voxmap_builds = 0;
+  // Its surface as cubes (view thread: update_voxmap_cubes), and of which build.
+  VoxmapCubes voxmap_cubes;
+  std::uint64_t voxmap_cubes_of = 0;
 };
+
+// Recomputes model.voxmap_cubes when model.voxmap is a build they were not
+// made from (view thread; a build comes at most a few times a second).
+void update_voxmap_cubes(ViewModel& model, std::size_t budget);
 
 class ViewFeed {
  public:

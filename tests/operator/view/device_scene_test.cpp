@@ -107,10 +107,10 @@ TEST(DeviceScene, ObjectsAndStaticSceneAreDrawnWhereTheTickAndThePlacementPutThe
   EXPECT_LE(s.objects[0].points_M.size(), 50u);
   EXPECT_GE(s.objects[0].points_M.size(), 25u);
   EXPECT_GT(s.scene.surface_voxels, 300u);
-  EXPECT_LE(s.scene.centres_W.size(), 300u);
-  EXPECT_GT(s.scene.centres_W.size(), 30u);
+  EXPECT_LE(s.scene.centres.size(), 300u);
+  EXPECT_GT(s.scene.centres.size(), 30u);
   // Every cube touches the plate's surface (within the cube's half diagonal).
-  for (const Eigen::Vector3d& c : s.scene.centres_W) {
+  for (const Eigen::Vector3d& c : s.scene.centres) {
     const Eigen::Vector3d out = (c.cwiseAbs() - Eigen::Vector3d(0.1, 0.1, 0.01)).cwiseMax(0.0);
     const Eigen::Vector3d in = (Eigen::Vector3d(0.1, 0.1, 0.01) - c.cwiseAbs());
     const double to_surface = out.norm() > 0 ? out.norm() : in.minCoeff();
@@ -157,7 +157,7 @@ TEST(DeviceScene, ObjectsAndStaticSceneAreDrawnWhereTheTickAndThePlacementPutThe
   EXPECT_LT((torque[0]->to - (t.position_H[0] + st.max_arrow * Eigen::Vector3d::UnitX())).norm(), 1e-12);
   // Without a tick: the scene only.
   build_device_scene(s, nullptr, st, out);
-  EXPECT_EQ(out.size(), s.scene.centres_W.size());
+  EXPECT_EQ(out.size(), s.scene.centres.size());
 }
 
 TEST(DeviceScene, TheMeanMappingPutsTheSceneBetweenTwoHands) {

@@ -8,6 +8,8 @@
 
 #include <cmath>
 
+#include "common/haptics/vps/voxmap.h"
+#include "common/mesh/primitives.h"
 #include "operator/view/operator_scene.h"
 #include "wire.pb.h"
 
@@ -53,6 +55,54 @@ TEST(OperatorScene, AMapPieceIsAWallStandingBehindItsFace) {
   EXPECT_NEAR(ymax, 1.0, 1e-12);
   EXPECT_NEAR(zmin, 0.0, 1e-12);
   EXPECT_NEAR(zmax, st.wall_height, 1e-12);
+}
+
+// The live voxmap (depth clouds) is drawn as its surface: every cube on the
+// surface of the geometry it was built from, within the geom budget, in W.
+TEST(OperatorScene, TheLiveVoxmapIsDrawnAsCubesOnItsSurface) {
+  // A 0.6 x 0.4 x 0.1 m table-like slab, centred at (1.5, 0.2, 0.7) in W.
+  const Eigen::Vector3d half(0.3, 0.2, 0.05), centre(1.5, 0.2, 0.7);
+  hemm::mesh::TriangleMesh slab = hemm::mesh::make_box(half, 4);
+  for (auto& v : slab.vertices) v += centre;
+  hemm::vps::VoxmapParams vp;
+  vp.voxel_size = 0.01;
+  auto vm = std::make_shared<hemm::vps::Voxmap>();
+  ASSERT_FALSE(hemm::vps::build_voxmap(slab, vp, vm.get(), nullptr));
+
+  ho::ViewModel m;
+  m.voxmap = vm;
+  m.voxmap_builds = 7;
+  const std::size_t budget = 400;
+  ho::update_voxmap_cubes(m, budget);
+  EXPECT_EQ(m.voxmap_cubes_of, 7u);
+  EXPECT_GT(m.voxmap_cubes.surface_voxels, budget);  // merged: more voxels than cubes
+  ASSERT_GT(m.voxmap_cubes.centres.size(), 30u);
+  EXPECT_LE(m.voxmap_cubes.centres.size(), budget);
+  for (const Eigen::Vector3d& c : m.voxmap_cubes.centres) {
+    const Eigen::Vector3d q = (c - centre).cwiseAbs();
+    const Eigen::Vector3d outside = (q - half).cwiseMax(0.0);
+    const double to_surface = outside.norm() > 0 ? outside.norm() : (half - q).minCoeff();
+    EXPECT_LE(to_surface, std::sqrt(3.0) * m.voxmap_cubes.half + 1e-9) << c.transpose();
+  }
+
+  const ho::OperatorSceneStyle st;
+  hv::PrimitiveList out;
+  ho::build_operator_scene(m, nullptr, st, out);
+  std::size_t cubes = 0;
+  for (const hv::Primitive& p : out.items()) {
+    if (!same(p.rgba, ho::view_colours::kVoxmap)) continue;
+    ++cubes;
+    EXPECT_EQ(p.shape, hv::Shape::kBox);
+    EXPECT_NEAR(p.size.x(), m.voxmap_cubes.half, 1e-12);
+  }
+  EXPECT_EQ(cubes, m.voxmap_cubes.centres.size());
+
+  // Without a voxmap nothing of it is drawn.
+  m.voxmap.reset();
+  ho::update_voxmap_cubes(m, budget);
+  EXPECT_TRUE(m.voxmap_cubes.centres.empty());
+  ho::build_operator_scene(m, nullptr, st, out);
+  EXPECT_EQ(out.size(), 0u);
 }
 
 TEST(OperatorScene, RobotProxyDevicePointAndForce) {
