@@ -14,7 +14,7 @@ namespace {
 
 // No floor (the rig's table is drawn), a headlight and a light from above;
 // the extent sets the clip planes (3 cm .. 150 m).
-constexpr const char* kWorldXml = R"(<mujoco model="hemm_device_view">
+constexpr const char* kDeviceWorldXml = R"(<mujoco model="hemm_device_view">
   <statistic extent="3" center="0 0 0"/>
   <visual>
     <global fovy="45"/>
@@ -80,7 +80,7 @@ void DeviceLiveView::stop() { thread_.stop(); }
 LiveViewStats DeviceLiveView::stats() const { return live_view_stats(counters_, dropped_.load(), thread_); }
 
 void DeviceLiveView::run(const std::atomic<bool>& stop) {
-  view::MjModelPtr model = view::load_model_xml("device_view.xml", kWorldXml);
+  view::MjModelPtr model = view::load_model_xml("device_view.xml", kDeviceWorldXml);
   view::MjDataPtr data = view::make_data(model.get());
   const view::CameraSpec camera = default_device_camera(setup_);
   DeviceViewRecord tick;

@@ -22,7 +22,7 @@ namespace {
 // The view's MuJoCo world: a floor with a 0.5 m grid and a light from above;
 // everything the station knows is drawn into it as primitives. The explicit
 // extent sets the clip planes (0.1 m .. 500 m) for a world with no bodies.
-constexpr const char* kWorldXml = R"(<mujoco model="hemm_operator_view">
+constexpr const char* kStationWorldXml = R"(<mujoco model="hemm_operator_view">
   <statistic extent="10" center="0 0 0"/>
   <visual>
     <global fovy="45"/>
@@ -40,7 +40,7 @@ constexpr const char* kWorldXml = R"(<mujoco model="hemm_operator_view">
 </mujoco>
 )";
 
-view::MjModelPtr load_world() { return view::load_model_xml("operator_view.xml", kWorldXml); }
+view::MjModelPtr load_world() { return view::load_model_xml("operator_view.xml", kStationWorldXml); }
 
 }  // namespace
 

@@ -8,7 +8,7 @@
 namespace hemm::net {
 namespace {
 
-constexpr int64_t kMs = 1'000'000;
+constexpr int64_t kMsNs = 1'000'000;  // one millisecond in ns
 
 PathAddress addr(uint8_t last, uint16_t port) {
   PathAddress a;
@@ -29,10 +29,10 @@ TEST(PathValidation, FirstAddressIsUsedOnlyAfterItsChallengeIsAnswered) {
   // A wrong token, or one of the right length but never sent, validates nothing.
   PathToken wrong = *tok;
   wrong[0] ^= 1;
-  EXPECT_FALSE(v.on_response(wrong, 10 * kMs));
-  EXPECT_FALSE(v.on_response(std::span(tok->data(), 8), 10 * kMs));
+  EXPECT_FALSE(v.on_response(wrong, 10 * kMsNs));
+  EXPECT_FALSE(v.on_response(std::span(tok->data(), 8), 10 * kMsNs));
   EXPECT_EQ(v.counters().responses_unmatched, 2u);
-  ASSERT_EQ(v.on_response(*tok, 20 * kMs), op);
+  ASSERT_EQ(v.on_response(*tok, 20 * kMsNs), op);
   EXPECT_EQ(v.peer(), op);
   EXPECT_EQ(v.counters().validated, 1u);
 }
@@ -40,12 +40,12 @@ TEST(PathValidation, FirstAddressIsUsedOnlyAfterItsChallengeIsAnswered) {
 TEST(PathValidation, CopiesFromAnotherAddressGetNothingWhileThePeerIsAlive) {
   PathValidator v;
   const PathAddress op = addr(1, 5000), attacker = addr(2, 6000);
-  ASSERT_TRUE(v.on_response(*v.on_datagram(op, 0), 1 * kMs));
+  ASSERT_TRUE(v.on_response(*v.on_datagram(op, 0), 1 * kMsNs));
   // The attacker's copies arrive first (new highest), the originals 75 ms
   // later as duplicates: every copy is ignored, no challenge goes out.
-  for (int64_t t = 10 * kMs; t < 10'000 * kMs; t += 5 * kMs) {
+  for (int64_t t = 10 * kMsNs; t < 10'000 * kMsNs; t += 5 * kMsNs) {
     EXPECT_FALSE(v.on_datagram(attacker, t));
-    EXPECT_FALSE(v.on_datagram(op, t + 75 * kMs));
+    EXPECT_FALSE(v.on_datagram(op, t + 75 * kMsNs));
   }
   EXPECT_EQ(v.peer(), op);
   EXPECT_EQ(v.counters().challenges_sent, 1u);
@@ -59,7 +59,7 @@ TEST(PathValidation, AResponseRelayedFromTheAttackersAddressValidatesOnlyTheChal
   PathValidator v;
   const PathAddress op = addr(1, 5000);
   const auto tok = v.on_datagram(op, 0);
-  EXPECT_EQ(v.on_response(*tok, 3 * kMs), op);
+  EXPECT_EQ(v.on_response(*tok, 3 * kMsNs), op);
 }
 
 TEST(PathValidation, AttackerRacingFromTheFirstDatagramCannotWinTheInitialPath) {
@@ -69,48 +69,48 @@ TEST(PathValidation, AttackerRacingFromTheFirstDatagramCannotWinTheInitialPath) 
   // The copy arrives first and is challenged; the original (a duplicate) is
   // challenged too. Only the operator can answer.
   const auto to_attacker = v.on_datagram(attacker, 0);
-  const auto to_op = v.on_datagram(op, 75 * kMs);
+  const auto to_op = v.on_datagram(op, 75 * kMsNs);
   ASSERT_TRUE(to_attacker);
   ASSERT_TRUE(to_op);
-  EXPECT_EQ(v.on_response(*to_op, 150 * kMs), op);
+  EXPECT_EQ(v.on_response(*to_op, 150 * kMsNs), op);
   // The attacker cannot read its token; even if it guessed, the path is held.
-  EXPECT_FALSE(v.on_datagram(attacker, 160 * kMs));
+  EXPECT_FALSE(v.on_datagram(attacker, 160 * kMsNs));
   EXPECT_EQ(v.peer(), op);
 }
 
 TEST(PathValidation, AnOperatorThatMovedIsValidatedAfterItsOldPathWentQuiet) {
   PathValidator v;
-  v.params().quiet_ns = 250 * kMs;
+  v.params().quiet_ns = 250 * kMsNs;
   const PathAddress old_path = addr(1, 5000), new_path = addr(1, 5001);
-  ASSERT_TRUE(v.on_response(*v.on_datagram(old_path, 0), 1 * kMs));
-  EXPECT_FALSE(v.on_datagram(old_path, 100 * kMs));
-  EXPECT_FALSE(v.on_datagram(new_path, 200 * kMs));  // old path heard 100 ms ago
-  const auto tok = v.on_datagram(new_path, 360 * kMs);
+  ASSERT_TRUE(v.on_response(*v.on_datagram(old_path, 0), 1 * kMsNs));
+  EXPECT_FALSE(v.on_datagram(old_path, 100 * kMsNs));
+  EXPECT_FALSE(v.on_datagram(new_path, 200 * kMsNs));  // old path heard 100 ms ago
+  const auto tok = v.on_datagram(new_path, 360 * kMsNs);
   ASSERT_TRUE(tok);
   EXPECT_EQ(v.peer(), old_path);  // still the old one until answered
-  EXPECT_EQ(v.on_response(*tok, 400 * kMs), new_path);
+  EXPECT_EQ(v.on_response(*tok, 400 * kMsNs), new_path);
   EXPECT_EQ(v.counters().validated, 2u);
 }
 
 TEST(PathValidation, ChallengesAreRateLimitedPerCandidateAndInAll) {
   PathValidator v;
-  v.params().first_retry_ns = 1000 * kMs;  // as when a round trip of 500 ms is known
-  v.params().max_retry_ns = 4000 * kMs;
-  v.params().min_interval_ns = 20 * kMs;
+  v.params().first_retry_ns = 1000 * kMsNs;  // as when a round trip of 500 ms is known
+  v.params().max_retry_ns = 4000 * kMsNs;
+  v.params().min_interval_ns = 20 * kMsNs;
   v.params().max_candidates = 4;
   v.params().max_tokens = 8;
   const PathAddress a = addr(9, 1);
   // One candidate sending at 1 kHz for 10 s: challenged at 0, 1, 3, 7 s.
   int to_a = 0;
-  for (int64_t t = 0; t < 10'000 * kMs; t += kMs) to_a += v.on_datagram(a, t).has_value();
+  for (int64_t t = 0; t < 10'000 * kMsNs; t += kMsNs) to_a += v.on_datagram(a, t).has_value();
   EXPECT_EQ(to_a, 4);
   // 1000 distinct candidates in 1 s: at most one challenge per 20 ms.
   PathValidator w;
-  w.params().min_interval_ns = 20 * kMs;
+  w.params().min_interval_ns = 20 * kMsNs;
   w.params().max_candidates = 4;
   w.params().max_tokens = 8;
   int sent = 0;
-  for (int i = 0; i < 1000; ++i) sent += w.on_datagram(addr(10, static_cast<uint16_t>(i)), i * kMs).has_value();
+  for (int i = 0; i < 1000; ++i) sent += w.on_datagram(addr(10, static_cast<uint16_t>(i)), i * kMsNs).has_value();
   EXPECT_LE(sent, 51);
   EXPECT_GE(sent, 40);
   EXPECT_GT(w.counters().rate_limited, 900u);
@@ -118,18 +118,18 @@ TEST(PathValidation, ChallengesAreRateLimitedPerCandidateAndInAll) {
 
 TEST(PathValidation, ExpiredAndEvictedTokensValidateNothing) {
   PathValidator v;
-  v.params().token_lifetime_ns = 1000 * kMs;
+  v.params().token_lifetime_ns = 1000 * kMsNs;
   v.params().min_interval_ns = 0;
   v.params().max_tokens = 2;
   const auto t1 = v.on_datagram(addr(1, 1), 0);
   ASSERT_TRUE(t1);
-  EXPECT_FALSE(v.on_response(*t1, 1001 * kMs));  // expired
+  EXPECT_FALSE(v.on_response(*t1, 1001 * kMsNs));  // expired
   const auto t2 = v.on_datagram(addr(1, 2), 0);
   const auto t3 = v.on_datagram(addr(1, 3), 0);
   const auto t4 = v.on_datagram(addr(1, 4), 0);  // evicts t2 (t1 was evicted by t3)
   ASSERT_TRUE(t2 && t3 && t4);
-  EXPECT_FALSE(v.on_response(*t2, 10 * kMs));
-  EXPECT_EQ(v.on_response(*t4, 10 * kMs), addr(1, 4));
+  EXPECT_FALSE(v.on_response(*t2, 10 * kMsNs));
+  EXPECT_EQ(v.on_response(*t4, 10 * kMsNs), addr(1, 4));
   EXPECT_EQ(v.counters().responses_unmatched, 2u);
 }
 

@@ -26,26 +26,26 @@ std::vector<uint8_t> dgram(uint64_t seq, bool ping, const Key& k = kKey, uint64_
   return d;
 }
 
-using V = StreamReceiver::Verdict;
+using ReceiverVerdict = StreamReceiver::Verdict;
 
 TEST(StreamReceiverTest, CountsLossReorderLateAndDuplicates) {
   StreamReceiver r(64);
   r.open(kSession, kKey);
   DatagramHeader h;
   wire::StreamMessage m;
-  EXPECT_EQ(r.receive(dgram(1, true), &h, &m), V::kDeliver);
+  EXPECT_EQ(r.receive(dgram(1, true), &h, &m), ReceiverVerdict::kDeliver);
   EXPECT_TRUE(m.has_ping());
-  EXPECT_EQ(r.receive(dgram(2, false), &h, &m), V::kDeliver);
+  EXPECT_EQ(r.receive(dgram(2, false), &h, &m), ReceiverVerdict::kDeliver);
   // 3, 4 missing.
-  EXPECT_EQ(r.receive(dgram(5, true), &h, &m), V::kDeliver);
+  EXPECT_EQ(r.receive(dgram(5, true), &h, &m), ReceiverVerdict::kDeliver);
   EXPECT_EQ(r.counters().lost, 2u);
   // 3 is a heartbeat: reordered but newer than the newest heartbeat (2): delivered.
-  EXPECT_EQ(r.receive(dgram(3, false), &h, &m), V::kDeliver);
+  EXPECT_EQ(r.receive(dgram(3, false), &h, &m), ReceiverVerdict::kDeliver);
   EXPECT_EQ(r.counters().lost, 1u);
   // 4 is a ping older than ping 5: late, not delivered.
-  EXPECT_EQ(r.receive(dgram(4, true), &h, &m), V::kLate);
+  EXPECT_EQ(r.receive(dgram(4, true), &h, &m), ReceiverVerdict::kLate);
   EXPECT_EQ(r.counters().lost, 0u);
-  EXPECT_EQ(r.receive(dgram(5, true), &h, &m), V::kDuplicate);
+  EXPECT_EQ(r.receive(dgram(5, true), &h, &m), ReceiverVerdict::kDuplicate);
   const auto& c = r.counters();
   EXPECT_EQ(c.received, 6u);
   EXPECT_EQ(c.delivered, 4u);
@@ -60,25 +60,25 @@ TEST(StreamReceiverTest, RejectionsAreCountedByCauseAndChangeNoState) {
   r.open(kSession, kKey);
   DatagramHeader h;
   wire::StreamMessage m;
-  ASSERT_EQ(r.receive(dgram(100, true), &h, &m), V::kDeliver);
+  ASSERT_EQ(r.receive(dgram(100, true), &h, &m), ReceiverVerdict::kDeliver);
   Key other = kKey;
   other[0] ^= 1;
   // A forged datagram with a fresh sequence number must not advance the window.
-  EXPECT_EQ(r.receive(dgram(101, true, other), &h, &m), V::kRejected);
-  EXPECT_EQ(r.receive(dgram(101, true, kKey, kSession + 1), &h, &m), V::kRejected);
-  EXPECT_EQ(r.receive(dgram(20, true), &h, &m), V::kRejected);  // behind the 64 window
+  EXPECT_EQ(r.receive(dgram(101, true, other), &h, &m), ReceiverVerdict::kRejected);
+  EXPECT_EQ(r.receive(dgram(101, true, kKey, kSession + 1), &h, &m), ReceiverVerdict::kRejected);
+  EXPECT_EQ(r.receive(dgram(20, true), &h, &m), ReceiverVerdict::kRejected);  // behind the 64 window
   auto bad_version = dgram(102, true);
   bad_version[2] = 9;
-  EXPECT_EQ(r.receive(bad_version, &h, &m), V::kRejected);
-  EXPECT_EQ(r.receive(std::vector<uint8_t>(10, 0), &h, &m), V::kRejected);
+  EXPECT_EQ(r.receive(bad_version, &h, &m), ReceiverVerdict::kRejected);
+  EXPECT_EQ(r.receive(std::vector<uint8_t>(10, 0), &h, &m), ReceiverVerdict::kRejected);
   auto bad_magic = dgram(102, true);
   bad_magic[0] = 0;
-  EXPECT_EQ(r.receive(bad_magic, &h, &m), V::kRejected);
+  EXPECT_EQ(r.receive(bad_magic, &h, &m), ReceiverVerdict::kRejected);
   // Authenticated but not a StreamMessage.
   std::vector<uint8_t> junk;
   const uint8_t garbage[3] = {0xff, 0xff, 0xff};
   encode_datagram(kKey, DatagramHeader{kSession, 103, 0}, garbage, &junk);
-  EXPECT_EQ(r.receive(junk, &h, &m), V::kRejected);
+  EXPECT_EQ(r.receive(junk, &h, &m), ReceiverVerdict::kRejected);
   const auto& c = r.counters();
   EXPECT_EQ(c.rejected_bad_tag, 1u);
   EXPECT_EQ(c.rejected_unknown_session, 1u);
@@ -89,18 +89,18 @@ TEST(StreamReceiverTest, RejectionsAreCountedByCauseAndChangeNoState) {
   EXPECT_EQ(c.rejected_bad_payload, 1u);
   EXPECT_EQ(c.delivered, 1u);
   // 101 is still fresh: the forgeries did not consume it.
-  EXPECT_EQ(r.receive(dgram(101, false), &h, &m), V::kDeliver);
+  EXPECT_EQ(r.receive(dgram(101, false), &h, &m), ReceiverVerdict::kDeliver);
 }
 
 TEST(StreamReceiverTest, ClosedReceiverAcceptsNothing) {
   StreamReceiver r(64);
   DatagramHeader h;
   wire::StreamMessage m;
-  EXPECT_EQ(r.receive(dgram(1, true), &h, &m), V::kRejected);
+  EXPECT_EQ(r.receive(dgram(1, true), &h, &m), ReceiverVerdict::kRejected);
   r.open(kSession, kKey);
-  EXPECT_EQ(r.receive(dgram(1, true), &h, &m), V::kDeliver);
+  EXPECT_EQ(r.receive(dgram(1, true), &h, &m), ReceiverVerdict::kDeliver);
   r.close();
-  EXPECT_EQ(r.receive(dgram(2, true), &h, &m), V::kRejected);
+  EXPECT_EQ(r.receive(dgram(2, true), &h, &m), ReceiverVerdict::kRejected);
   EXPECT_EQ(r.counters().rejected_unknown_session, 2u);
 }
 
