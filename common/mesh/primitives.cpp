@@ -66,6 +66,30 @@ TriangleMesh make_uv_sphere(double radius, int slices, int stacks) {
   return m;
 }
 
+TriangleMesh make_cylinder(double radius, double half_height, int slices) {
+  TriangleMesh m;
+  const double pi = std::numbers::pi;
+  for (int j = 0; j < slices; ++j) {
+    const double ph = 2 * pi * j / slices;
+    const Eigen::Vector2d c(radius * std::cos(ph), radius * std::sin(ph));
+    m.vertices.push_back({c.x(), c.y(), -half_height});
+    m.vertices.push_back({c.x(), c.y(), half_height});
+  }
+  const auto bottom = static_cast<std::uint32_t>(m.vertices.size());
+  m.vertices.push_back({0, 0, -half_height});
+  m.vertices.push_back({0, 0, half_height});
+  const std::uint32_t top = bottom + 1;
+  auto lo = [&](int j) { return static_cast<std::uint32_t>(2 * (j % slices)); };
+  auto hi = [&](int j) { return static_cast<std::uint32_t>(2 * (j % slices) + 1); };
+  for (int j = 0; j < slices; ++j) {
+    m.triangles.push_back({lo(j), lo(j + 1), hi(j + 1)});  // side, outward
+    m.triangles.push_back({lo(j), hi(j + 1), hi(j)});
+    m.triangles.push_back({top, hi(j), hi(j + 1)});        // top cap, +z
+    m.triangles.push_back({bottom, lo(j + 1), lo(j)});     // bottom cap, -z
+  }
+  return m;
+}
+
 TriangleMesh make_box(const Eigen::Vector3d& h, int n) {
   TriangleMesh m;
   // For each face: normal axis a, sign s; grid over the other two axes (u, v)

@@ -56,7 +56,8 @@ bool load_scene_slice(const std::string& path, double z, SceneSlice* out, std::s
 // inside a region of W as triangle meshes (frame W), one closed mesh per
 // geom, to be voxelised exactly (vps::build_voxmap) and probed along the
 // same path as the live model. Static as above. Boxes (any orientation) are
-// meshed exactly; other shapes that reach the region are reported in
+// meshed exactly, cylinders and spheres within 0.03 % of their radius; other
+// shapes that reach the region are reported in
 // `skipped`, never dropped silently; planes (the floor) and geoms outside the
 // region go to `off_region`.
 struct SceneMeshPart {

@@ -31,6 +31,13 @@ TEST(MeshValidate, ClosedPrimitivesAreWatertightWithExactVolume) {
                              {}, &out, &r));
   EXPECT_TRUE(r.watertight());
   EXPECT_NEAR(r.signed_volume, 3.0, 1e-12);
+  // A 64-sided prism: volume and area of the polygon, exactly.
+  const int n = 64;
+  const double rc = 0.04, hh = 0.05, poly = 0.5 * n * rc * rc * std::sin(2 * std::numbers::pi / n);
+  ASSERT_FALSE(validate_mesh(make_cylinder(rc, hh, n), {}, &out, &r));
+  EXPECT_TRUE(r.watertight());
+  EXPECT_NEAR(r.signed_volume, poly * 2 * hh, 1e-12);
+  EXPECT_NEAR(r.area, 2 * poly + n * 2 * rc * std::sin(std::numbers::pi / n) * 2 * hh, 1e-12);
 }
 
 TEST(MeshValidate, FlagsOpenNonManifoldInconsistentAndFlipsInsideOut) {

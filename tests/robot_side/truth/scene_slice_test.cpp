@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <set>
 
 #include <gtest/gtest.h>
@@ -143,25 +144,51 @@ TEST(SceneSlice, BadInputs) {
   EXPECT_DOUBLE_EQ(s.height, -7.0);
 }
 
-// The truth meshes of the 3D probe: home.xml's table top, exactly, and its
-// cylinder legs reported as skipped (not dropped).
-TEST(SceneMeshes, HomeTableTopIsMeshedAndTheLegsAreReported) {
+// The truth meshes of the 3D probe: home.xml's table top and the objects on
+// it, exactly (boxes) or within 0.03 % of the radius (cylinders), placed as
+// the MJCF says; an ellipsoid is reported as skipped (not dropped).
+TEST(SceneMeshes, HomeTableAndItsObjectsAreMeshedWhereTheSceneSays) {
   SceneMeshes m;
   std::string err;
   const Eigen::AlignedBox3d region(Eigen::Vector3d(0.8, 1.5, 0.6), Eigen::Vector3d(2.2, 2.5, 0.9));
   ASSERT_TRUE(load_scene_meshes(HEMM_SOURCE_DIR "/deploy/scenes/home.xml", region, &m, &err)) << err;
-  ASSERT_EQ(m.parts.size(), 1u);
-  EXPECT_EQ(m.parts[0].name, "table_top");
-  Eigen::AlignedBox3d box;
-  for (const Eigen::Vector3d& v : m.parts[0].mesh.vertices) box.extend(v);
-  // MJCF: body at (1.5, 2.0, 0), geom at z 0.73, half sizes 0.6 0.4 0.02.
-  EXPECT_LT((box.min() - Eigen::Vector3d(0.9, 1.6, 0.71)).norm(), 1e-9);
-  EXPECT_LT((box.max() - Eigen::Vector3d(2.1, 2.4, 0.75)).norm(), 1e-9);
-  std::set<std::string> skipped;
-  for (const auto& e : m.skipped) skipped.insert(e.name);
-  EXPECT_EQ(skipped.count("table_leg1"), 1u);
+  std::map<std::string, Eigen::AlignedBox3d> boxes;
+  for (const auto& p : m.parts)
+    for (const Eigen::Vector3d& v : p.mesh.vertices) boxes[p.name].extend(v);
+  // MJCF: body at (1.5, 2.0, 0); top at z 0.73, half sizes 0.6 0.4 0.02.
+  ASSERT_EQ(boxes.count("table_top"), 1u);
+  EXPECT_LT((boxes["table_top"].min() - Eigen::Vector3d(0.9, 1.6, 0.71)).norm(), 1e-9);
+  EXPECT_LT((boxes["table_top"].max() - Eigen::Vector3d(2.1, 2.4, 0.75)).norm(), 1e-9);
+  ASSERT_EQ(boxes.count("table_block"), 1u);
+  EXPECT_LT((boxes["table_block"].min() - Eigen::Vector3d(1.70, 1.80, 0.75)).norm(), 1e-9);
+  EXPECT_LT((boxes["table_block"].max() - Eigen::Vector3d(1.80, 1.90, 0.85)).norm(), 1e-9);
+  // The mug (r 0.04, half height 0.05 at (1.6, 2.2, 0.8)): 128 vertices on the circle.
+  ASSERT_EQ(boxes.count("table_mug"), 1u);
+  EXPECT_LT((boxes["table_mug"].min() - Eigen::Vector3d(1.56, 2.16, 0.75)).norm(), 1e-9);
+  EXPECT_LT((boxes["table_mug"].max() - Eigen::Vector3d(1.64, 2.24, 0.85)).norm(), 1e-9);
+  // The legs reach into the region (z up to 0.72) and are cylinders too.
+  EXPECT_EQ(boxes.count("table_leg1"), 1u);
+  EXPECT_EQ(boxes.count("table_book"), 1u);
+  EXPECT_TRUE(m.skipped.empty());
+
+  // A shape that cannot be meshed is reported, not dropped.
+  const std::string path = ::testing::TempDir() + "/scene_meshes_ellipsoid.xml";
+  {
+    std::ofstream f(path);
+    f << "<mujoco><worldbody><geom name=\"egg\" type=\"ellipsoid\" size=\"0.1 0.2 0.3\" pos=\"0 0 1\"/>"
+         "<geom name=\"cube\" type=\"box\" size=\"0.1 0.1 0.1\" pos=\"0 0 1\"/></worldbody></mujoco>";
+  }
+  SceneMeshes e;
+  ASSERT_TRUE(load_scene_meshes(path, Eigen::AlignedBox3d(Eigen::Vector3d(-1, -1, 0), Eigen::Vector3d(1, 1, 2)), &e,
+                                &err)) << err;
+  ASSERT_EQ(e.skipped.size(), 1u);
+  EXPECT_EQ(e.skipped[0].name, "egg");
+  ASSERT_EQ(e.parts.size(), 1u);
+  EXPECT_EQ(e.parts[0].name, "cube");
+
+  const std::size_t parts = m.parts.size();
   EXPECT_FALSE(load_scene_meshes("/nonexistent/scene.xml", region, &m, &err));
-  EXPECT_EQ(m.parts.size(), 1u);  // untouched on error
+  EXPECT_EQ(m.parts.size(), parts);  // untouched on error
 }
 
 TEST(SceneSlice, HomeSceneKnownFacts) {
