@@ -33,6 +33,7 @@
 #include "common/clock/steady_clock.h"
 #include "common/haptics/vps/point_probe.h"
 #include "common/haptics/vps/voxmap.h"
+#include "common/mesh/triangle_mesh.h"
 #include "common/net/relay/relay.h"
 #include "config_operator.pb.h"
 #include "config_robot.pb.h"
@@ -140,14 +141,16 @@ TEST_P(Probe3dLoopback, ProbeRestsOnTheTrueTableTopAndTheServoHoldsItsPeriod) {
   ho::apply_probe3d_config(ocfg.probe_3d(), &so);
   // The hand: stylus centred (the probe 10 cm above the top) while the
   // voxmap fills, pressed 1.5 cm (W) below the top, held, slid 0.15 m along
-  // it (B y: across the robot's view), held, lifted.
+  // it (B -y: across the robot's view, toward W +x, ending 4 cm before the
+  // block; toward -x it would end 5 mm from the book's side, within one
+  // 1 cm voxel of that concave corner, a different test), held, lifted.
   const double scale = so.task.probe3d_range / hemm::math::horizontal_half_extent(so.task.workspace);
   const Eigen::Matrix3d R_H_B = ho::R_B_H().transpose();
   const Eigen::Vector3d c_H = R_H_B * so.task.workspace.centre_B;
   const double z_top_nominal = 0.75, press_W = 0.015;
   const double down_B = (so.task.probe3d_origin_R.z() - (z_top_nominal - press_W)) / scale;
   const Eigen::Vector3d pressed_H = c_H + R_H_B * Eigen::Vector3d(0, 0, -down_B);
-  const Eigen::Vector3d slid_H = pressed_H + R_H_B * Eigen::Vector3d(0, 0.15 / scale, 0);
+  const Eigen::Vector3d slid_H = pressed_H + R_H_B * Eigen::Vector3d(0, -0.15 / scale, 0);
   so.hand = std::make_shared<hemm::device::WaypointScript>(std::vector<hemm::device::Waypoint>{
       {0.0, c_H, 0}, {4.0, c_H, 0}, {5.0, pressed_H, 0}, {6.0, pressed_H, 0}, {8.0, slid_H, 0}, {8.5, slid_H, 0},
       {9.0, c_H, 0}});
@@ -210,7 +213,8 @@ TEST_P(Probe3dLoopback, ProbeRestsOnTheTrueTableTopAndTheServoHoldsItsPeriod) {
   }
   EXPECT_NEAR(sum.timing.period.median_us, 1000.0, 100.0);
 
-  // Simulation truth: the table top from the MJCF, meshed and voxelised exactly.
+  // Simulation truth: the table and the objects on it from the MJCF, meshed
+  // and voxelised exactly (the slide ends 1 cm from the book's side).
   const Eigen::AlignedBox3d region(Eigen::Vector3d(0.8, 1.5, 0.6), Eigen::Vector3d(2.2, 2.5, 0.9));
   hr::SceneMeshes truth_meshes;
   ASSERT_TRUE(hr::load_scene_meshes(kScene, region, &truth_meshes, &err)) << err;
@@ -224,8 +228,10 @@ TEST_P(Probe3dLoopback, ProbeRestsOnTheTrueTableTopAndTheServoHoldsItsPeriod) {
   vps::VoxmapParams vp;
   vp.voxel_size = 0.0025;
   vp.layers_out = vp.layers_in = 8;
+  hemm::mesh::TriangleMesh scene;
+  for (const auto& p : truth_meshes.parts) hemm::mesh::append_mesh(&scene, p.mesh);
   vps::Voxmap truth;
-  ASSERT_FALSE(vps::build_voxmap(top->mesh, vp, &truth, nullptr));
+  ASSERT_FALSE(vps::build_voxmap(scene, vp, &truth, nullptr));
 
   const auto rows = read_world_log(so.log_path + ".world.csv");
   ASSERT_GT(rows.size(), 5000u);
