@@ -24,7 +24,7 @@ jobs="${HEMM_JOBS:-$(nproc)}"
 
 # ------------------------------------------------------------------ install
 packages=(
-  build-essential cmake ninja-build pkg-config ccache clang libclang-rt-14-dev
+  build-essential cmake ninja-build pkg-config ccache clang libclang-rt-14-dev lld
   libasio-dev libprotobuf-dev protobuf-compiler libeigen3-dev libpcl-dev libmujoco-dev
   libsodium-dev libassimp-dev libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev
   libspdlog-dev libfcl-dev python3-matplotlib
