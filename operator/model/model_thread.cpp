@@ -339,6 +339,27 @@ void ModelThread::step_voxmap(std::int64_t now_ns) {
   std::uint64_t integrated = 0;
   std::shared_ptr<const wire::DepthChunk> m;
   while (depth_.try_pop(m)) {
+    const std::uint64_t epoch = m->frame_epoch();
+    if (epoch != 0 && epoch != voxmap_epoch_) {
+      if (std::find(voxmap_retired_epochs_.begin(), voxmap_retired_epochs_.end(), epoch) != voxmap_retired_epochs_.end()) {
+        ++st.old_epoch_chunks;  // a robot that has restarted since
+        m.reset();
+        continue;
+      }
+      if (voxmap_epoch_ != 0) {
+        // The robot restarted: its W is new, what the voxmap holds is in the old one.
+        std::rotate(voxmap_retired_epochs_.rbegin(), voxmap_retired_epochs_.rbegin() + 1, voxmap_retired_epochs_.rend());
+        voxmap_retired_epochs_[0] = voxmap_epoch_;
+        *voxmap_ = mapping::LiveVoxmap(voxmap_->params());
+        depth_rx_.restart();
+        voxmap_dirty_ = false;
+        ++st.restarts;
+        std::shared_ptr<const vps::Voxmap> retired;  // released after the lock
+        std::lock_guard<std::mutex> lock(voxmap_mu_);
+        retired = std::exchange(voxmap_published_, nullptr);
+      }
+      voxmap_epoch_ = epoch;
+    }
     const auto verdict = depth_rx_.receive(*m, offset_ns, &depth_chunk_);
     m.reset();
     if (verdict != mapping::DepthStreamReceiver::Verdict::kAccepted) continue;

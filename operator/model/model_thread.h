@@ -31,9 +31,10 @@
 // kRobot; at voxmap_rate_hz, when chunks came in, its signed
 // vps::Voxmap is rebuilt on a voxmap thread of its own (never on the servo
 // thread, and not holding up the 2D map) and every snapshot carries the
-// newest one as a shared_ptr (freed off the servo thread when retired). The
-// chunks carry no frame epoch yet: a restarted robot's clouds go into the
-// same voxmap.
+// newest one as a shared_ptr (freed off the servo thread when retired). A
+// chunk of a new frame epoch (a restarted robot, its W anew) clears the
+// voxmap and the stream's newest-cloud filter; chunks of an epoch replaced so
+// (late or reordered) are dropped and counted.
 //
 // Robot restarts. The robot stamps its states and scans with its frame
 // epoch (random per start of its odometry frame W). An epoch the model has
@@ -144,6 +145,8 @@ struct VoxmapStats {
   double last_integrate_ms = 0.0, max_integrate_ms = 0.0;  // one step's chunks
   double last_build_ms = 0.0, max_build_ms = 0.0;
   std::uint64_t roi_moves = 0;          // times the region of interest was moved
+  std::uint64_t restarts = 0;           // cleared for a restarted robot (new frame epoch)
+  std::uint64_t old_epoch_chunks = 0;   // chunks of a robot that restarted since: dropped
   bool roi_on_probe = false;            // the ROI is around the probe (else ahead of the robot)
 };
 
@@ -291,6 +294,8 @@ class ModelThread {
   bool voxmap_dirty_ = false, voxmap_roi_set_ = false;
   math::Pose2 voxmap_roi_pose_;
   std::optional<Eigen::AlignedBox3d> probe_roi_;  // the ROI around the probe, while it is followed
+  std::uint64_t voxmap_epoch_ = 0;                // the frame epoch of the chunks in the voxmap (0: none yet)
+  std::array<std::uint64_t, 4> voxmap_retired_epochs_{};
   std::int64_t voxmap_next_build_ns_ = 0;
   VoxmapStats voxmap_stats_;          // voxmap work only
   VoxmapStats voxmap_stats_out_;      // under stats_mutex_

@@ -65,6 +65,7 @@ enum Face { kAir = 0, kTop = 1, kFacing = 2, kGrazing = 3 };
 struct Path {
   std::vector<Eigen::Vector3d> goal;  // W, one per 1 kHz tick
   std::vector<Face> face;
+  std::vector<std::string> surface;   // which one ("" in the air)
 };
 
 // The path: waypoints (x, y, z in W), the seconds to reach each from the one
@@ -75,46 +76,47 @@ Path probe_path() {
   struct Wp {
     double x, y, z, s;
     Face face;
+    const char* surface;  // "" in the air
   };
   const double top = 0.75, block = 0.85, book = 0.78;
   const double side_z = 0.80, book_side_z = 0.767;  // probe centres beside the block / the book
   const Wp w[] = {
-      {1.50, 1.70, 0.80, 0.0, kAir},
-      {1.50, 1.70, 0.80, 0.3, kAir},                          // hold above the table
-      {1.50, 1.70, top + kRho - kPress, 0.5, kTop},           // press onto the table top
-      {1.62, 1.70, top + kRho - kPress, 1.2, kTop},           // slide along it
-      {1.62, 1.70, side_z, 0.3, kTop},                        // lift
-      {1.73, 1.74, side_z, 0.6, kAir},                        // before the block's -y face (y 1.80)
-      {1.73, 1.80 - kRho + kPress, side_z, 0.5, kFacing},     // press into it
-      {1.77, 1.80 - kRho + kPress, side_z, 0.8, kFacing},     // slide along it
-      {1.77, 1.74, side_z, 0.3, kFacing},                     // back off
-      {1.77, 1.74, 0.90, 0.4, kAir},                          // up
-      {1.75, 1.83, 0.90, 0.5, kAir},                          // over the block's top
-      {1.75, 1.83, block + kRho - kPress, 0.5, kTop},         // press onto it
-      {1.75, 1.87, block + kRho - kPress, 0.8, kTop},         // slide along it
-      {1.75, 1.87, 0.90, 0.3, kTop},                          // lift
-      {1.64, 1.85, 0.90, 0.6, kAir},                          // before the block's -x face (x 1.70)
-      {1.64, 1.85, side_z, 0.5, kAir},                        // down
-      {1.70 - kRho + kPress, 1.85, side_z, 0.5, kGrazing},    // press into it
-      {1.70 - kRho + kPress, 1.88, side_z, 0.6, kGrazing},    // slide along it
-      {1.64, 1.88, side_z, 0.3, kGrazing},                    // back off
-      {1.64, 1.88, 0.86, 0.3, kAir},                          // up
-      {1.40, 1.85, 0.86, 1.0, kAir},                          // before the book's +x face (x 1.34)
-      {1.40, 1.85, book_side_z, 0.5, kAir},                   // down beside it
-      {1.34 + kRho - kPress, 1.85, book_side_z, 0.5, kGrazing},  // press into it
-      {1.34 + kRho - kPress, 1.82, book_side_z, 0.6, kGrazing},  // slide along it
-      {1.40, 1.82, book_side_z, 0.3, kGrazing},               // back off
-      {1.40, 1.82, 0.83, 0.3, kAir},                          // up
-      {1.25, 1.83, 0.83, 0.6, kAir},                          // over the book's top
-      {1.25, 1.83, book + kRho - kPress, 0.5, kTop},          // press onto it
-      {1.20, 1.87, book + kRho - kPress, 0.8, kTop},          // slide along it
-      {1.20, 1.87, 0.83, 0.3, kTop},                          // lift
-      {1.25, 1.74, 0.83, 0.6, kAir},                          // before the book's -y face (y 1.785)
-      {1.25, 1.74, book_side_z, 0.5, kAir},                   // down
-      {1.25, 1.785 - kRho + kPress, book_side_z, 0.5, kFacing},  // press into it
-      {1.30, 1.785 - kRho + kPress, book_side_z, 0.6, kFacing},  // slide along it
-      {1.30, 1.74, book_side_z, 0.3, kFacing},                // back off
-      {1.30, 1.74, 0.85, 0.4, kAir},                          // up
+      {1.50, 1.70, 0.80, 0.0, kAir, ""},
+      {1.50, 1.70, 0.80, 0.3, kAir, ""},                              // hold above the table
+      {1.50, 1.70, top + kRho - kPress, 0.5, kTop, "table top"},      // press onto the table top
+      {1.62, 1.70, top + kRho - kPress, 1.2, kTop, "table top"},      // slide along it
+      {1.62, 1.70, side_z, 0.3, kTop, "table top"},                   // lift
+      {1.73, 1.74, side_z, 0.6, kAir, ""},                            // before the block's -y face (y 1.80)
+      {1.73, 1.80 - kRho + kPress, side_z, 0.5, kFacing, "block -y side"},// press into it
+      {1.77, 1.80 - kRho + kPress, side_z, 0.8, kFacing, "block -y side"},// slide along it
+      {1.77, 1.74, side_z, 0.3, kFacing, "block -y side"},            // back off
+      {1.77, 1.74, 0.90, 0.4, kAir, ""},                              // up
+      {1.75, 1.83, 0.90, 0.5, kAir, ""},                              // over the block's top
+      {1.75, 1.83, block + kRho - kPress, 0.5, kTop, "block top"},    // press onto it
+      {1.75, 1.87, block + kRho - kPress, 0.8, kTop, "block top"},    // slide along it
+      {1.75, 1.87, 0.90, 0.3, kTop, "block top"},                     // lift
+      {1.64, 1.85, 0.90, 0.6, kAir, ""},                              // before the block's -x face (x 1.70)
+      {1.64, 1.85, side_z, 0.5, kAir, ""},                            // down
+      {1.70 - kRho + kPress, 1.85, side_z, 0.5, kGrazing, "block -x side"},// press into it
+      {1.70 - kRho + kPress, 1.88, side_z, 0.6, kGrazing, "block -x side"},// slide along it
+      {1.64, 1.88, side_z, 0.3, kGrazing, "block -x side"},           // back off
+      {1.64, 1.88, 0.86, 0.3, kAir, ""},                              // up
+      {1.40, 1.85, 0.86, 1.0, kAir, ""},                              // before the book's +x face (x 1.34)
+      {1.40, 1.85, book_side_z, 0.5, kAir, ""},                       // down beside it
+      {1.34 + kRho - kPress, 1.85, book_side_z, 0.5, kGrazing, "book +x side"},// press into it
+      {1.34 + kRho - kPress, 1.82, book_side_z, 0.6, kGrazing, "book +x side"},// slide along it
+      {1.40, 1.82, book_side_z, 0.3, kGrazing, "book +x side"},       // back off
+      {1.40, 1.82, 0.83, 0.3, kAir, ""},                              // up
+      {1.25, 1.83, 0.83, 0.6, kAir, ""},                              // over the book's top
+      {1.25, 1.83, book + kRho - kPress, 0.5, kTop, "book top"},      // press onto it
+      {1.20, 1.87, book + kRho - kPress, 0.8, kTop, "book top"},      // slide along it
+      {1.20, 1.87, 0.83, 0.3, kTop, "book top"},                      // lift
+      {1.25, 1.74, 0.83, 0.6, kAir, ""},                              // before the book's -y face (y 1.785)
+      {1.25, 1.74, book_side_z, 0.5, kAir, ""},                       // down
+      {1.25, 1.785 - kRho + kPress, book_side_z, 0.5, kFacing, "book -y side"},// press into it
+      {1.30, 1.785 - kRho + kPress, book_side_z, 0.6, kFacing, "book -y side"},// slide along it
+      {1.30, 1.74, book_side_z, 0.3, kFacing, "book -y side"},        // back off
+      {1.30, 1.74, 0.85, 0.4, kAir, ""},                              // up
   };
   Path out;
   for (std::size_t i = 1; i < std::size(w); ++i) {
@@ -123,6 +125,7 @@ Path probe_path() {
     for (int k = 1; k <= n; ++k) {
       out.goal.push_back(a + (b - a) * (static_cast<double>(k) / n));
       out.face.push_back(w[i].face);
+      out.surface.emplace_back(w[i].surface);
     }
   }
   return out;
@@ -150,10 +153,22 @@ struct ForceError {
   double sum2[4] = {0, 0, 0, 0};
   std::size_t n[4] = {0, 0, 0, 0};
   double max = 0.0;
-  void add(Face f, double e) {
+  // By surface, in path order: name, sum of squares, ticks, max.
+  struct Surface {
+    std::string name;
+    double sum2 = 0.0, max = 0.0;
+    std::size_t n = 0;
+  };
+  std::vector<Surface> surfaces;
+  void add(Face f, double e, const std::string& surface = {}) {
     sum2[f] += e * e;
     ++n[f];
     max = std::max(max, e);
+    if (surface.empty()) return;
+    if (surfaces.empty() || surfaces.back().name != surface) surfaces.push_back({surface});
+    surfaces.back().sum2 += e * e;
+    surfaces.back().max = std::max(surfaces.back().max, e);
+    ++surfaces.back().n;
   }
   std::size_t ticks() const { return n[0] + n[1] + n[2] + n[3]; }
   double rms(int f) const { return n[f] > 0 ? std::sqrt(sum2[f] / static_cast<double>(n[f])) : 0.0; }
@@ -180,7 +195,7 @@ ForceError path_error(const vps::Voxmap* vm, const Path& path, const Truth& trut
                    d.contact ? 1 : 0, tp.x(), tp.y(), tp.z(), tf.x(), tf.y(), tf.z(), truth.contact[i]);
     }
     if (!d.contact && truth.contact[i] == 0) continue;
-    e.add(path.face[i], (d.force_W - truth.force[i]).norm());
+    e.add(path.face[i], (d.force_W - truth.force[i]).norm(), path.surface[i]);
   }
   return e;
 }
@@ -218,13 +233,15 @@ int main(int argc, char** argv) {
     return 1;
   }
   hemm::mesh::TriangleMesh scene;
-  std::vector<const hemm::mesh::TriangleMesh*> parts;
+  std::vector<const hemm::mesh::TriangleMesh*> parts;  // the table top first (see load_scene_meshes' order)
+  std::vector<std::string> meshes_names;
   for (const auto& p : meshes.parts) {
     if (p.name != "table_top" && p.name != "table_block" && p.name != "table_book" && p.name != "table_mug") continue;
     hemm::mesh::append_mesh(&scene, p.mesh);
     parts.push_back(&p.mesh);
+    meshes_names.push_back(p.name);
   }
-  if (parts.size() != 4) {
+  if (parts.size() != 4 || meshes_names[0] != "table_top") {
     std::fprintf(stderr, "truth: expected the table top and three objects, found %zu\n", parts.size());
     return 1;
   }
@@ -380,6 +397,19 @@ int main(int argc, char** argv) {
   hr::VisibleSurfaceParams vsp;
   vsp.region = ahead;
   const std::vector<Eigen::Vector3d> visible = hr::visible_surface_samples(parts, first.K, T_W_S, vsp);
+  // The samples of each part (by its bounds: the objects stand on the top,
+  // whose bounds end at z 0.75 where their hidden bottoms are).
+  std::vector<std::vector<Eigen::Vector3d>> visible_of(parts.size());
+  for (const Eigen::Vector3d& x : visible) {
+    for (std::size_t j = parts.size(); j-- > 0;) {
+      Eigen::AlignedBox3d b;
+      for (const Eigen::Vector3d& v : parts[j]->vertices) b.extend(v);
+      if (b.contains(x) || j == 0) {
+        visible_of[j].push_back(x);
+        break;
+      }
+    }
+  }
   std::printf("\ncoverage: %zu truly visible samples (%.0f per m^2) on the table top and objects\n", visible.size(),
               vsp.density);
   const std::string csv_path = out_dir + "/voxmap_coverage.csv";
@@ -422,6 +452,16 @@ int main(int argc, char** argv) {
       std::fprintf(csv, "%.2f,%.4f,%zu,%.5f,%.5f,%.5f,%zu,%zu,%.5f,%.5f,%.5f\n", drop, chunks[k].t_s, integrated, cov,
                    fe.rms(), fe.max, fe.ticks(), map.cells(), fe.rms(kTop), fe.rms(kFacing), fe.rms(kGrazing));
       rows.push_back({chunks[k].t_s, cov, fe.rms(), fe.rms(kTop)});
+      if (last && ok) {
+        std::printf("at %.2f s without loss, force error rms / max by surface:", chunks[k].t_s);
+        for (const auto& sf : fe.surfaces)
+          std::printf(" %s %.3f / %.3f N,", sf.name.c_str(), std::sqrt(sf.sum2 / static_cast<double>(sf.n)), sf.max);
+        std::printf("\ncovered:");
+        for (std::size_t j = 0; j < parts.size(); ++j)
+          std::printf(" %s %.1f %% of %zu,", meshes_names[j].c_str(), 100.0 * hr::surface_coverage(vm, visible_of[j]),
+                      visible_of[j].size());
+        std::printf("\n");
+      }
     }
     auto at = [&](double t) {
       const Row* best = rows.empty() ? nullptr : &rows.front();

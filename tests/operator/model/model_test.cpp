@@ -393,6 +393,14 @@ hemm::mapping::DepthImage plane_below_camera(std::uint32_t id, std::int64_t t) {
   return img;
 }
 
+// The live voxmap on, its normals over two rows of the frame above.
+ho::ModelThreadParams live_voxmap_params() {
+  ho::ModelThreadParams p;
+  p.live_voxmap = true;
+  p.voxmap.normal_radius = 0.05;
+  return p;
+}
+
 }  // namespace
 
 // The live voxmap path, stepped by hand: a SIMULATED (closed-form) camera
@@ -401,9 +409,7 @@ hemm::mapping::DepthImage plane_below_camera(std::uint32_t id, std::int64_t t) {
 // a malformed chunk is counted and changes nothing.
 TEST(ModelThread, DepthChunksBuildTheLiveVoxmapOfASeenPlane) {
   hemm::servo::ModelChannel ch;
-  ho::ModelThreadParams p;
-  p.live_voxmap = true;
-  p.voxmap.normal_radius = 0.05;
+  ho::ModelThreadParams p = live_voxmap_params();
   ho::ModelThread mt(ch, p);
   const std::int64_t t0 = 10'000'000'000;
   submit_state_at(mt, t0);
@@ -435,9 +441,7 @@ TEST(ModelThread, DepthChunksBuildTheLiveVoxmapOfASeenPlane) {
 // frame fills the rest of the plane.
 TEST(ModelThread, LiveVoxmapRegionOfInterestFollowsTheProbe) {
   hemm::servo::ModelChannel ch;
-  ho::ModelThreadParams p;
-  p.live_voxmap = true;
-  p.voxmap.normal_radius = 0.05;
+  ho::ModelThreadParams p = live_voxmap_params();
   p.voxmap_roi = ho::VoxmapRoi::kProbe;
   p.voxmap_probe_roi = {0.2, 0.05};
   ho::ModelThread mt(ch, p);
@@ -474,4 +478,55 @@ TEST(ModelThread, LiveVoxmapRegionOfInterestFollowsTheProbe) {
   EXPECT_NEAR(hemm::vps::sdf_hermite(*snap->voxmap, {1.2, 0.0, 0.52}), 0.02, 0.002);
   EXPECT_GT(mt.stats().voxmap.cells, 4 * cells_probe);
   EXPECT_EQ(mt.stats().voxmap.roi_moves, 2u);
+}
+
+// A restarted robot (new frame epoch) numbers its clouds afresh in a new W:
+// its first chunks clear the live voxmap (the old robot's plane at z = 0.5 is
+// gone, the new one's at z = 0.4 is built, its cloud 1 is not "stale" after
+// the old robot's cloud 5), and a late chunk of the old robot is dropped.
+TEST(ModelThread, ANewFrameEpochClearsTheLiveVoxmap) {
+  hemm::servo::ModelChannel ch;
+  ho::ModelThreadParams p = live_voxmap_params();
+  ho::ModelThread mt(ch, p);
+  const std::int64_t t0 = 10'000'000'000;
+  submit_state_at(mt, t0);
+  mt.step(t0);
+  auto submit = [&](std::uint64_t epoch, std::uint32_t id, std::int64_t t, float depth) {
+    hemm::mapping::DepthImage img = plane_below_camera(id, t);
+    img.depth.assign(img.depth.size(), depth);
+    std::vector<hw::DepthChunk> chunks;
+    EXPECT_FALSE(hemm::mapping::encode_depth_chunks(img, "depth", {}, &chunks));
+    for (auto& c : chunks) {
+      c.set_frame_epoch(epoch);
+      mt.submit_depth_chunk(std::make_shared<const hw::DepthChunk>(c));
+    }
+    return chunks.size();
+  };
+  const std::uint64_t kOld = 0x1111, kNew = 0x2222;
+  submit(kOld, 5, t0, 0.5f);
+  mt.step(t0 + 300'000'000);
+  const auto* snap = newest(ch);
+  ASSERT_NE(snap, nullptr);
+  ASSERT_NE(snap->voxmap, nullptr);
+  EXPECT_NEAR(hemm::vps::sdf_hermite(*snap->voxmap, {1.0, 0.0, 0.52}), 0.02, 0.002);
+  // The restarted robot: cloud 1 of a new epoch, the plane 0.1 m lower.
+  const std::size_t n = submit(kNew, 1, t0 + 400'000'000, 0.6f);
+  mt.step(t0 + 600'000'000);
+  snap = newest(ch);
+  ASSERT_NE(snap, nullptr);
+  ASSERT_NE(snap->voxmap, nullptr);
+  EXPECT_NEAR(hemm::vps::sdf_hermite(*snap->voxmap, {1.0, 0.0, 0.42}), 0.02, 0.002);
+  // The old plane is gone: 5 cm above the new one is free (outside the layers).
+  EXPECT_GT(hemm::vps::sdf_hermite(*snap->voxmap, {1.0, 0.0, 0.5}), 0.04);
+  ho::ModelStats s = mt.stats();
+  EXPECT_EQ(s.voxmap.restarts, 1u);
+  EXPECT_EQ(s.voxmap.stream.stale, 0u);
+  EXPECT_EQ(s.voxmap.chunks_integrated, 2 * n);
+  // A late chunk of the old robot changes nothing.
+  submit(kOld, 6, t0 + 700'000'000, 0.5f);
+  mt.step(t0 + 900'000'000);
+  s = mt.stats();
+  EXPECT_EQ(s.voxmap.old_epoch_chunks, n);
+  EXPECT_EQ(s.voxmap.restarts, 1u);
+  EXPECT_EQ(s.voxmap.chunks_integrated, 2 * n);
 }
