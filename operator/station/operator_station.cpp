@@ -140,6 +140,10 @@ report::OperatorStation to_report(const OperatorStationSummary& s) {
   m.set_voxmap_last_build_ms(vx.last_build_ms);
   m.set_voxmap_max_build_ms(vx.max_build_ms);
   m.set_voxmap_max_integrate_ms(vx.max_integrate_ms);
+  m.set_voxmap_roi_moves(vx.roi_moves);
+  m.set_voxmap_roi_on_probe(vx.roi_on_probe);
+  m.set_voxmap_restarts(vx.restarts);
+  m.set_voxmap_old_epoch_chunks(vx.old_epoch_chunks);
   report::CommandStream& c = *r.mutable_commands();
   c.set_sent(s.commands.commands_sent);
   c.set_send_failures(s.commands.send_failures);
