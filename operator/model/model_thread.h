@@ -121,8 +121,9 @@ struct ModelThreadParams {
   double fade_s = 1.0;     // a going-stale model's force fades to zero over this
   // The live voxmap from depth clouds (off: depth chunks are counted and dropped).
   bool live_voxmap = false;
-  mapping::LiveVoxmapParams voxmap;  // its roi is replaced by voxmap_roi_R placed at the robot
-                                     // (apply_probe3d_config: normal_radius 5 cm for the mast's rows)
+  mapping::LiveVoxmapParams voxmap;  // its roi is replaced by the cube around the probe or by
+                                     // voxmap_roi_R placed at the robot (voxmap_roi below;
+                                     // apply_probe3d_config: normal_radius 5 cm for the mast's rows)
   // Region of interest in R (ahead of the robot, where the 3D probe reaches).
   Eigen::AlignedBox3d voxmap_roi_R{Eigen::Vector3d(0.25, -0.7, 0.3), Eigen::Vector3d(1.6, 0.7, 1.3)};
   // kProbe: a cube around the probe while one is active (voxmap_probe_roi),
