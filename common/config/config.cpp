@@ -240,6 +240,11 @@ std::vector<FieldIssue> validate_operator_config(const pb::Message& m) {
   if (!(p3.roi_x_max_m() > p3.roi_x_min_m() && p3.roi_half_width_m() > 0 && p3.roi_z_max_m() > p3.roi_z_min_m() &&
         p3.roi_x_max_m() - p3.roi_x_min_m() <= 10 && p3.roi_half_width_m() <= 5 && p3.roi_z_max_m() - p3.roi_z_min_m() <= 5))
     out.push_back({"probe_3d.roi_x_min_m", "the region of interest must be a non-empty box within 10 x 10 x 5 m"});
+  if (p3.roi() != "probe" && p3.roi() != "robot") out.push_back({"probe_3d.roi", "must be \"probe\" or \"robot\""});
+  // A quarter of the edge is the re-centring margin: it must hold the probe
+  // (1 cm) and the voxmap's distance layers around what it touches.
+  if (!(p3.roi_size_m() >= 0.2 && p3.roi_size_m() <= 3))
+    out.push_back({"probe_3d.roi_size_m", "must be within [0.2, 3] m"});
   if (!(p3.rebuild_rate_hz() > 0 && p3.rebuild_rate_hz() <= 50))
     out.push_back({"probe_3d.rebuild_rate_hz", "must be within (0, 50]"});
   return out;

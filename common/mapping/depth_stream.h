@@ -81,6 +81,12 @@ class DepthStreamReceiver {
   const std::string& last_error() const { return last_error_; }
   // Rows of the newest cloud received so far (0 before any).
   int rows_of_current() const { return static_cast<int>(rows_.count()); }
+  // Forgets the newest cloud (its id, its rows), not the counters: a
+  // restarted robot numbers its clouds afresh.
+  void restart() {
+    have_cloud_ = false;
+    rows_.reset();
+  }
 
  private:
   DepthStreamCounters counters_;

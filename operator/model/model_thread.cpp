@@ -32,6 +32,9 @@ ModelThread::ModelThread(servo::ModelChannel& channel, const ModelThreadParams& 
     mapping::LiveVoxmapParams vp = p.voxmap;
     vp.roi = p.voxmap_roi_R;  // placed at the robot once a pose is known
     if (auto e = mapping::LiveVoxmap::check(vp)) throw std::invalid_argument("ModelThread: live voxmap: " + *e);
+    if (p.voxmap_roi == VoxmapRoi::kProbe) {
+      if (auto e = mapping::check(p.voxmap_probe_roi)) throw std::invalid_argument("ModelThread: live voxmap: " + *e);
+    }
     if (!(p.voxmap_rate_hz > 0.0 && p.voxmap_rate_hz <= 100.0))
       throw std::invalid_argument("ModelThread: voxmap_rate_hz outside (0, 100]");
     voxmap_ = std::make_unique<mapping::LiveVoxmap>(vp);
@@ -296,27 +299,67 @@ void ModelThread::step_voxmap(std::int64_t now_ns) {
     offset_ns = voxmap_offset_ns_;
   }
   VoxmapStats st = voxmap_stats_;  // written only here
-  // The region of interest follows the robot (moved only when the robot did:
-  // moving it drops what falls outside).
+  // The region of interest: around the probe while one is active (kProbe),
+  // else ahead of the robot, moved only when the robot did (moving it drops
+  // what falls outside).
+  std::optional<Eigen::AlignedBox3d> roi_W;
+  if (p_.voxmap_roi == VoxmapRoi::kProbe) {
+    const ProbePosition* probe = probe_box_.take();
+    if (probe == nullptr) probe = probe_box_.latest();
+    if (probe != nullptr && probe->active) {
+      const std::optional<Eigen::AlignedBox3d> next = mapping::follow_probe(p_.voxmap_probe_roi, probe_roi_, probe->p_W);
+      if (next && (!probe_roi_ || next->min() != probe_roi_->min() || next->max() != probe_roi_->max())) roi_W = next;
+      probe_roi_ = next;
+    } else if (probe_roi_) {
+      probe_roi_.reset();
+      voxmap_roi_set_ = false;  // back ahead of the robot
+    }
+  }
   const double moved = std::hypot(T_W_R.x - voxmap_roi_pose_.x, T_W_R.y - voxmap_roi_pose_.y);
   const double turned = std::abs(std::remainder(T_W_R.theta - voxmap_roi_pose_.theta, 2.0 * std::numbers::pi));
-  if (have_pose && (!voxmap_roi_set_ || moved > 0.05 || turned > 0.05)) {
-    Eigen::AlignedBox3d roi_W;
+  if (!probe_roi_ && have_pose && (!voxmap_roi_set_ || moved > 0.05 || turned > 0.05)) {
+    Eigen::AlignedBox3d box;
     const Eigen::Matrix2d R = Eigen::Rotation2Dd(T_W_R.theta).toRotationMatrix();
     for (int c = 0; c < 8; ++c) {
       const Eigen::Vector3d q = p_.voxmap_roi_R.corner(static_cast<Eigen::AlignedBox3d::CornerType>(c));
       const Eigen::Vector2d xy = R * q.head<2>() + Eigen::Vector2d(T_W_R.x, T_W_R.y);
-      roi_W.extend(Eigen::Vector3d(xy.x(), xy.y(), q.z()));
+      box.extend(Eigen::Vector3d(xy.x(), xy.y(), q.z()));
     }
-    voxmap_->set_roi(roi_W);
+    roi_W = box;
     voxmap_roi_pose_ = T_W_R;
+  }
+  if (roi_W) {
+    voxmap_->set_roi(*roi_W);
     voxmap_roi_set_ = true;
     voxmap_dirty_ = true;
+    ++st.roi_moves;
   }
+  st.roi_on_probe = probe_roi_.has_value();
   const std::int64_t t0 = steady_now_ns();
   std::uint64_t integrated = 0;
   std::shared_ptr<const wire::DepthChunk> m;
   while (depth_.try_pop(m)) {
+    const std::uint64_t epoch = m->frame_epoch();
+    if (epoch != 0 && epoch != voxmap_epoch_) {
+      if (std::find(voxmap_retired_epochs_.begin(), voxmap_retired_epochs_.end(), epoch) != voxmap_retired_epochs_.end()) {
+        ++st.old_epoch_chunks;  // a robot that has restarted since
+        m.reset();
+        continue;
+      }
+      if (voxmap_epoch_ != 0) {
+        // The robot restarted: its W is new, what the voxmap holds is in the old one.
+        std::rotate(voxmap_retired_epochs_.rbegin(), voxmap_retired_epochs_.rbegin() + 1, voxmap_retired_epochs_.rend());
+        voxmap_retired_epochs_[0] = voxmap_epoch_;
+        *voxmap_ = mapping::LiveVoxmap(voxmap_->params());
+        depth_rx_.restart();
+        voxmap_dirty_ = false;
+        ++st.restarts;
+        std::shared_ptr<const vps::Voxmap> retired;  // released after the lock
+        std::lock_guard<std::mutex> lock(voxmap_mu_);
+        retired = std::exchange(voxmap_published_, nullptr);
+      }
+      voxmap_epoch_ = epoch;
+    }
     const auto verdict = depth_rx_.receive(*m, offset_ns, &depth_chunk_);
     m.reset();
     if (verdict != mapping::DepthStreamReceiver::Verdict::kAccepted) continue;

@@ -23,13 +23,18 @@
 //
 // Live voxmap (params.live_voxmap): the robot's depth chunks (DepthChunk
 // stream, newest cloud wins) are integrated into a LiveVoxmap in W, kept to
-// a region of interest in front of the robot (voxmap_roi_R, moved with the
-// predicted pose); at voxmap_rate_hz, when chunks came in, its signed
+// a region of interest: with voxmap_roi kProbe a cube around the operator's
+// 3D probe (mapping::follow_probe, with hysteresis; the servo publishes the
+// probe's proxy through probe_positions(), a lock-free newest-wins mailbox),
+// and ahead of the robot (voxmap_roi_R, moved with the predicted pose) while
+// no probe is active (before the first tick, outside exploration) or with
+// kRobot; at voxmap_rate_hz, when chunks came in, its signed
 // vps::Voxmap is rebuilt on a voxmap thread of its own (never on the servo
 // thread, and not holding up the 2D map) and every snapshot carries the
-// newest one as a shared_ptr (freed off the servo thread when retired). The
-// chunks carry no frame epoch yet: a restarted robot's clouds go into the
-// same voxmap.
+// newest one as a shared_ptr (freed off the servo thread when retired). A
+// chunk of a new frame epoch (a restarted robot, its W anew) clears the
+// voxmap and the stream's newest-cloud filter; chunks of an epoch replaced so
+// (late or reordered) are dropped and counted.
 //
 // Robot restarts. The robot stamps its states and scans with its frame
 // epoch (random per start of its odometry frame W). An epoch the model has
@@ -56,6 +61,7 @@
 #include "common/mapping/depth_stream.h"
 #include "common/mapping/live_voxmap.h"
 #include "common/mapping/local_map.h"
+#include "common/mapping/voxmap_roi.h"
 #include "common/mapping/shape_completion.h"
 #include "operator/model/pose_prediction.h"
 #include "operator/model/scan_convert.h"
@@ -91,6 +97,17 @@ struct OperatorModelSnapshot final : servo::ModelSnapshot {
   std::uint64_t voxmap_builds = 0;  // which build it is
 };
 
+// Where the operator's 3D probe is (W), published by the servo thread every
+// tick (newest wins); active false: no probe this tick (not exploring with
+// probe_3d), the voxmap's ROI goes back ahead of the robot.
+struct ProbePosition {
+  Eigen::Vector3d p_W = Eigen::Vector3d::Zero();
+  bool active = false;
+};
+
+// Where the live voxmap's region of interest is kept.
+enum class VoxmapRoi { kRobot, kProbe };
+
 struct ModelThreadParams {
   mapping::MapParams map;
   double rate_hz = 50.0;                 // snapshots per second (at most)
@@ -104,10 +121,15 @@ struct ModelThreadParams {
   double fade_s = 1.0;     // a going-stale model's force fades to zero over this
   // The live voxmap from depth clouds (off: depth chunks are counted and dropped).
   bool live_voxmap = false;
-  mapping::LiveVoxmapParams voxmap;  // its roi is replaced by voxmap_roi_R placed at the robot
-                                     // (apply_probe3d_config: normal_radius 5 cm for the mast's rows)
+  mapping::LiveVoxmapParams voxmap;  // its roi is replaced by the cube around the probe or by
+                                     // voxmap_roi_R placed at the robot (voxmap_roi below;
+                                     // apply_probe3d_config: normal_radius 5 cm for the mast's rows)
   // Region of interest in R (ahead of the robot, where the 3D probe reaches).
   Eigen::AlignedBox3d voxmap_roi_R{Eigen::Vector3d(0.25, -0.7, 0.3), Eigen::Vector3d(1.6, 0.7, 1.3)};
+  // kProbe: a cube around the probe while one is active (voxmap_probe_roi),
+  // voxmap_roi_R otherwise.
+  VoxmapRoi voxmap_roi = VoxmapRoi::kRobot;
+  mapping::ProbeRoiParams voxmap_probe_roi;
   double voxmap_rate_hz = 5.0;        // rebuilds per second at most
   std::size_t depth_queue = 256;      // power of two
 };
@@ -123,6 +145,10 @@ struct VoxmapStats {
   std::size_t snapshot_bytes = 0;       // the newest vps::Voxmap
   double last_integrate_ms = 0.0, max_integrate_ms = 0.0;  // one step's chunks
   double last_build_ms = 0.0, max_build_ms = 0.0;
+  std::uint64_t roi_moves = 0;          // times the region of interest was moved
+  std::uint64_t restarts = 0;           // cleared for a restarted robot (new frame epoch)
+  std::uint64_t old_epoch_chunks = 0;   // chunks of a robot that restarted since: dropped
+  bool roi_on_probe = false;            // the ROI is around the probe (else ahead of the robot)
 };
 
 // Shape completion (mapping::complete_shapes) as of the newest snapshot, and
@@ -169,6 +195,8 @@ class ModelThread {
   void submit_depth_chunk(std::shared_ptr<const wire::DepthChunk> chunk);
   void submit_state(const wire::RobotState& state);
   void record_command(const SentCommand& c);
+  // ---- servo thread (one producer): where the 3D probe is (voxmap_roi kProbe) ----
+  NewestMailbox<ProbePosition>& probe_positions() noexcept { return probe_box_; }
   // ---- any thread ----
   void set_clock_offset(std::int64_t robot_minus_local_ns) { offset_ns_.store(robot_minus_local_ns); }
   void set_command_delay(std::int64_t ns) { delay_ns_.store(ns); }
@@ -209,6 +237,7 @@ class ModelThread {
   servo::SpscRing<std::shared_ptr<const wire::DepthChunk>> depth_;
   servo::SpscRing<SentCommand> commands_;
   NewestMailbox<wire::RobotState> state_box_;
+  NewestMailbox<ProbePosition> probe_box_;  // taken by the voxmap work only
   std::atomic<std::int64_t> offset_ns_{0}, delay_ns_{0};
 
   // Which robot (frame epoch) an input belongs to; routes it (resync).
@@ -265,6 +294,9 @@ class ModelThread {
   mapping::DepthChunkData depth_chunk_;  // reused
   bool voxmap_dirty_ = false, voxmap_roi_set_ = false;
   math::Pose2 voxmap_roi_pose_;
+  std::optional<Eigen::AlignedBox3d> probe_roi_;  // the ROI around the probe, while it is followed
+  std::uint64_t voxmap_epoch_ = 0;                // the frame epoch of the chunks in the voxmap (0: none yet)
+  std::array<std::uint64_t, 4> voxmap_retired_epochs_{};
   std::int64_t voxmap_next_build_ns_ = 0;
   VoxmapStats voxmap_stats_;          // voxmap work only
   VoxmapStats voxmap_stats_out_;      // under stats_mutex_

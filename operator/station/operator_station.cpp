@@ -33,6 +33,11 @@ void apply_probe3d_config(const config::Probe3dConfig& c, OperatorStationOptions
   o->model.voxmap_roi_R = Eigen::AlignedBox3d(Eigen::Vector3d(c.roi_x_min_m(), -c.roi_half_width_m(), c.roi_z_min_m()),
                                               Eigen::Vector3d(c.roi_x_max_m(), c.roi_half_width_m(), c.roi_z_max_m()));
   o->model.voxmap_rate_hz = c.rebuild_rate_hz();
+  // Around the probe (validated "probe" or "robot"): re-centred when the
+  // probe comes within a quarter of the cube's edge of a face.
+  o->model.voxmap_roi = c.roi() == "robot" ? VoxmapRoi::kRobot : VoxmapRoi::kProbe;
+  o->model.voxmap_probe_roi.size = c.roi_size_m();
+  o->model.voxmap_probe_roi.margin = 0.25 * c.roi_size_m();
   o->task.probe_3d = true;
   o->task.probe3d.force = o->task.proxy;
   o->task.probe3d.force.probe_radius = c.probe_radius_m();
@@ -135,6 +140,10 @@ report::OperatorStation to_report(const OperatorStationSummary& s) {
   m.set_voxmap_last_build_ms(vx.last_build_ms);
   m.set_voxmap_max_build_ms(vx.max_build_ms);
   m.set_voxmap_max_integrate_ms(vx.max_integrate_ms);
+  m.set_voxmap_roi_moves(vx.roi_moves);
+  m.set_voxmap_roi_on_probe(vx.roi_on_probe);
+  m.set_voxmap_restarts(vx.restarts);
+  m.set_voxmap_old_epoch_chunks(vx.old_epoch_chunks);
   report::CommandStream& c = *r.mutable_commands();
   c.set_sent(s.commands.commands_sent);
   c.set_send_failures(s.commands.send_failures);
@@ -223,6 +232,7 @@ OperatorStation::OperatorStation(asio::io_context& io, OperatorClient& client, c
   }
   if (!view_) view_ = std::make_shared<OperatorView>();  // the summary's final pose comes from it
   task_ = std::make_unique<OperatorServoTask>(tp, world_log_.get(), view_.get());
+  if (o.model.live_voxmap) task_->set_probe_output(&model_->probe_positions());
   loop_ = std::make_unique<servo::ServoLoop>(*device_, *task_, channel_, o.servo, servo_log_.get());
   sender_ = std::make_unique<CommandSender>(
       io_, task_->setpoints(),

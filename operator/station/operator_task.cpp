@@ -192,6 +192,10 @@ void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelS
     const Eigen::Vector3d proxy3_R = math::apply(math::inverse(T_W_R_), probe3d_.proxy_W);
     proxy_B = math::unmap_point(probe3d_map_, proxy3_R) - anchor_.offset_B;
   }
+  if (probe_out_ != nullptr) {
+    probe_out_->back() = ProbePosition{probe3d_.proxy_W, probe3};
+    probe_out_->publish();
+  }
 
   StationSetpoint sp;
   sp.t_ns = in.t_ns;

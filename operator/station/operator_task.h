@@ -231,6 +231,10 @@ class OperatorServoTask final : public servo::ServoTask {
     view_ticks_ = ticks;
     view_presses_ = presses;
   }
+  // For the live voxmap's ROI around the probe (before the servo starts; may
+  // be null): where the 3D probe's proxy is, every tick (a copy and an atomic
+  // exchange).
+  void set_probe_output(NewestMailbox<ProbePosition>* out) noexcept { probe_out_ = out; }
   // For the session recorder (before the servo starts; may be null): one
   // ServoTickRecord per tick.
   void set_tick_tap(ServoTickTap* tap) noexcept { tick_tap_ = tap; }
@@ -278,6 +282,7 @@ class OperatorServoTask final : public servo::ServoTask {
   StationLogger* log_;
   OperatorView* view_;
   NewestMailbox<StationLogRecord>* view_ticks_ = nullptr;
+  NewestMailbox<ProbePosition>* probe_out_ = nullptr;
   std::atomic<std::uint32_t>* view_presses_ = nullptr;
   ServoTickTap* tick_tap_ = nullptr;
   ServoThreadHook servo_hook_ = nullptr;

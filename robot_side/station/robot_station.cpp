@@ -577,7 +577,7 @@ void RobotStation::run() {
       // Only the newest frame is worth sending; the chunks are cut on the
       // network thread (protobuf work off the simulation thread).
       if (streaming && !frames.empty()) {
-        asio::post(io_, [sp, img = std::move(frames.back())] {
+        asio::post(io_, [sp, img = std::move(frames.back()), epoch = frame_epoch_] {
           Shared& s = *sp;
           if (!s.server->link_up()) return;
           std::vector<wire::DepthChunk> chunks;
@@ -588,6 +588,7 @@ void RobotStation::run() {
           bool all = true;
           wire::StreamMessage m;
           for (wire::DepthChunk& c : chunks) {
+            c.set_frame_epoch(epoch);
             *m.mutable_depth_chunk() = std::move(c);
             if (s.server->streams().send(m)) {
               ++s.depth_chunks_sent;

@@ -4,10 +4,9 @@
 // 80 x 60 frames of the table scene, 9 frames from three viewpoints).
 #include <benchmark/benchmark.h>
 
-#include <time.h>
-
 #include <cmath>
 
+#include "common/clock/steady_clock.h"
 #include "common/haptics/vps/contact.h"
 #include "common/haptics/vps/pointshell.h"
 #include "common/haptics/vps/voxmap.h"
@@ -19,14 +18,6 @@ namespace vps = hemm::vps;
 namespace ht = hemm::test;
 
 namespace {
-
-// Thread CPU time: the figures stay meaningful on a loaded machine (the
-// model thread's own cost, not the wait for a core).
-double cpu_s() {
-  timespec t{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
-  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
-}
 
 // ROI: a box centred on the table top, `half` metres to each side in x and y
 // and 0.15 m above and below it.
@@ -57,18 +48,18 @@ void BM_LiveVoxmap(benchmark::State& state) {
   for (auto _ : state) {
     hm::LiveVoxmap map(params(voxel, half));
     std::mt19937_64 rng(11);
-    const double t0 = cpu_s();
+    const double t0 = hemm::thread_cpu_s();
     if (!ht::observe_table(ht::TableScene{}, 9, rng, &map)) {
       state.SkipWithError("observe");
       return;
     }
-    const double t1 = cpu_s();
+    const double t1 = hemm::thread_cpu_s();
     vps::Voxmap vm;
     if (map.snapshot(&vm)) {
       state.SkipWithError("snapshot");
       return;
     }
-    const double t2 = cpu_s();
+    const double t2 = hemm::thread_cpu_s();
     integrate_s += t1 - t0;
     snapshot_s += t2 - t1;
     frames += 9;

@@ -112,6 +112,18 @@ TEST(ConfigTest, ShippedProbe3dConfigsLoadAndBadValuesAreNamed) {
   auto e4 = parse_text_config("probe_3d { probe_radius_m: 0.05 }", "o.pbtxt", &validate_operator_config, &ob);
   ASSERT_TRUE(e4);
   EXPECT_EQ(e4->field, "probe_3d.probe_radius_m");
+  // The voxmap's region of interest: "probe" (default) or "robot", and a sane cube.
+  EXPECT_EQ(o.probe_3d().roi(), "probe");
+  OperatorConfig oc;
+  auto e5 = parse_text_config("probe_3d { roi: \"tool\" }", "o.pbtxt", &validate_operator_config, &oc);
+  ASSERT_TRUE(e5);
+  EXPECT_EQ(e5->field, "probe_3d.roi");
+  EXPECT_FALSE(oc.has_probe_3d());
+  auto e6 = parse_text_config("probe_3d { roi_size_m: 0.05 }", "o.pbtxt", &validate_operator_config, &oc);
+  ASSERT_TRUE(e6);
+  EXPECT_EQ(e6->field, "probe_3d.roi_size_m");
+  auto e7 = parse_text_config("probe_3d { roi: \"robot\" roi_size_m: 0.3 }", "o.pbtxt", &validate_operator_config, &oc);
+  EXPECT_FALSE(e7) << e7->to_string();
 }
 
 TEST(ConfigTest, ResolveRelative) {

@@ -141,16 +141,15 @@ TEST_P(Probe3dLoopback, ProbeRestsOnTheTrueTableTopAndTheServoHoldsItsPeriod) {
   ho::apply_probe3d_config(ocfg.probe_3d(), &so);
   // The hand: stylus centred (the probe 10 cm above the top) while the
   // voxmap fills, pressed 1.5 cm (W) below the top, held, slid 0.15 m along
-  // it (B -y: across the robot's view, toward W +x, ending 4 cm before the
-  // block; toward -x it would end 5 mm from the book's side, within one
-  // 1 cm voxel of that concave corner, a different test), held, lifted.
+  // it (B -x: toward the robot, W -y; across the view it ended 1.5 cm from
+  // the book's edge-on side, which the model cannot render), held, lifted.
   const double scale = so.task.probe3d_range / hemm::math::horizontal_half_extent(so.task.workspace);
   const Eigen::Matrix3d R_H_B = ho::R_B_H().transpose();
   const Eigen::Vector3d c_H = R_H_B * so.task.workspace.centre_B;
   const double z_top_nominal = 0.75, press_W = 0.015;
   const double down_B = (so.task.probe3d_origin_R.z() - (z_top_nominal - press_W)) / scale;
   const Eigen::Vector3d pressed_H = c_H + R_H_B * Eigen::Vector3d(0, 0, -down_B);
-  const Eigen::Vector3d slid_H = pressed_H + R_H_B * Eigen::Vector3d(0, -0.15 / scale, 0);
+  const Eigen::Vector3d slid_H = pressed_H + R_H_B * Eigen::Vector3d(-0.15 / scale, 0, 0);
   so.hand = std::make_shared<hemm::device::WaypointScript>(std::vector<hemm::device::Waypoint>{
       {0.0, c_H, 0}, {4.0, c_H, 0}, {5.0, pressed_H, 0}, {6.0, pressed_H, 0}, {8.0, slid_H, 0}, {8.5, slid_H, 0},
       {9.0, c_H, 0}});
@@ -255,7 +254,8 @@ TEST_P(Probe3dLoopback, ProbeRestsOnTheTrueTableTopAndTheServoHoldsItsPeriod) {
     peak = std::max(peak, F_true.norm());
     // At rest pressed on the top, before the slide (goal straight below the
     // stylus's centred lateral position, pressed down).
-    if (r.at("probe3_contact") > 0.5 && goal.z() < z_top + rho - 0.003 && std::abs(goal.x() - 1.5) < 0.002)
+    if (r.at("probe3_contact") > 0.5 && goal.z() < z_top + rho - 0.003 && std::abs(goal.x() - 1.5) < 0.002 &&
+        std::abs(goal.y() - 1.9) < 0.002)
       rest_z.push_back(r.at("proxy3_z"));
     if (dbg) std::fprintf(dbg, "%.0f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%d\n", r.at("t_ns"), F_true.x(), F_true.y(), F_true.z(),
                           td.proxy_W.x(), td.proxy_W.y(), td.proxy_W.z(), td.contact ? 1 : 0);

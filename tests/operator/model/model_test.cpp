@@ -376,30 +376,46 @@ TEST(ModelThread, ThreadPublishes) {
 
 }  // namespace
 
-// The live voxmap path, stepped by hand: a SIMULATED (closed-form) camera
-// 0.5 m above a table plane at z = 0.5, its chunks through the wire encoding
-// into the model; the snapshot's voxmap has the plane at its true height, and
-// a malformed chunk is counted and changes nothing.
-TEST(ModelThread, DepthChunksBuildTheLiveVoxmapOfASeenPlane) {
-  hemm::servo::ModelChannel ch;
-  ho::ModelThreadParams p;
-  p.live_voxmap = true;
-  p.voxmap.normal_radius = 0.05;
-  ho::ModelThread mt(ch, p);
-  const std::int64_t t0 = 10'000'000'000;
-  submit_state_at(mt, t0);
-  mt.step(t0);  // the pose places the region of interest
+namespace {
+
+// A SIMULATED (closed-form) depth frame: the camera 1 m above the floor at
+// W (1, 0), looking straight down at a plane 0.5 m below it.
+hemm::mapping::DepthImage plane_below_camera(std::uint32_t id, std::int64_t t) {
   hemm::mapping::DepthImage img;
-  img.stamp_ns = t0;
-  img.cloud_id = 1;
+  img.stamp_ns = t;
+  img.cloud_id = id;
   img.K = hemm::mapping::intrinsics_from_hfov(80, 60, std::numbers::pi / 3, 0.2, 3.0);
   img.T_W_S.linear() << 1, 0, 0, 0, -1, 0, 0, 0, -1;  // looking straight down
   img.T_W_S.translation() << 1.0, 0.0, 1.0;
   img.T_W_S_truth = img.T_W_S;
   img.depth.assign(80 * 60, 0.5f);
   img.status.assign(80 * 60, hemm::mapping::DepthStatus::kValid);
+  return img;
+}
+
+// The live voxmap on, its normals over two rows of the frame above.
+ho::ModelThreadParams live_voxmap_params() {
+  ho::ModelThreadParams p;
+  p.live_voxmap = true;
+  p.voxmap.normal_radius = 0.05;
+  return p;
+}
+
+}  // namespace
+
+// The live voxmap path, stepped by hand: a SIMULATED (closed-form) camera
+// 0.5 m above a table plane at z = 0.5, its chunks through the wire encoding
+// into the model; the snapshot's voxmap has the plane at its true height, and
+// a malformed chunk is counted and changes nothing.
+TEST(ModelThread, DepthChunksBuildTheLiveVoxmapOfASeenPlane) {
+  hemm::servo::ModelChannel ch;
+  ho::ModelThreadParams p = live_voxmap_params();
+  ho::ModelThread mt(ch, p);
+  const std::int64_t t0 = 10'000'000'000;
+  submit_state_at(mt, t0);
+  mt.step(t0);  // the pose places the region of interest
   std::vector<hw::DepthChunk> chunks;
-  ASSERT_FALSE(hemm::mapping::encode_depth_chunks(img, "depth", {}, &chunks));
+  ASSERT_FALSE(hemm::mapping::encode_depth_chunks(plane_below_camera(1, t0), "depth", {}, &chunks));
   hw::DepthChunk bad = chunks[0];
   bad.set_depth("x");  // payload length does not match its rows
   mt.submit_depth_chunk(std::make_shared<const hw::DepthChunk>(bad));
@@ -416,4 +432,101 @@ TEST(ModelThread, DepthChunksBuildTheLiveVoxmapOfASeenPlane) {
     EXPECT_NEAR(hemm::vps::sdf_hermite(*snap->voxmap, {xy.x(), xy.y(), 0.52}), 0.02, 0.002);
     EXPECT_NEAR(hemm::vps::sdf_hermite(*snap->voxmap, {xy.x(), xy.y(), 0.49}), -0.01, 0.002);
   }
+}
+
+// The region of interest around the probe (voxmap_roi kProbe), stepped by
+// hand: the same plane seen from above, the servo's probe published at
+// (0.9, 0, 0.55): only the plane inside the 0.2 m cube around it is kept;
+// with the probe inactive the ROI is back ahead of the robot and the next
+// frame fills the rest of the plane.
+TEST(ModelThread, LiveVoxmapRegionOfInterestFollowsTheProbe) {
+  hemm::servo::ModelChannel ch;
+  ho::ModelThreadParams p = live_voxmap_params();
+  p.voxmap_roi = ho::VoxmapRoi::kProbe;
+  p.voxmap_probe_roi = {0.2, 0.05};
+  ho::ModelThread mt(ch, p);
+  const std::int64_t t0 = 10'000'000'000;
+  submit_state_at(mt, t0);
+  mt.probe_positions().publish(ho::ProbePosition{Eigen::Vector3d(0.9, 0.0, 0.55), true});
+  mt.step(t0);
+  EXPECT_TRUE(mt.stats().voxmap.roi_on_probe);
+  auto frame = [&](std::uint32_t id, std::int64_t t) {
+    std::vector<hw::DepthChunk> chunks;
+    EXPECT_FALSE(hemm::mapping::encode_depth_chunks(plane_below_camera(id, t), "depth", {}, &chunks));
+    for (const auto& c : chunks) mt.submit_depth_chunk(std::make_shared<const hw::DepthChunk>(c));
+  };
+  frame(1, t0);
+  mt.step(t0 + 300'000'000);
+  const auto* snap = newest(ch);
+  ASSERT_NE(snap, nullptr);
+  ASSERT_NE(snap->voxmap, nullptr);
+  // Inside the cube (x 0.8..1.0, |y| <= 0.1): the plane at z = 0.5.
+  EXPECT_NEAR(hemm::vps::sdf_hermite(*snap->voxmap, {0.9, 0.0, 0.52}), 0.02, 0.002);
+  // 0.25 m beyond its face: nothing stored there, far outside.
+  EXPECT_GT(hemm::vps::sdf_hermite(*snap->voxmap, {1.25, 0.0, 0.49}), 0.03);
+  const std::size_t cells_probe = mt.stats().voxmap.cells;
+  EXPECT_LT(cells_probe, 20u * 20u * 2u);  // about the cube's 20 x 20 cm of plane at 1 cm
+  // The probe put away (another mode): back ahead of the robot, the whole plane.
+  mt.probe_positions().publish(ho::ProbePosition{Eigen::Vector3d(0.9, 0.0, 0.55), false});
+  mt.step(t0 + 400'000'000);
+  EXPECT_FALSE(mt.stats().voxmap.roi_on_probe);
+  frame(2, t0 + 400'000'000);
+  mt.step(t0 + 700'000'000);
+  snap = newest(ch);
+  ASSERT_NE(snap, nullptr);
+  ASSERT_NE(snap->voxmap, nullptr);
+  EXPECT_NEAR(hemm::vps::sdf_hermite(*snap->voxmap, {1.2, 0.0, 0.52}), 0.02, 0.002);
+  EXPECT_GT(mt.stats().voxmap.cells, 4 * cells_probe);
+  EXPECT_EQ(mt.stats().voxmap.roi_moves, 2u);
+}
+
+// A restarted robot (new frame epoch) numbers its clouds afresh in a new W:
+// its first chunks clear the live voxmap (the old robot's plane at z = 0.5 is
+// gone, the new one's at z = 0.4 is built, its cloud 1 is not "stale" after
+// the old robot's cloud 5), and a late chunk of the old robot is dropped.
+TEST(ModelThread, ANewFrameEpochClearsTheLiveVoxmap) {
+  hemm::servo::ModelChannel ch;
+  ho::ModelThreadParams p = live_voxmap_params();
+  ho::ModelThread mt(ch, p);
+  const std::int64_t t0 = 10'000'000'000;
+  submit_state_at(mt, t0);
+  mt.step(t0);
+  auto submit = [&](std::uint64_t epoch, std::uint32_t id, std::int64_t t, float depth) {
+    hemm::mapping::DepthImage img = plane_below_camera(id, t);
+    img.depth.assign(img.depth.size(), depth);
+    std::vector<hw::DepthChunk> chunks;
+    EXPECT_FALSE(hemm::mapping::encode_depth_chunks(img, "depth", {}, &chunks));
+    for (auto& c : chunks) {
+      c.set_frame_epoch(epoch);
+      mt.submit_depth_chunk(std::make_shared<const hw::DepthChunk>(c));
+    }
+    return chunks.size();
+  };
+  const std::uint64_t kOld = 0x1111, kNew = 0x2222;
+  submit(kOld, 5, t0, 0.5f);
+  mt.step(t0 + 300'000'000);
+  const auto* snap = newest(ch);
+  ASSERT_NE(snap, nullptr);
+  ASSERT_NE(snap->voxmap, nullptr);
+  EXPECT_NEAR(hemm::vps::sdf_hermite(*snap->voxmap, {1.0, 0.0, 0.52}), 0.02, 0.002);
+  // The restarted robot: cloud 1 of a new epoch, the plane 0.1 m lower.
+  const std::size_t n = submit(kNew, 1, t0 + 400'000'000, 0.6f);
+  mt.step(t0 + 600'000'000);
+  snap = newest(ch);
+  ASSERT_NE(snap, nullptr);
+  ASSERT_NE(snap->voxmap, nullptr);
+  EXPECT_NEAR(hemm::vps::sdf_hermite(*snap->voxmap, {1.0, 0.0, 0.42}), 0.02, 0.002);
+  // The old plane is gone: 5 cm above the new one is free (outside the layers).
+  EXPECT_GT(hemm::vps::sdf_hermite(*snap->voxmap, {1.0, 0.0, 0.5}), 0.04);
+  ho::ModelStats s = mt.stats();
+  EXPECT_EQ(s.voxmap.restarts, 1u);
+  EXPECT_EQ(s.voxmap.stream.stale, 0u);
+  EXPECT_EQ(s.voxmap.chunks_integrated, 2 * n);
+  // A late chunk of the old robot changes nothing.
+  submit(kOld, 6, t0 + 700'000'000, 0.5f);
+  mt.step(t0 + 900'000'000);
+  s = mt.stats();
+  EXPECT_EQ(s.voxmap.old_epoch_chunks, n);
+  EXPECT_EQ(s.voxmap.restarts, 1u);
+  EXPECT_EQ(s.voxmap.chunks_integrated, 2 * n);
 }

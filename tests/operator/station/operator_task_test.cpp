@@ -446,6 +446,39 @@ TEST(Tick, NeverAllocatesOrFrees) {
   EXPECT_GE(r.task.estop_presses(), 2u);
 }
 
+// The 3D probe's position for the live voxmap's ROI (ModelThread::
+// probe_positions): every tick, the proxy in W and whether the probe is in
+// use (exploration with probe_3d); a copy and an atomic exchange, no allocation.
+TEST(Probe3d, PublishesWhereTheProbeIsWithoutAllocating) {
+  ho::OperatorTaskParams p;
+  p.probe_3d = true;
+  p.probe3d.force.probe_radius = 0.01;
+  Runner r(p);
+  hemm::NewestMailbox<ho::ProbePosition> box;
+  r.task.set_probe_output(&box);
+  const auto snap = wall_snapshot({-3, 1}, {3, 1}, {0, -1}, {1.5, 1.0, std::numbers::pi / 2});
+  r.tick(*snap, H(0, 0, 0));
+  hemm::test::count_allocations_on_this_thread(true);
+  const std::uint64_t before = hemm::test::counted_allocations();
+  r.move(*snap, H(0, 0, 0), H(0.01, -0.01, 0.005), 200, 0);
+  const std::uint64_t allocs = hemm::test::counted_allocations() - before;
+  hemm::test::count_allocations_on_this_thread(false);
+  EXPECT_EQ(allocs, 0u);
+  const ho::ProbePosition* pos = box.take();
+  ASSERT_NE(pos, nullptr);
+  EXPECT_TRUE(pos->active);
+  EXPECT_TRUE(pos->p_W.isApprox(r.task.probe3d().proxy_W, 1e-12));
+  // No voxmap: the proxy is at the goal, the stylus mapped around the robot
+  // at W (1.5, 1.0) facing +y (centred: 0.9 m ahead, 0.85 m high).
+  EXPECT_NEAR(pos->p_W.z(), 0.85 + 0.005 * r.task.probe3d_map().scale, 1e-9);
+  // Navigation: no probe, the voxmap's ROI goes back ahead of the robot.
+  r.tick(*snap, H(0.01, -0.01, 0.005), hd::kButton1);
+  EXPECT_EQ(r.task.mode(), hm::Mode::kNavigation);
+  pos = box.take();
+  ASSERT_NE(pos, nullptr);
+  EXPECT_FALSE(pos->active);
+}
+
 TEST(Task, RejectsBadParams) {
   ho::OperatorTaskParams p;
   p.exploration_range = -1;

@@ -19,6 +19,7 @@
 #include "common/mapping/live_voxmap.h"
 #include "config_robot.pb.h"
 #include "robot_side/sim/simulated_robot.h"
+#include "tests/robot_side/sim/mast_frames.h"
 
 namespace hr = hemm::robot;
 namespace hm = hemm::mapping;
@@ -26,16 +27,9 @@ namespace vps = hemm::vps;
 
 namespace {
 
-const std::string kScene = std::string(HEMM_SOURCE_DIR) + "/deploy/scenes/home.xml";
-
-hemm::config::RobotConfig before_the_table() {
-  hemm::config::RobotConfig c;
-  c.mutable_sim()->set_start_x_m(1.5);
-  c.mutable_sim()->set_start_y_m(1.0);
-  c.mutable_sim()->set_start_theta_rad(std::numbers::pi / 2);
-  c.mutable_depth_camera()->set_enabled(true);
-  return c;
-}
+using hemm::test::kHomeScene;
+hemm::config::RobotConfig before_the_table() { return hemm::test::robot_before_the_table(); }
+const std::string& kScene = kHomeScene;
 
 }  // namespace
 
@@ -140,23 +134,11 @@ TEST(DepthVoxmap, WorkerCastingKeepsTheCaptureStepShort) {
 // for the README; the table top's height is asserted for each): the same 1.5 s
 // of SIMULATED mast-camera frames integrated into each voxmap.
 TEST(DepthVoxmap, MemoryAndTimeAgainstVoxelSizeAndRegionOfInterest) {
-  const hemm::config::RobotConfig cfg = before_the_table();
-  hr::SimulatedRobot robot;
-  ASSERT_FALSE(robot.load(cfg, kScene));
-  ASSERT_FALSE(robot.enable_depth_camera(hr::depth_camera_params_from_config(cfg)));
+  std::vector<hemm::test::MastChunk> mast;
+  const auto err = hemm::test::simulate_mast_chunks(1500, &mast);
+  ASSERT_FALSE(err) << *err;
   std::vector<hm::DepthChunkData> chunks;
-  hm::DepthStreamReceiver rx;
-  for (int i = 0; i < 1500; ++i) {
-    robot.step(1);
-    for (const hm::DepthImage& img : robot.take_depth_images()) {
-      std::vector<hemm::wire::DepthChunk> wire;
-      ASSERT_FALSE(hm::encode_depth_chunks(img, "depth", hm::DepthStreamParams{}, &wire));
-      for (const auto& c : wire) {
-        chunks.emplace_back();
-        ASSERT_EQ(rx.receive(c, 0, &chunks.back()), hm::DepthStreamReceiver::Verdict::kAccepted);
-      }
-    }
-  }
+  for (auto& m : mast) chunks.push_back(std::move(m.chunk));
   struct Roi {
     const char* name;
     Eigen::AlignedBox3d box;
