@@ -118,7 +118,10 @@ void probe_tool_tick(const ToolParams& p, const ProbeTool& tool, const Voxmap* v
     s->started = true;
     s->device = Wrench{};
     s->contact = PairResult{};
-    if (vm == nullptr) return;
+    if (vm == nullptr) {
+      s->voxmap = nullptr;  // the pair state is stale when a voxmap comes (back)
+      return;
+    }
   }
   if (vm != s->voxmap) {  // a new snapshot: what the pair remembers belongs to the old voxmap
     reset_pair_state(&s->pair);
@@ -131,14 +134,16 @@ void probe_tool_tick(const ToolParams& p, const ProbeTool& tool, const Voxmap* v
 }
 
 void replay_tool_path(const ToolParams& p, const ProbeTool& tool, const Voxmap& vm,
-                      const std::vector<Eigen::Isometry3d>& goals, const std::vector<double>& gain, ToolReplay* out) {
+                      const std::vector<Eigen::Isometry3d>& goals, const std::vector<double>& gain,
+                      const std::vector<std::uint8_t>& has_model, ToolReplay* out) {
   ToolState s;
   init_tool_state(tool, &s);
   out->wrench.assign(goals.size(), Wrench{});
   out->tool_W.assign(goals.size(), Eigen::Vector3d::Zero());
   out->contacts.assign(goals.size(), 0);
   for (std::size_t i = 0; i < goals.size(); ++i) {
-    probe_tool_tick(p, tool, &vm, goals[i], &s);
+    const bool model = i >= has_model.size() || has_model[i] != 0;
+    probe_tool_tick(p, tool, model ? &vm : nullptr, goals[i], &s);
     const double g = i < gain.size() ? gain[i] : 1.0;
     out->wrench[i].force = g * s.device.force;
     out->wrench[i].torque = g * s.device.torque;

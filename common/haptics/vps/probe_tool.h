@@ -66,7 +66,7 @@ struct ToolParams {
 struct ToolState {
   PairState pair;                  // sized by init_tool_state
   RigidBodyState body;             // the tool's centre of mass
-  const Voxmap* voxmap = nullptr;  // the voxmap the pair state belongs to
+  const Voxmap* voxmap = nullptr;  // the voxmap the pair state belongs to (null: none this tick)
   bool started = false;
   Eigen::Isometry3d goal_prev = Eigen::Isometry3d::Identity();  // the hand's previous target (twist)
   PairResult contact;              // last tick's
@@ -90,7 +90,8 @@ Eigen::Isometry3d tool_pose_W(const ProbeTool& tool, const ToolState& s);
 
 // The same hand path replayed against a voxmap (SIMULATION-ONLY truth, and
 // the tests): goals[i] per tick, gain[i] the live run's stale-model fade (may
-// be empty: 1). Writes the displayed wrench (force, torque) and the tool's
+// be empty: 1), has_model[i] whether the live tick had a voxmap (may be
+// empty: all had; without one the tool follows the hand, as live). Writes the displayed wrench (force, torque) and the tool's
 // P-frame origin per tick.
 struct ToolReplay {
   std::vector<Wrench> wrench;
@@ -98,6 +99,7 @@ struct ToolReplay {
   std::vector<int> contacts;
 };
 void replay_tool_path(const ToolParams& p, const ProbeTool& tool, const Voxmap& vm,
-                      const std::vector<Eigen::Isometry3d>& goals, const std::vector<double>& gain, ToolReplay* out);
+                      const std::vector<Eigen::Isometry3d>& goals, const std::vector<double>& gain,
+                      const std::vector<std::uint8_t>& has_model, ToolReplay* out);
 
 }  // namespace hemm::vps

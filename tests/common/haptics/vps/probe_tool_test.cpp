@@ -201,7 +201,7 @@ TEST(ProbeTool, BudgetBoundsTheWorkReplayReproducesTheTicksAndNothingAllocates) 
     peak = std::max(peak, s2.device.force.norm());
   }
   vps::ToolReplay rep;
-  vps::replay_tool_path(p, t, vm, goals, {}, &rep);
+  vps::replay_tool_path(p, t, vm, goals, {}, {}, &rep);
   ASSERT_EQ(rep.wrench.size(), goals.size());
   for (std::size_t i = 0; i < goals.size(); ++i) {
     ASSERT_EQ(rep.wrench[i].force, ticks[i].force) << i;
