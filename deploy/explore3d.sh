@@ -116,10 +116,32 @@ for r in rtts:
     t = json.load(open(os.path.join(out, f"{r}ms", "truth.json")))
     s = json.load(open(os.path.join(out, f"{r}ms", "station.json")))
     tm = s.get("timing", {})
-    g = lambda d, *k: next((d[x] for x in k if x in d), "?")
     link = "direct, 0 ms" if r == "0" else f"hemm-relay, {r} ms RTT, 5 % loss each way"
     print(f"| {link} | {t['contact_ticks']} | {t['force_rms_n']:.3f} / {t['force_max_n']:.3f} | "
           f"{t['true_force_peak_n']:.2f} | {t['torque_rms_nm']:.4f} / {t['torque_max_nm']:.4f} | "
-          f"{t['true_torque_peak_nm']:.3f} | {g(tm, 'period_median_us')} / {g(tm, 'period_p99_us')} | "
-          f"{g(tm, 'misses')} / {g(tm, 'ticks')} | {g(tm, 'compute_p99_us')} |")
+          f"{t['true_torque_peak_nm']:.3f} | {tm['period_us']['median']} / {tm['period_us']['p99']} | "
+          f"{tm['misses']} / {tm['ticks']} | {tm['compute_us']['p99']} |")
+
+# Per feature (the explore-table script's phases, tool6_explorer.cpp): force error RMS over contact ticks.
+import csv, math
+phases = [("block top", 6, 15), ("block front side", 16, 22.5), ("block left side", 23, 30), ("book top", 32, 40.5),
+          ("book front side", 41.5, 46.5), ("mug top", 48.5, 52.5), ("mug front side", 53.5, 58.5)]
+print()
+print("| link | " + " | ".join(p[0] for p in phases) + " |")
+print("|---|" + "--:|" * len(phases))
+for r in rtts:
+    rows = list(csv.DictReader(open(os.path.join(out, f"{r}ms", "truth.csv"))))
+    cells = []
+    for name, a, b in phases:
+        e2, n, peak = 0.0, 0, 0.0
+        for x in rows:
+            t = int(x["tick"]) * 1e-3
+            if not (a <= t < b) or (x["contacts"] == "0" and x["contacts_true"] == "0"):
+                continue
+            d = [float(x[k]) - float(x[k.replace("f_", "ft_")]) for k in ("f_x", "f_y", "f_z")]
+            e2 += sum(v * v for v in d)
+            n += 1
+            peak = max(peak, math.sqrt(sum(float(x[k]) ** 2 for k in ("ft_x", "ft_y", "ft_z"))))
+        cells.append(f"{math.sqrt(e2 / n):.2f} N of {peak:.1f} N ({n})" if n else "no contact")
+    print(f"| {r} ms | " + " | ".join(cells) + " |")
 PY

@@ -86,13 +86,17 @@ def main():
             if 1.0 <= x <= 2.0 and 1.55 <= y <= 2.45 and 0.70 <= z <= 0.95]
     sc = ax.scatter([v["x"][i] for i in keep], [v["y"][i] for i in keep], [v["z"][i] for i in keep],
                     c=[v["z"][i] for i in keep], cmap="viridis", s=4, alpha=0.6, depthshade=False)
-    touch = [i for i, n in enumerate(c["contacts"]) if n > 0]
-    ax.plot(c["tool_x"], c["tool_y"], c["tool_z"], color="tab:red", lw=0.8, label="tool tip centre (live)")
+    live = [i for i, m in enumerate(c["model"]) if m > 0]  # before the first voxmap the robot pose is not known yet
+    touch = [i for i in live if c["contacts"][i] > 0]
+    ax.plot([c["tool_x"][i] for i in live], [c["tool_y"][i] for i in live], [c["tool_z"][i] for i in live],
+            color="tab:red", lw=0.8, label="tool tip centre (live)")
     ax.scatter([c["tool_x"][i] for i in touch[::20]], [c["tool_y"][i] for i in touch[::20]],
                [c["tool_z"][i] for i in touch[::20]], color="tab:red", s=6, label="in contact")
     ax.set_xlabel("W x [m]")
     ax.set_ylabel("W y [m]")
     ax.set_zlabel("W z [m]")
+    ax.set_xlim(1.0, 2.0)
+    ax.set_ylim(1.55, 2.45)
     ax.set_zlim(0.70, 1.0)
     ax.view_init(elev=35, azim=-120)
     fig.colorbar(sc, ax=ax, shrink=0.6, label="surface voxel height [m]")
