@@ -414,7 +414,10 @@ void OperatorStation::stop() {
     std::string err;
     write_map_csv(model_->map(), o_.log_path + ".map.csv", &err);
     if (task_->tool6() != nullptr) {
-      if (const auto vm = model_->newest_voxmap()) write_voxmap_csv(*vm, o_.log_path + ".voxmap.csv", &err);
+      if (const auto vm = model_->newest_voxmap()) {
+        write_voxmap_csv(*vm, o_.log_path + ".voxmap.csv", &err);
+        write_voxmap_vps(*vm, task_->tool6()->tool().shell, o_.log_path + ".voxmap.vps", &err);
+      }
     }
   }
 }

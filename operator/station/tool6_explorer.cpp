@@ -5,6 +5,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "common/haptics/vps/cache.h"
 #include "common/haptics/vps/voxmap.h"
 #include "operator/station/operator_task.h"
 
@@ -139,6 +140,19 @@ bool write_voxmap_csv(const vps::Voxmap& vm, const std::string& path, std::strin
         }
       }
   const bool ok = std::fclose(f) == 0;
+  if (!ok) *error = "write failed: " + path;
+  return ok;
+}
+
+bool write_voxmap_vps(const vps::Voxmap& vm, const vps::PointShell& shell, const std::string& path,
+                      std::string* error) {
+  const std::vector<std::uint8_t> bytes = vps::serialize_vps(vm, shell);
+  std::FILE* f = std::fopen(path.c_str(), "wb");
+  if (f == nullptr) {
+    *error = "cannot open " + path + " for writing";
+    return false;
+  }
+  const bool ok = std::fwrite(bytes.data(), 1, bytes.size(), f) == bytes.size() && std::fclose(f) == 0;
   if (!ok) *error = "write failed: " + path;
   return ok;
 }

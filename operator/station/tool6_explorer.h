@@ -87,6 +87,10 @@ class Tool6Explorer {
 // servo thread; false with *error when the file cannot be written.
 bool write_tool6_params(const Tool6Explorer& t, const std::string& path, std::string* error);
 bool write_voxmap_csv(const vps::Voxmap& vm, const std::string& path, std::string* error);
+// The voxmap and the tool's pointshell as a .vps buffer (common/haptics/vps/cache.h), for
+// replaying a run against the final live voxmap offline (hemm-truth --tool6 --against).
+bool write_voxmap_vps(const vps::Voxmap& vm, const vps::PointShell& shell, const std::string& path,
+                      std::string* error);
 
 // The robot pose as an SE(3) transform (z = 0, yaw theta).
 Eigen::Isometry3d robot_pose3(const math::Pose2& T_W_R);

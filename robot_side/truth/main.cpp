@@ -10,11 +10,13 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <iostream>
 #include <optional>
 #include <vector>
 
 #include "common/config/config.h"
+#include "common/haptics/vps/cache.h"
 #include "common/haptics/proxy/virtual_proxy.h"
 #include "robot_side/truth/scene_slice.h"
 #include "robot_side/truth/tool6_truth.h"
@@ -41,8 +43,8 @@ void print_entries(const char* title, const std::vector<robot::SliceEntry>& v) {
 // --tool6: the 6-DoF probe tool's goal path (issue 13) against the scene's
 // true geometry in --region, voxelised at --voxel.
 int run_tool6(const std::string& scene, const std::string& log_path, const std::string& params_path,
-              const std::vector<double>& region, double voxel, const std::string& csv_path,
-              const std::string& json_path) {
+              const std::vector<double>& region, double voxel, const std::string& against,
+              const std::string& csv_path, const std::string& json_path) {
   std::string error;
   std::vector<robot::Tool6Tick> ticks;
   if (!robot::read_tool6_world_log(log_path, &ticks, &error)) return usage_error(error);
@@ -57,7 +59,15 @@ int run_tool6(const std::string& scene, const std::string& log_path, const std::
   if (box.isEmpty()) return usage_error("--region: min must be below max");
   vps::Voxmap vm;
   std::vector<std::string> parts;
-  if (!robot::build_truth_voxmap(scene, box, voxel, &vm, &parts, &error)) return usage_error(error);
+  if (!against.empty()) {  // diagnosis: the same path against a saved (live) voxmap instead of the truth
+    std::ifstream f(against, std::ios::binary);
+    const std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+    vps::PointShell ps;
+    if (auto e = vps::deserialize_vps(bytes.data(), bytes.size(), &vm, &ps)) return usage_error(against + ": " + e->message);
+    parts.push_back(against);
+  } else if (!robot::build_truth_voxmap(scene, box, voxel, &vm, &parts, &error)) {
+    return usage_error(error);
+  }
   p.budget = vps::kUnlimitedWork;  // the reference: every point at full resolution
   const robot::Tool6Truth t = robot::evaluate_tool6(ticks, tool, p, vm);
   std::printf("hemm-truth --tool6 (SIMULATION ONLY): %zu parts (", parts.size());
@@ -139,6 +149,10 @@ int run(int argc, char** argv) {
                  "the 6-DoF probe tool's run (issue 13): RUN.csv.tool6.txt (the tool as the station wrote it); "
                  "replays the logged goal path against the scene's static geometry in --region, voxelised at "
                  "--voxel, with the same tool, contact and coupling; --csv gets per-tick live and true wrenches");
+  std::string against;
+  app.add_option("--against", against,
+                 "with --tool6 (diagnosis): replay against this saved voxmap (RUN.csv.voxmap.vps: the final live "
+                 "voxmap) instead of the scene's truth");
   app.add_option("--region", region, "with --tool6: xmin ymin zmin xmax ymax zmax in W (default: the home table)")
       ->expected(6);
   app.add_option("--voxel", voxel, "with --tool6: truth voxel size in m (default 0.0025)")->check(CLI::Range(0.0005, 0.02));
@@ -161,7 +175,7 @@ int run(int argc, char** argv) {
       return usage_error(*out + ": cannot write (no such directory, or it is a directory)");
   }
 
-  if (!tool6_params.empty()) return run_tool6(scene_path, log_path, tool6_params, region, voxel, csv_path, json_path);
+  if (!tool6_params.empty()) return run_tool6(scene_path, log_path, tool6_params, region, voxel, against, csv_path, json_path);
 
   robot::SceneSlice slice;
   std::string error;
