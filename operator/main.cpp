@@ -338,10 +338,11 @@ int run(int argc, char** argv) {
   net::add_station_control_options(app, "hemm-operator", &control_options);
   std::string device_type, bimanual_hands;
   app.add_option("--device", device_type,
-                 "device (overrides device.type): sim-omni, replay, or sim-bimanual (the SIMULATED bimanual "
+                 "device (overrides device.type): sim-omni, replay, sim-hand6 (a SIMULATED rigid 6-DoF scripted hand for "
+                 "probe_3d.tool pointshell), or sim-bimanual (the SIMULATED bimanual "
                  "interface: two 7-DoF arms in MuJoCo with scripted hands, rendering local planes, or with a vps "
                  "config the scene's VPS objects along its scripted hand paths; no robot)")
-      ->check(CLI::IsMember({"sim-omni", "replay", "sim-bimanual"}));
+      ->check(CLI::IsMember({"sim-omni", "replay", "sim-bimanual", "sim-hand6"}));
   app.add_option("--hands", bimanual_hands,
                  "SIMULATED hand script for the sim-bimanual device (overrides device.bimanual.script): features "
                  "(each feature in turn, 14 s), idle")

@@ -224,8 +224,8 @@ std::vector<FieldIssue> validate_operator_config(const pb::Message& m) {
   check_port(c.net().local_stream_port(), true, "net.local_stream_port", out);
   if (!in_range(c.net().command_rate_hz(), 100, 1000)) out.push_back({"net.command_rate_hz", "must be 100..1000"});
   const std::string& type = c.device().type();
-  if (type != "sim-omni" && type != "replay" && type != "sim-bimanual")
-    out.push_back({"device.type", "must be \"sim-omni\", \"replay\" or \"sim-bimanual\""});
+  if (type != "sim-omni" && type != "replay" && type != "sim-bimanual" && type != "sim-hand6")
+    out.push_back({"device.type", "must be \"sim-omni\", \"replay\", \"sim-bimanual\" or \"sim-hand6\""});
   if (type == "replay" && c.device().replay_file().empty())
     out.push_back({"device.replay_file", "required when device.type is \"replay\""});
   if (!in_range(c.servo().rate_hz(), 100, 10000)) out.push_back({"servo.rate_hz", "must be 100..10000"});
@@ -247,6 +247,18 @@ std::vector<FieldIssue> validate_operator_config(const pb::Message& m) {
     out.push_back({"probe_3d.roi_size_m", "must be within [0.2, 3] m"});
   if (!(p3.rebuild_rate_hz() > 0 && p3.rebuild_rate_hz() <= 50))
     out.push_back({"probe_3d.rebuild_rate_hz", "must be within (0, 50]"});
+  const bool shell = p3.tool() == "pointshell";
+  if (!shell && p3.tool() != "point") out.push_back({"probe_3d.tool", "must be \"point\" or \"pointshell\""});
+  if (shell && !p3.enabled()) out.push_back({"probe_3d.tool", "\"pointshell\" needs probe_3d.enabled"});
+  if (shell != (type == "sim-hand6"))
+    out.push_back({"device.type", "the 6-DoF tool (probe_3d.tool \"pointshell\") and the 6-DoF device \"sim-hand6\" "
+                                  "go together"});
+  if (!(p3.tool_work_budget() >= 100 && p3.tool_work_budget() <= 1000000))
+    out.push_back({"probe_3d.tool_work_budget", "must be within [100, 1000000]"});
+  if (!(p3.tool_contact_stiffness() > 0 && p3.tool_contact_stiffness() <= 1e10))
+    out.push_back({"probe_3d.tool_contact_stiffness", "must be within (0, 1e10] N/m^3"});
+  if (p3.tool_hand_script() != "explore-table" && p3.tool_hand_script() != "explore-block")
+    out.push_back({"probe_3d.tool_hand_script", "must be \"explore-table\" or \"explore-block\""});
   return out;
 }
 

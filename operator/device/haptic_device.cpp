@@ -64,4 +64,21 @@ const char* check_limits(const DeviceLimits& d) {
   return nullptr;
 }
 
+DeviceLimits rigid_hand_limits(int end_effectors) {
+  DeviceLimits d;
+  d.end_effectors = end_effectors;
+  for (auto& l : d.ee) {
+    l.workspace_min_H = Eigen::Vector3d::Constant(-1.0);
+    l.workspace_max_H = Eigen::Vector3d::Constant(1.0);
+    l.max_continuous_force = 150.0;
+    l.peak_force = 150.0;
+    l.max_stiffness = 5000.0;
+    l.renders_torque = true;
+    l.peak_torque = 25.0;
+    l.max_rotational_stiffness = 300.0;
+    l.max_linear_speed = 1.5;
+  }
+  return d;
+}
+
 }  // namespace hemm::device

@@ -134,6 +134,13 @@ inline DeviceLimits phantom_omni_limits() {
   return d;
 }
 
+// SIMULATED rigid scripted hands (replayed 6-DoF paths that do not yield to
+// the force) as a device of `end_effectors` end-effectors: an LWR-class arm as
+// the bimanual paper gives it (150 N, 25 N m per arm); its impedance figures
+// are those of a Cartesian impedance controller of that class (assumed:
+// 5000 N/m, 300 N m/rad); a 2 m box about the H origin.
+DeviceLimits rigid_hand_limits(int end_effectors);
+
 // A command with `force_H` on end-effector `ee` and nothing else (the common
 // case of a one-end-effector, force-only device).
 inline DeviceCommand force_command(const Eigen::Vector3d& force_H, int ee = 0) {

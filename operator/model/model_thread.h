@@ -226,6 +226,11 @@ class ModelThread {
   void stop();  // idempotent; joins
   // Model-thread side (or after stop()): the map and the last error.
   const mapping::LocalMap& map() const { return map_; }
+  // The newest live voxmap built (null: none); any thread but the servo's (locks).
+  std::shared_ptr<const vps::Voxmap> newest_voxmap() {
+    std::lock_guard<std::mutex> lock(voxmap_mu_);
+    return voxmap_published_;
+  }
   const std::string& last_error() const { return last_error_; }
 
  private:

@@ -17,6 +17,7 @@
 #include "operator/device/simulated_omni.h"
 #include "operator/device/trajectory_csv.h"
 #include "operator/station/demo_scripts.h"
+#include "operator/station/tool6_explorer.h"
 #include "config_operator.pb.h"
 #include "report.pb.h"
 
@@ -38,6 +39,14 @@ void apply_probe3d_config(const config::Probe3dConfig& c, OperatorStationOptions
   o->model.voxmap_roi = c.roi() == "robot" ? VoxmapRoi::kRobot : VoxmapRoi::kProbe;
   o->model.voxmap_probe_roi.size = c.roi_size_m();
   o->model.voxmap_probe_roi.margin = 0.25 * c.roi_size_m();
+  if (c.tool() == "pointshell") {  // the 6-DoF tool in place of the point probe
+    o->task.tool6.enabled = true;
+    o->task.tool6.budget = c.tool_work_budget();
+    o->task.tool6.contact_stiffness = c.tool_contact_stiffness();
+    o->task.tool6.origin_R = Eigen::Vector3d(c.origin_x_m(), 0.0, c.origin_z_m());
+    o->hand6_script = c.tool_hand_script();
+    return;
+  }
   o->task.probe_3d = true;
   o->task.probe3d.force = o->task.proxy;
   o->task.probe3d.force.probe_radius = c.probe_radius_m();
@@ -221,8 +230,18 @@ OperatorStation::OperatorStation(asio::io_context& io, OperatorClient& client, c
     if (auto e = device::load_trajectory_csv(o.replay_file, device::phantom_omni_limits(), &traj))
       throw std::runtime_error("replay file: " + e->to_string());
     device_ = std::make_unique<device::ReplayDevice>(std::move(traj), device::phantom_omni_limits());
+  } else if (o.device == "sim-hand6") {
+    // The SIMULATED rigid 6-DoF scripted hand of the 6-DoF tool (tool6_explorer.h).
+    if (!tp.tool6.enabled) throw std::invalid_argument("device sim-hand6 needs probe_3d { tool: \"pointshell\" }");
+    device_ = std::make_unique<device::ReplayDevice>(make_hand6_trajectory(o.hand6_script, tp.tool6.origin_R),
+                                                     device::rigid_hand_limits(1));
   } else {
-    throw std::invalid_argument("unknown device type '" + o.device + "' (sim-omni or replay)");
+    throw std::invalid_argument("unknown device type '" + o.device + "' (sim-omni, replay or sim-hand6)");
+  }
+  if (tp.tool6.enabled) {
+    if (!device_->limits().ee[0].renders_torque)
+      throw std::invalid_argument("the 6-DoF tool (probe_3d.tool \"pointshell\") needs a 6-DoF device (sim-hand6)");
+    tp.tool6.limits = device_->limits().ee[0];
   }
   if (!(o.stats_period_s > 0)) throw std::invalid_argument("stats_period_s must be positive");
   model_ = std::make_unique<ModelThread>(channel_, o.model);
@@ -292,6 +311,9 @@ servo::RealtimeStatus OperatorStation::start() {
   if (servo_log_) {
     if (auto e = servo_log_->start(o_.log_path)) throw std::runtime_error(*e);
     if (auto e = world_log_->start(o_.log_path + ".world.csv")) throw std::runtime_error(*e);
+    std::string err;
+    if (task_->tool6() != nullptr && !write_tool6_params(*task_->tool6(), o_.log_path + ".tool6.txt", &err))
+      throw std::runtime_error(err);
   }
   model_->step(steady_now_ns());  // a first snapshot before the servo starts
   model_->start();
@@ -401,6 +423,12 @@ void OperatorStation::stop() {
     world_log_->stop();
     std::string err;
     write_map_csv(model_->map(), o_.log_path + ".map.csv", &err);
+    if (task_->tool6() != nullptr) {
+      if (const auto vm = model_->newest_voxmap()) {
+        write_voxmap_csv(*vm, o_.log_path + ".voxmap.csv", &err);
+        write_voxmap_vps(*vm, task_->tool6()->tool().shell, o_.log_path + ".voxmap.vps", &err);
+      }
+    }
   }
 }
 

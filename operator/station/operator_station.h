@@ -40,7 +40,8 @@ class Probe3dConfig;  // config_operator.pb.h
 namespace hemm::op {
 
 struct OperatorStationOptions {
-  std::string device = "sim-omni";  // or "replay"
+  std::string device = "sim-omni";  // or "replay", or "sim-hand6" (needs task.tool6.enabled)
+  std::string hand6_script = "explore-table";  // device == "sim-hand6": tool6_explorer.h
   std::string replay_file;          // device == "replay"
   std::string script = "idle";      // device == "sim-omni": demo_scripts.h
   // device == "sim-omni": if set, this hand instead of the script, starting
@@ -178,7 +179,9 @@ class OperatorStation {
 };
 
 // config probe_3d (validated) -> the model's live voxmap and the task's
-// 3-DoF point probe; nothing changes when it is not enabled.
+// 3-DoF point probe, or with tool "pointshell" the 6-DoF tool
+// (tool6_explorer.h) and the SIMULATED 6-DoF hand's script; nothing changes
+// when it is not enabled.
 void apply_probe3d_config(const config::Probe3dConfig& c, OperatorStationOptions* o);
 
 // Writes the map's segments as CSV (ax,ay,bx,by,nx,ny,stamp_ns,kind).

@@ -27,19 +27,22 @@ wire::Mode to_wire_mode(math::Mode m) {
 const char* station_log_header() {
   return "t_ns,mode,robot_x,robot_y,robot_theta,goal_x,goal_y,goal_z,proxy_x,proxy_y,fw_x,fw_y,"
          "fh_x,fh_y,fh_z,v,omega,contacts,model_version,model_age_ns,scale,state_stamp_ns,odom_x,odom_y,odom_theta,"
-         "truth_x,truth_y,truth_theta,has_truth,force_gain,proxy3_x,proxy3_y,proxy3_z,fw_z,probe3_contact";
+         "truth_x,truth_y,truth_theta,has_truth,force_gain,proxy3_x,proxy3_y,proxy3_z,fw_z,probe3_contact,"
+         "goal_qw,goal_qx,goal_qy,goal_qz,tool_x,tool_y,tool_z,tw_x,tw_y,tw_z,tool_work,tool_levels,tool_model";
 }
 
 std::size_t format_station_log_record(const StationLogRecord& r, char* buf, std::size_t size) {
   const int n = std::snprintf(
       buf, size,
       "%" PRId64 ",%u,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%d,%" PRIu64
-      ",%" PRId64 ",%.6f,%" PRId64 ",%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%d,%.4f,%.6f,%.6f,%.6f,%.5f,%d\n",
+      ",%" PRId64 ",%.6f,%" PRId64 ",%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%d,%.4f,%.6f,%.6f,%.6f,%.5f,%d,"
+      "%.7f,%.7f,%.7f,%.7f,%.6f,%.6f,%.6f,%.6f,%.6f,%.6f,%" PRId64 ",%d,%d\n",
       r.t_ns, r.mode, r.robot[0], r.robot[1], r.robot[2], r.goal_W[0], r.goal_W[1], r.goal_W[2], r.proxy_W[0],
       r.proxy_W[1], r.force_W[0], r.force_W[1], r.force_H[0], r.force_H[1], r.force_H[2], r.v, r.omega, r.contacts,
       r.model_version, r.model_age_ns, r.scale, r.state_stamp_ns, r.odom[0], r.odom[1], r.odom[2], r.truth[0],
       r.truth[1], r.truth[2], r.has_truth, r.force_gain, r.proxy3_W[0], r.proxy3_W[1], r.proxy3_W[2], r.force_W_z,
-      r.probe3_contact);
+      r.probe3_contact, r.goal_q[0], r.goal_q[1], r.goal_q[2], r.goal_q[3], r.tool_W[0], r.tool_W[1], r.tool_W[2],
+      r.torque_W[0], r.torque_W[1], r.torque_W[2], r.tool_work, r.tool_levels, r.tool_model);
   if (n < 0 || static_cast<std::size_t>(n) >= size) return 0;
   return static_cast<std::size_t>(n);
 }
@@ -72,6 +75,11 @@ OperatorServoTask::OperatorServoTask(const OperatorTaskParams& p, StationLogger*
   probe3d_map_.scale = p.probe3d_range / math::horizontal_half_extent(p.workspace);
   probe3d_map_.centre_B = p.workspace.centre_B;
   probe3d_map_.origin_R = p.probe3d_origin_R;
+  if (p.tool6.enabled) {
+    Tool6Params t = p.tool6;
+    t.period_s = p.proxy.period;
+    tool6_ = std::make_unique<Tool6Explorer>(t);  // throws on bad parameters
+  }
   empty_map_ = mapping::build_snapshot(mapping::MapParams{}, mapping::LocalMap{});
   last_.mode = mode_;
 }
@@ -197,6 +205,14 @@ void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelS
     probe_out_->publish();
   }
 
+  // The 6-DoF tool on the live voxmap (exploration): its wrench replaces the
+  // force below (tool6_explorer.h).
+  const bool tool6 = tool6_ != nullptr && mode_ == math::Mode::kExploration;
+  if (tool6) {
+    const bool live = snap != nullptr && snap->have_state && !snap->resyncing;
+    tool6_->tick(in.ee[0], T_W_R_, live ? snap->voxmap.get() : nullptr);
+  }
+
   StationSetpoint sp;
   sp.t_ns = in.t_ns;
   sp.tick = ticks_;
@@ -228,6 +244,7 @@ void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelS
   const Eigen::Vector3d F_B = math::force_W_to_B(T_W_R_, F_W);
   const Eigen::Vector3d F_H = R.transpose() * F_B;
   out.command.ee[0].force_H = F_H.allFinite() ? F_H : Eigen::Vector3d::Zero();
+  if (tool6) tool6_->write(force_gain_, out.command.ee[0]);
   out.publish_setpoint = false;  // the base / arm command travels in StationSetpoint
   out.points[0].proxy_position_H = R.transpose() * proxy_B;
   out.points[0].interaction_point_H = R.transpose() * (p_B + anchor_.offset_B);
@@ -277,6 +294,7 @@ void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelS
       r.truth[2] = st.T_W_R_truth.theta;
       r.has_truth = st.has_truth ? 1 : 0;
     }
+    if (tool6) tool6_->fill(force_gain_, r);
     if (log_ != nullptr) log_->push(r);
     if (view_ticks_ != nullptr) view_ticks_->publish(r);
   }

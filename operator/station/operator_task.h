@@ -58,6 +58,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <memory>
 
 #include "common/haptics/proxy/virtual_proxy.h"
 #include "common/haptics/vps/point_probe.h"
@@ -67,6 +68,7 @@
 #include "common/concurrency/newest_mailbox.h"
 #include "operator/servo/servo_loop.h"
 #include "operator/servo/spsc_ring.h"
+#include "operator/station/tool6_explorer.h"
 #include "wire.pb.h"
 
 namespace hemm::op {
@@ -115,6 +117,16 @@ struct StationLogRecord {
   double proxy3_W[3] = {0, 0, 0};
   double force_W_z = 0.0;
   int probe3_contact = 0;
+  // The 6-DoF tool (tool6_explorer.h; goal_W is its goal's origin, force_W
+  // its displayed force, contacts its pointshell points in contact): the
+  // goal's orientation (w, x, y, z), the tool's P origin, the displayed
+  // torque (W, about the goal's centre of mass), the VPS work and levels.
+  double goal_q[4] = {1, 0, 0, 0};
+  double tool_W[3] = {0, 0, 0};
+  double torque_W[3] = {0, 0, 0};
+  std::int64_t tool_work = 0;
+  int tool_levels = 0;
+  int tool_model = 0;  // the tick had a voxmap
 };
 const char* station_log_header();
 std::size_t format_station_log_record(const StationLogRecord& r, char* buf, std::size_t size);
@@ -191,6 +203,9 @@ struct OperatorTaskParams {
   vps::PointProbeParams probe3d;  // force.period is set from proxy.period
   double probe3d_range = 0.6;
   Eigen::Vector3d probe3d_origin_R{0.9, 0.0, 0.85};
+  // The 6-DoF tool against the live voxmap (tool6_explorer.h), in place of
+  // the 3-DoF probe's force in exploration mode; needs a 6-DoF device.
+  Tool6Params tool6;
 };
 
 class OperatorServoTask final : public servo::ServoTask {
@@ -210,6 +225,7 @@ class OperatorServoTask final : public servo::ServoTask {
   const haptics::ProxyData& proxy() const noexcept { return proxy_; }
   const vps::PointProbeData& probe3d() const noexcept { return probe3d_; }
   const math::ScaledMap& probe3d_map() const noexcept { return probe3d_map_; }
+  const Tool6Explorer* tool6() const noexcept { return tool6_.get(); }
   const math::ModeAnchor& anchor() const noexcept { return anchor_; }
   const StationSetpoint& last_setpoint() const noexcept { return last_; }
   const math::Pose2& robot_pose() const noexcept { return T_W_R_; }
@@ -261,6 +277,7 @@ class OperatorServoTask final : public servo::ServoTask {
   vps::PointProbeData probe3d_;
   Eigen::Vector3d probe3d_goal_W_ = Eigen::Vector3d::Zero();
   math::ScaledMap probe3d_map_;
+  std::unique_ptr<Tool6Explorer> tool6_;  // null unless params.tool6.enabled
   mapping::MapSnapshot empty_map_;
   math::Mode mode_;
   math::ModeAnchor anchor_;

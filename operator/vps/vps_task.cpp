@@ -51,22 +51,7 @@ std::size_t format_vps_log_record(const VpsLogRecord& r, char* buf, std::size_t 
   return static_cast<std::size_t>(n);
 }
 
-device::DeviceLimits scripted_hands_limits(int end_effectors) {
-  device::DeviceLimits d;
-  d.end_effectors = end_effectors;
-  for (auto& l : d.ee) {
-    l.workspace_min_H = Eigen::Vector3d::Constant(-1.0);
-    l.workspace_max_H = Eigen::Vector3d::Constant(1.0);
-    l.max_continuous_force = 150.0;
-    l.peak_force = 150.0;
-    l.max_stiffness = 5000.0;
-    l.renders_torque = true;
-    l.peak_torque = 25.0;
-    l.max_rotational_stiffness = 300.0;
-    l.max_linear_speed = 1.5;
-  }
-  return d;
-}
+device::DeviceLimits scripted_hands_limits(int end_effectors) { return device::rigid_hand_limits(end_effectors); }
 
 VpsServoTask::VpsServoTask(std::shared_ptr<const VpsLocalModel> model, const device::DeviceLimits& limits,
                            const VpsTaskParams& params, VpsLogger* log)

@@ -148,10 +148,7 @@ class VpsServoTask final : public servo::ServoTask {
 };
 
 // Limits of SIMULATED rigid scripted hands as a two-end-effector device (the
-// replayed paths of the paper's scenes): an LWR-class arm as the bimanual
-// paper gives it (150 N, 25 N m per arm); its impedance figures are those of
-// a Cartesian impedance controller of that class (assumed: 5000 N/m,
-// 300 N m/rad); a 2 m box about the scene origin.
+// replayed paths of the paper's scenes): device::rigid_hand_limits.
 device::DeviceLimits scripted_hands_limits(int end_effectors = 2);
 
 }  // namespace hemm::op

@@ -10,12 +10,16 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <iostream>
 #include <optional>
+#include <vector>
 
 #include "common/config/config.h"
+#include "common/haptics/vps/cache.h"
 #include "common/haptics/proxy/virtual_proxy.h"
 #include "robot_side/truth/scene_slice.h"
+#include "robot_side/truth/tool6_truth.h"
 #include "robot_side/truth/truth_eval.h"
 #include "report.pb.h"
 
@@ -34,6 +38,73 @@ int usage_error(const std::string& msg) {
 void print_entries(const char* title, const std::vector<robot::SliceEntry>& v) {
   std::printf("%s (%zu):\n", title, v.size());
   for (const auto& e : v) std::printf("  %-16s %-9s %s\n", e.name.c_str(), e.kind.c_str(), e.detail.c_str());
+}
+
+// --tool6: the 6-DoF probe tool's goal path (issue 13) against the scene's
+// true geometry in --region, voxelised at --voxel.
+int run_tool6(const std::string& scene, const std::string& log_path, const std::string& params_path,
+              const std::vector<double>& region, double voxel, const std::string& against,
+              const std::string& csv_path, const std::string& json_path) {
+  std::string error;
+  std::vector<robot::Tool6Tick> ticks;
+  if (!robot::read_tool6_world_log(log_path, &ticks, &error)) return usage_error(error);
+  if (ticks.empty()) return usage_error(log_path + ": no data rows");
+  vps::ProbeToolGeometry g;
+  vps::ToolParams p;
+  if (!robot::read_tool6_params(params_path, &g, &p, &error)) return usage_error(error);
+  vps::ProbeTool tool;
+  if (auto e = vps::make_probe_tool(g, &tool)) return usage_error(params_path + ": " + e->message);
+  const Eigen::AlignedBox3d box(Eigen::Vector3d(region[0], region[1], region[2]),
+                                Eigen::Vector3d(region[3], region[4], region[5]));
+  if (box.isEmpty()) return usage_error("--region: min must be below max");
+  vps::Voxmap vm;
+  std::vector<std::string> parts;
+  if (!against.empty()) {  // diagnosis: the same path against a saved (live) voxmap instead of the truth
+    std::ifstream f(against, std::ios::binary);
+    const std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+    vps::PointShell ps;
+    if (auto e = vps::deserialize_vps(bytes.data(), bytes.size(), &vm, &ps)) return usage_error(against + ": " + e->message);
+    parts.push_back(against);
+  } else if (!robot::build_truth_voxmap(scene, box, voxel, &vm, &parts, &error)) {
+    return usage_error(error);
+  }
+  p.budget = vps::kUnlimitedWork;  // the reference: every point at full resolution
+  const robot::Tool6Truth t = robot::evaluate_tool6(ticks, tool, p, vm);
+  std::printf("hemm-truth --tool6 (SIMULATION ONLY): %zu parts (", parts.size());
+  for (std::size_t i = 0; i < parts.size(); ++i) std::printf("%s%s", i ? " " : "", parts[i].c_str());
+  std::printf("), voxel %.4f m, %.1f MB; %zu ticks\n", voxel, vm.memory_bytes() / 1e6, ticks.size());
+  std::printf("contact ticks %zu: force error RMS %.4f N, max %.4f N (true peak %.4f N); torque error RMS %.5f N m, "
+              "max %.5f N m (true peak %.5f N m)\n",
+              t.contact_ticks, t.force_rms, t.force_max, t.true_force_peak, t.torque_rms, t.torque_max,
+              t.true_torque_peak);
+  if (!csv_path.empty()) {
+    std::FILE* f = std::fopen(csv_path.c_str(), "w");
+    if (f == nullptr) return usage_error(csv_path + ": cannot write");
+    std::fprintf(f, "tick,t_s,f_x,f_y,f_z,ft_x,ft_y,ft_z,tau_x,tau_y,tau_z,taut_x,taut_y,taut_z,tool_x,tool_y,tool_z,"
+                    "toolt_x,toolt_y,toolt_z,goal_x,goal_y,goal_z,contacts,contacts_true,model\n");
+    for (std::size_t i = 0; i < ticks.size(); ++i) {
+      const robot::Tool6Tick& k = ticks[i];
+      const vps::Wrench& w = t.replay.wrench[i];
+      const Eigen::Vector3d& tt = t.replay.tool_W[i];
+      std::fprintf(f, "%zu,%.6f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,"
+                      "%.5f,%.5f,%.5f,%d,%d,%d\n",
+                   i, k.t_s, k.force.x(), k.force.y(), k.force.z(), w.force.x(), w.force.y(), w.force.z(), k.torque.x(),
+                   k.torque.y(), k.torque.z(), w.torque.x(), w.torque.y(), w.torque.z(), k.tool.x(), k.tool.y(),
+                   k.tool.z(), tt.x(), tt.y(), tt.z(), k.goal.translation().x(), k.goal.translation().y(),
+                   k.goal.translation().z(), k.contacts, t.replay.contacts[i], k.model ? 1 : 0);
+    }
+    if (std::fclose(f) != 0) return usage_error(csv_path + ": write failed");
+  }
+  if (!json_path.empty()) {
+    std::ofstream f(json_path);
+    f << "{\"ticks\": " << ticks.size() << ", \"contact_ticks\": " << t.contact_ticks
+      << ", \"force_rms_n\": " << t.force_rms << ", \"force_max_n\": " << t.force_max
+      << ", \"true_force_peak_n\": " << t.true_force_peak << ", \"torque_rms_nm\": " << t.torque_rms
+      << ", \"torque_max_nm\": " << t.torque_max << ", \"true_torque_peak_nm\": " << t.true_torque_peak
+      << ", \"voxel_m\": " << voxel << "}\n";
+    if (!f) return usage_error(json_path + ": write failed");
+  }
+  return kExitOk;
 }
 
 int run(int argc, char** argv) {
@@ -71,6 +142,20 @@ int run(int argc, char** argv) {
                  "true pose, pose error, held");
   app.add_option("--json", json_path, "write the summary numbers as one flat JSON object");
   app.add_flag("--list-geoms", list_geoms, "list the static geoms sliced, skipped and off the slice");
+  std::string tool6_params;
+  std::vector<double> region{0.8, 1.5, 0.6, 2.2, 2.5, 1.0};
+  double voxel = 0.0025;
+  app.add_option("--tool6", tool6_params,
+                 "the 6-DoF probe tool's run (issue 13): RUN.csv.tool6.txt (the tool as the station wrote it); "
+                 "replays the logged goal path against the scene's static geometry in --region, voxelised at "
+                 "--voxel, with the same tool, contact and coupling; --csv gets per-tick live and true wrenches");
+  std::string against;
+  app.add_option("--against", against,
+                 "with --tool6 (diagnosis): replay against this saved voxmap (RUN.csv.voxmap.vps: the final live "
+                 "voxmap) instead of the scene's truth");
+  app.add_option("--region", region, "with --tool6: xmin ymin zmin xmax ymax zmax in W (default: the home table)")
+      ->expected(6);
+  app.add_option("--voxel", voxel, "with --tool6: truth voxel size in m (default 0.0025)")->check(CLI::Range(0.0005, 0.02));
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -89,6 +174,8 @@ int run(int argc, char** argv) {
     if (ec || !std::filesystem::is_directory(parent, ec) || std::filesystem::is_directory(*out, ec))
       return usage_error(*out + ": cannot write (no such directory, or it is a directory)");
   }
+
+  if (!tool6_params.empty()) return run_tool6(scene_path, log_path, tool6_params, region, voxel, against, csv_path, json_path);
 
   robot::SceneSlice slice;
   std::string error;

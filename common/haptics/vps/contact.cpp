@@ -426,6 +426,23 @@ void evaluate_pair(const Voxmap& vm, const Eigen::Isometry3d& T_W_V, const Eigen
   e.finish(e.levels() - 1, out);
 }
 
+void evaluate_pair_budgeted(const Voxmap& vm, const Eigen::Isometry3d& T_W_V, const Eigen::Vector3d& ref_V,
+                            const PointShell& ps, const Eigen::Isometry3d& T_W_P, const ContactParams& params,
+                            std::int64_t budget, PairState* state, PairResult* out) {
+  if (budget == kUnlimitedWork) {
+    evaluate_pair(vm, T_W_V, ref_V, ps, T_W_P, params, state, out);
+    return;
+  }
+  PairEval e(vm, T_W_V, ref_V, ps, T_W_P, params, state, true);
+  int done = -1;
+  for (int l = 0; l < e.levels(); ++l) {
+    if (!e.run_level(l, &budget)) break;
+    done = l;
+  }
+  e.finish(std::max(done, 0), out);
+  out->levels_completed = done + 1;
+}
+
 void init_bimanual_state(const BimanualModel& model, BimanualState* state) {
   init_pair_state(*model.right.pointshell, &state->right_scene);
   init_pair_state(*model.left.pointshell, &state->left_scene);

@@ -101,6 +101,15 @@ void evaluate_pair(const Voxmap& vm, const Eigen::Isometry3d& T_W_V, const Eigen
                    const PointShell& ps, const Eigen::Isometry3d& T_W_P, const ContactParams& params,
                    PairState* state, PairResult* out);
 
+// One pair in the time-critical mode (Barbic & James): the pointshell's
+// levels coarse to fine until `budget` work units (sphere nodes visited +
+// points tested) are spent; the wrench is that of the deepest complete level
+// (levels_completed), so the call never exceeds its budget. With an
+// unlimited budget it equals evaluate_pair.
+void evaluate_pair_budgeted(const Voxmap& vm, const Eigen::Isometry3d& T_W_V, const Eigen::Vector3d& ref_V,
+                            const PointShell& ps, const Eigen::Isometry3d& T_W_P, const ContactParams& params,
+                            std::int64_t budget, PairState* state, PairResult* out);
+
 // A moving object with both structures: its pointshell collides with the
 // scene; its voxmap is hit by the other tool's pointshell.
 struct VpsObject {

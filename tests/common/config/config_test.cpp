@@ -126,6 +126,29 @@ TEST(ConfigTest, ShippedProbe3dConfigsLoadAndBadValuesAreNamed) {
   EXPECT_FALSE(e7) << e7->to_string();
 }
 
+TEST(ConfigTest, ShippedExplore3dConfigLoadsAndTheToolNeedsItsDevice) {
+  const std::string src = HEMM_SOURCE_DIR;
+  OperatorConfig o;
+  auto e = load_operator_config(src + "/deploy/configs/operator_explore3d.pbtxt", &o);
+  EXPECT_FALSE(e) << e->to_string();
+  EXPECT_EQ(o.probe_3d().tool(), "pointshell");
+  EXPECT_EQ(o.device().type(), "sim-hand6");
+  OperatorConfig ob;
+  // The 6-DoF tool with the 3-DoF Omni (the default device): refused, naming the device.
+  auto e1 = parse_text_config("probe_3d { enabled: true tool: \"pointshell\" }", "o.pbtxt", &validate_operator_config, &ob);
+  ASSERT_TRUE(e1);
+  EXPECT_EQ(e1->field, "device.type");
+  EXPECT_FALSE(ob.has_probe_3d());
+  auto e2 = parse_text_config("probe_3d { enabled: true tool: \"stick\" }", "o.pbtxt", &validate_operator_config, &ob);
+  ASSERT_TRUE(e2);
+  EXPECT_EQ(e2->field, "probe_3d.tool");
+  auto e3 = parse_text_config(
+      "device { type: \"sim-hand6\" } probe_3d { enabled: true tool: \"pointshell\" tool_work_budget: 5 }", "o.pbtxt",
+      &validate_operator_config, &ob);
+  ASSERT_TRUE(e3);
+  EXPECT_EQ(e3->field, "probe_3d.tool_work_budget");
+}
+
 TEST(ConfigTest, ResolveRelative) {
   EXPECT_EQ(resolve_relative_to("/a/b/c.pbtxt", "k.key"), "/a/b/k.key");
   EXPECT_EQ(resolve_relative_to("/a/b/c.pbtxt", "/k.key"), "/k.key");

@@ -44,6 +44,7 @@
 #include "robot_side/truth/scene_slice.h"
 #include "tests/operator/client/loopback_client.h"
 #include "tests/operator/servo/alloc_counter.h"
+#include "tests/integration/probe3d/table_scene.h"
 #include "tests/robot_side/station/robot_side.h"
 
 namespace hr = hemm::robot;
@@ -53,15 +54,10 @@ namespace vps = hemm::vps;
 
 namespace {
 
-const std::string kScene = std::string(HEMM_SOURCE_DIR) + "/deploy/scenes/home.xml";
-
-hn::Key test_key() {
-  hn::Key k{};
-  for (size_t i = 0; i < k.size(); ++i) k[i] = static_cast<uint8_t>(13 * i + 5);
-  return k;
-}
-
-void servo_hook(bool started) noexcept { hemm::test::count_allocations_on_this_thread(started); }
+const std::string& kScene = hemm::test::kHomeScene;
+hn::Key test_key() { return hemm::test::table_test_key(13, 5); }
+constexpr auto servo_hook = &hemm::test::count_servo_allocations;
+using hemm::test::median_of;
 
 // The world log (operator_task.h StationLogRecord) by column name.
 std::vector<std::map<std::string, double>> read_world_log(const std::string& path) {
@@ -85,12 +81,6 @@ std::vector<std::map<std::string, double>> read_world_log(const std::string& pat
   return rows;
 }
 
-double median(std::vector<double> v) {
-  if (v.empty()) return NAN;
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
-  return v[v.size() / 2];
-}
-
 }  // namespace
 
 // Round trip (ms, through hemm-relay's impairment in-process: half each way)
@@ -105,12 +95,7 @@ TEST_P(Probe3dLoopback, ProbeRestsOnTheTrueTableTopAndTheServoHoldsItsPeriod) {
   const Link link = GetParam();
   // Robot: before the table (top 1.2 x 0.8 m at z 0.75, centre (1.5, 2.0)),
   // facing it, its front 0.38 m from the table's edge.
-  hemm::config::RobotConfig rcfg;
-  rcfg.mutable_sim()->set_start_x_m(1.5);
-  rcfg.mutable_sim()->set_start_y_m(1.0);
-  rcfg.mutable_sim()->set_start_theta_rad(std::numbers::pi / 2);
-  rcfg.mutable_depth_camera()->set_enabled(true);
-  hemm::test::RobotSide robot(rcfg, test_key(), kScene);
+  hemm::test::RobotSide robot(hemm::test::robot_before_table(), test_key(), kScene);
   robot.start();
 
   asio::io_context io;
@@ -154,21 +139,13 @@ TEST_P(Probe3dLoopback, ProbeRestsOnTheTrueTableTopAndTheServoHoldsItsPeriod) {
       {0.0, c_H, 0}, {4.0, c_H, 0}, {5.0, pressed_H, 0}, {6.0, pressed_H, 0}, {8.0, slid_H, 0}, {8.5, slid_H, 0},
       {9.0, c_H, 0}});
   ho::OperatorStation station(io, client, so);
-  station.task().set_servo_thread_hook(&servo_hook);
+  station.task().set_servo_thread_hook(servo_hook);
 
   std::string err;
   ASSERT_TRUE(client.start([](int, const std::string& why) { ADD_FAILURE() << "fatal: " << why; }, &err)) << err;
-  const std::uint64_t allocs_before = hemm::test::counted_allocations();
-  station.start();
-  std::thread net([&] { io.run(); });
-  std::this_thread::sleep_for(std::chrono::milliseconds(9500));
-  const hr::RobotStationStatistics rs = robot.station->statistics();
-  station.stop();
-  const std::uint64_t servo_allocs = hemm::test::counted_allocations() - allocs_before;
-  asio::post(io, [&] { client.stop("test over"); });
-  std::this_thread::sleep_for(std::chrono::milliseconds(50));
-  io.stop();
-  net.join();
+  hr::RobotStationStatistics rs;
+  const std::uint64_t servo_allocs =
+      hemm::test::run_station_for(io, client, station, 9500, [&] { rs = robot.station->statistics(); });
 
   const ho::OperatorStationSummary sum = station.summary();
   const ho::VoxmapStats& vs = sum.model.voxmap;
@@ -266,7 +243,7 @@ TEST_P(Probe3dLoopback, ProbeRestsOnTheTrueTableTopAndTheServoHoldsItsPeriod) {
     for (double x : v) s += x;
     return v.empty() ? NAN : std::sqrt(s / static_cast<double>(v.size()));
   };
-  const double rest = median(rest_z);
+  const double rest = median_of(rest_z);
   std::printf("rtt %d ms, loss %.0f %%: ", link.rtt_ms, 100 * link.loss);
   std::printf("truth: rest proxy z %.4f m (true top + rho %.4f m, %zu ticks); force error rms %.3f N (contact %.3f N, "
               "%zu ticks), max %.3f N, true peak %.3f N\n",

@@ -1,0 +1,232 @@
+#include "operator/station/tool6_explorer.h"
+
+#include <cmath>
+#include <cstdio>
+#include <stdexcept>
+#include <vector>
+
+#include "common/haptics/vps/cache.h"
+#include "common/haptics/vps/voxmap.h"
+#include "operator/station/operator_task.h"
+
+namespace hemm::op {
+
+std::string validate(const Tool6Params& p) {
+  if (std::string e = vps::validate(p.geometry); !e.empty()) return e;
+  if (!(std::isfinite(p.contact_stiffness) && p.contact_stiffness > 0 && p.contact_stiffness <= 1e10))
+    return "contact stiffness must be in (0, 1e10] N/m^3";
+  if (p.budget < 1) return "work budget must be >= 1";
+  if (!p.origin_R.allFinite() || p.origin_R.norm() > 5.0) return "origin must be finite, within 5 m of the robot";
+  if (!(p.period_s > 0 && p.period_s <= 0.01)) return "period must be in (0, 10 ms]";
+  if (!(p.limits.peak_force > 0 && p.limits.max_stiffness > 0))
+    return "the device's end-effector 0 must report a peak force and a stiffness";
+  return {};
+}
+
+Eigen::Isometry3d robot_pose3(const math::Pose2& T_W_R) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = Eigen::AngleAxisd(T_W_R.theta, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  T.translation() = Eigen::Vector3d(T_W_R.x, T_W_R.y, 0.0);
+  return T;
+}
+
+Tool6Explorer::Tool6Explorer(const Tool6Params& p) : p_(p) {
+  if (std::string e = validate(p); !e.empty()) throw std::invalid_argument("tool6: " + e);
+  if (auto e = vps::make_probe_tool(p.geometry, &tool_)) throw std::invalid_argument("tool6: " + e->message);
+  vps::CouplingDeviceLimits d;
+  d.dt = p.period_s;
+  d.peak_force = p.limits.peak_force;
+  d.max_stiffness = p.limits.max_stiffness;
+  if (p.limits.max_linear_speed > 0) d.max_speed = std::min(d.max_speed, p.limits.max_linear_speed);
+  d.renders_torque = p.limits.renders_torque;
+  d.peak_torque = p.limits.peak_torque;
+  d.max_rot_stiffness = p.limits.max_rotational_stiffness;
+  params_.coupling = vps::design_coupling(tool_.mass, tool_.inertia_com, d).params;
+  params_.contact.stiffness = p.contact_stiffness;
+  params_.budget = p.budget;
+  vps::init_tool_state(tool_, &state_);
+}
+
+void Tool6Explorer::tick(const device::EndEffectorSample& s, const math::Pose2& T_W_R, const vps::Voxmap* vm) noexcept {
+  valid_ = s.position_H.allFinite() && s.orientation_H.coeffs().allFinite() && s.orientation_H.norm() > 0.5;
+  const Eigen::Isometry3d T_W_H = robot_pose3(T_W_R) * Eigen::Translation3d(p_.origin_R);
+  R_W_H_ = T_W_H.linear();
+  if (valid_) {
+    Eigen::Isometry3d T_H_E = Eigen::Isometry3d::Identity();
+    T_H_E.linear() = s.orientation_H.normalized().toRotationMatrix();
+    T_H_E.translation() = s.position_H;
+    goal_W_ = T_W_H * T_H_E;
+  }
+  if (!s.enabled) vm = nullptr;  // a detached hand: the tool follows the device, nothing displayed
+  Eigen::Isometry3d goal = goal_W_;
+  if (!valid_) goal.translation().x() = NAN;  // the tool keeps its pose, zero wrench
+  vps::probe_tool_tick(params_, tool_, vm, goal, &state_);
+}
+
+void Tool6Explorer::write(double gain, device::EndEffectorCommand& c) const noexcept {
+  // The coupling's reaction acts at the goal's centre of mass; moved to the E point (the tip).
+  const vps::Wrench& w = state_.device;
+  const Eigen::Vector3d r = goal_W_.linear() * tool_.shell.reference_point;
+  const Eigen::Vector3d F_H = R_W_H_.transpose() * (gain * w.force);
+  const Eigen::Vector3d tau_H = R_W_H_.transpose() * (gain * (w.torque + r.cross(w.force)));
+  c.force_H = F_H.allFinite() ? F_H : Eigen::Vector3d::Zero();
+  c.torque_H = tau_H.allFinite() ? tau_H : Eigen::Vector3d::Zero();
+}
+
+void Tool6Explorer::fill(double gain, StationLogRecord& r) const noexcept {
+  const Eigen::Quaterniond q(goal_W_.linear());
+  const Eigen::Vector3d tool = vps::tool_pose_W(tool_, state_).translation();
+  for (int i = 0; i < 3; ++i) {
+    r.goal_W[i] = goal_W_.translation()[i];
+    r.tool_W[i] = tool[i];
+    r.torque_W[i] = gain * state_.device.torque[i];
+  }
+  r.goal_q[0] = q.w();
+  r.goal_q[1] = q.x();
+  r.goal_q[2] = q.y();
+  r.goal_q[3] = q.z();
+  r.force_W[0] = gain * state_.device.force.x();
+  r.force_W[1] = gain * state_.device.force.y();
+  r.force_W_z = gain * state_.device.force.z();
+  r.contacts = state_.contact.contacts;
+  r.tool_work = state_.contact.nodes_visited + state_.contact.points_tested;
+  r.tool_levels = state_.contact.levels_completed;
+  r.tool_model = state_.voxmap != nullptr ? 1 : 0;
+}
+
+bool write_tool6_params(const Tool6Explorer& t, const std::string& path, std::string* error) {
+  std::FILE* f = std::fopen(path.c_str(), "w");
+  if (f == nullptr) {
+    *error = "cannot open " + path + " for writing";
+    return false;
+  }
+  const vps::ProbeToolGeometry& g = t.params().geometry;
+  const vps::ToolParams& p = t.tool_params();
+  const vps::CouplingParams& c = p.coupling;
+  std::fprintf(f, "tip_radius %.17g\nrod_radius %.17g\nrod_length %.17g\ntip_mass %.17g\nrod_mass %.17g\n",
+               g.tip_radius, g.rod_radius, g.rod_length, g.tip_mass, g.rod_mass);
+  std::fprintf(f, "spacing %.17g\nlevels %d\nstiffness %.17g\nbudget %lld\n", g.spacing, g.levels,
+               p.contact.stiffness, static_cast<long long>(p.budget));
+  std::fprintf(f, "dt %.17g\nmass %.17g\nixx %.17g\niyy %.17g\nizz %.17g\n", c.dt, c.mass, c.inertia_body(0, 0),
+               c.inertia_body(1, 1), c.inertia_body(2, 2));
+  std::fprintf(f, "k_lin %.17g\nb_lin %.17g\nk_rot %.17g\nb_rot %.17g\nlinear_damping %.17g\nangular_damping %.17g\n",
+               c.k_lin, c.b_lin, c.k_rot, c.b_rot, c.linear_damping, c.angular_damping);
+  const bool ok = std::fclose(f) == 0;
+  if (!ok) *error = "write failed: " + path;
+  return ok;
+}
+
+bool write_voxmap_csv(const vps::Voxmap& vm, const std::string& path, std::string* error) {
+  std::FILE* f = std::fopen(path.c_str(), "w");
+  if (f == nullptr) {
+    *error = "cannot open " + path + " for writing";
+    return false;
+  }
+  std::fprintf(f, "x,y,z,sdf\n");
+  const Eigen::Vector3i bd = vm.block_dims;
+  for (int bz = 0; bz < bd.z(); ++bz)
+    for (int by = 0; by < bd.y(); ++by)
+      for (int bx = 0; bx < bd.x(); ++bx) {
+        const std::int32_t bi = vm.top[vps::block_linear(vm, Eigen::Vector3i(bx, by, bz))];
+        if (bi < 0) continue;
+        for (int i = 0; i < vps::kBlockVoxels; ++i) {
+          const Eigen::Vector3i v(bx * vps::kBlockDim + i % vps::kBlockDim,
+                                  by * vps::kBlockDim + (i / vps::kBlockDim) % vps::kBlockDim,
+                                  bz * vps::kBlockDim + i / (vps::kBlockDim * vps::kBlockDim));
+          const vps::Voxel& x = vps::sample_voxel(vm, v);
+          if (x.layer != 0) continue;
+          const Eigen::Vector3d c = vps::voxel_centre(vm, v);
+          std::fprintf(f, "%.4f,%.4f,%.4f,%.4f\n", c.x(), c.y(), c.z(), x.sdf);
+        }
+      }
+  const bool ok = std::fclose(f) == 0;
+  if (!ok) *error = "write failed: " + path;
+  return ok;
+}
+
+bool write_voxmap_vps(const vps::Voxmap& vm, const vps::PointShell& shell, const std::string& path,
+                      std::string* error) {
+  const std::vector<std::uint8_t> bytes = vps::serialize_vps(vm, shell);
+  std::FILE* f = std::fopen(path.c_str(), "wb");
+  if (f == nullptr) {
+    *error = "cannot open " + path + " for writing";
+    return false;
+  }
+  const bool ok = std::fwrite(bytes.data(), 1, bytes.size(), f) == bytes.size() && std::fclose(f) == 0;
+  if (!ok) *error = "write failed: " + path;
+  return ok;
+}
+
+namespace {
+
+struct Key {
+  double t;
+  Eigen::Vector3d tip_R;  // the tool tip's centre in R
+  double tilt_x = 0.0;    // rad about R's x
+};
+
+// Key poses in R (deploy/scenes/home.xml with the robot at W (1.5, 1.0)
+// facing +y: R x = W y - 1.0, R y = 1.5 - W x). Block: R x 0.80-0.90,
+// y -0.30..-0.20, top z 0.85; book: x 0.785-0.915, y 0.16-0.34, top 0.78;
+// mug: centre (1.20, -0.10), radius 0.04, top 0.85; table top 0.75. The tip
+// (radius 20 mm) is pressed 5 mm past each surface; sides are pressed from
+// the robot's side (the faces the mast camera sees) and slid along.
+std::vector<Key> explore_keys(bool whole_table) {
+  const double up = 0.95;
+  std::vector<Key> k = {
+      {0.0, {0.85, -0.25, up}},  {5.0, {0.85, -0.25, up}},  // the voxmap fills
+      // Block top: down, pressed, slid across, tilted, lifted.
+      {6.0, {0.85, -0.25, 0.88}}, {7.0, {0.85, -0.25, 0.865}}, {8.0, {0.85, -0.25, 0.865}},
+      {9.0, {0.85, -0.23, 0.865}}, {11.0, {0.85, -0.27, 0.865}}, {12.0, {0.85, -0.25, 0.865}},
+      {13.0, {0.85, -0.25, 0.865}, 0.35}, {14.0, {0.85, -0.25, 0.865}}, {15.0, {0.85, -0.25, up}},
+      // Block front side (R x = 0.80): pressed, slid along, withdrawn.
+      {16.0, {0.72, -0.25, up}}, {17.0, {0.72, -0.25, 0.80}}, {18.0, {0.785, -0.25, 0.80}},
+      {19.0, {0.785, -0.25, 0.80}}, {20.0, {0.785, -0.23, 0.80}}, {21.0, {0.785, -0.27, 0.80}},
+      {21.5, {0.785, -0.25, 0.80}}, {22.0, {0.72, -0.25, 0.80}}};
+  if (!whole_table) {
+    k.push_back({23.0, {0.72, -0.25, up}});
+    return k;
+  }
+  const std::vector<Key> more = {
+      // Block's left side (R y = -0.20), reached round its front corner.
+      {23.0, {0.72, -0.12, 0.80}}, {24.0, {0.85, -0.12, 0.80}}, {25.0, {0.85, -0.185, 0.80}},
+      {26.0, {0.85, -0.185, 0.80}}, {27.0, {0.83, -0.185, 0.80}}, {28.0, {0.87, -0.185, 0.80}},
+      {28.5, {0.85, -0.185, 0.80}}, {29.0, {0.85, -0.12, 0.80}}, {30.0, {0.85, -0.12, up}},
+      // Book top (z 0.78): pressed, slid along its length.
+      {32.0, {0.85, 0.25, up}}, {33.0, {0.85, 0.25, 0.81}}, {34.0, {0.85, 0.25, 0.795}},
+      {35.0, {0.85, 0.25, 0.795}}, {36.5, {0.85, 0.29, 0.795}}, {38.5, {0.85, 0.21, 0.795}},
+      {39.5, {0.85, 0.25, 0.795}}, {40.5, {0.85, 0.25, 0.85}},
+      // Book front side (R x = 0.785; 30 mm high: the tip 5 mm above the table).
+      {41.5, {0.72, 0.25, 0.85}}, {42.5, {0.72, 0.25, 0.775}}, {43.5, {0.77, 0.25, 0.775}},
+      {44.5, {0.77, 0.25, 0.775}}, {45.5, {0.72, 0.25, 0.775}}, {46.5, {0.72, 0.25, up}},
+      // Mug top, then its front side (R x = 1.16).
+      {48.5, {1.20, -0.10, up}}, {49.5, {1.20, -0.10, 0.88}}, {50.5, {1.20, -0.10, 0.865}},
+      {51.5, {1.20, -0.10, 0.865}}, {52.5, {1.20, -0.10, up}}, {53.5, {1.10, -0.10, up}},
+      {54.5, {1.10, -0.10, 0.80}}, {55.5, {1.145, -0.10, 0.80}}, {56.5, {1.145, -0.10, 0.80}},
+      {57.5, {1.10, -0.10, 0.80}}, {58.5, {1.10, -0.10, up}}};
+  k.insert(k.end(), more.begin(), more.end());
+  return k;
+}
+
+}  // namespace
+
+const char* hand6_script_names() { return "explore-table, explore-block"; }
+
+device::Trajectory make_hand6_trajectory(const std::string& name, const Eigen::Vector3d& origin_R) {
+  if (name != "explore-table" && name != "explore-block")
+    throw std::invalid_argument("unknown SIMULATED 6-DoF hand script '" + name + "' (" + hand6_script_names() + ")");
+  device::Trajectory tr;
+  tr.end_effectors = 1;
+  tr.has_orientation = true;
+  for (const Key& k : explore_keys(name == "explore-table")) {
+    device::TrajectorySample s;
+    s.t_s = k.t;
+    s.end_effectors = 1;
+    s.ee[0].position_H = k.tip_R - origin_R;
+    s.ee[0].orientation_H = Eigen::Quaterniond(Eigen::AngleAxisd(k.tilt_x, Eigen::Vector3d::UnitX()));
+    tr.samples.push_back(s);
+  }
+  return tr;
+}
+
+}  // namespace hemm::op

@@ -1,0 +1,103 @@
+// 6-DoF exploration of the live voxmap in the networked operator station
+// (issue 13, exploration mode, the robot standing still): the robot's probe
+// tool (common/haptics/vps/probe_tool.h: a pointshell of its last link and
+// tip) held by end-effector 0 of a 6-DoF device through the 6-DoF virtual
+// coupling, rendered with VPS against the newest model snapshot's voxmap.
+//
+// Mapping (motion scale 1, as the bimanual paper maps its arms to objects):
+// H has R's axes and its origin at origin_R in the robot frame, and the tool
+// frame P is the end-effector frame E (tip at the E point, rod along E's z),
+// so the hand wants the tool at T_W_P = T_W_R T_R_H T_H_E, with T_W_R the
+// task's predicted robot pose. The coupling's reaction goes to the device at
+// the E point in H (force, and torque when the device renders it).
+//
+// Device: the SIMULATED rigid 6-DoF scripted hand (device type "sim-hand6":
+// a replayed pose path that does not yield to the force, with the limits of
+// an LWR-class arm, device::rigid_hand_limits), not the SIMULATED bimanual
+// arm: wiring the bimanual device into the networked station was left for
+// later. Scripts (make_hand6_trajectory): "explore-table" presses and slides
+// on the tops and the robot-facing sides of the block, the book and the mug
+// of deploy/scenes/home.xml's table with the robot at W (1.5, 1.0) facing +y;
+// "explore-block" the block's top (pressed, slid, tilted) and front side.
+//
+// Real time: tick() allocates nothing and takes no lock; the VPS work per
+// tick is bounded by `budget` (time-critical mode); the pair state is reset
+// when the snapshot's voxmap pointer changes; no voxmap -> zero wrench.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "common/haptics/vps/probe_tool.h"
+#include "common/math/workspace_maps.h"
+#include "operator/device/haptic_device.h"
+#include "operator/device/trajectory_csv.h"
+
+namespace hemm::op {
+
+struct StationLogRecord;  // operator_task.h
+
+struct Tool6Params {
+  bool enabled = false;
+  vps::ProbeToolGeometry geometry;
+  // Pressure stiffness (N/m^3): the tip pressed 2.4 mm into a plane holds
+  // 10.7 N (a 3.6 mm lead of the hand on the LWR-class coupling's 3000 N/m),
+  // a quarter of the 1 cm live voxmap's voxel.
+  double contact_stiffness = 3e7;
+  std::int64_t budget = 4000;  // VPS work per tick (sphere nodes + points): time-critical mode
+  Eigen::Vector3d origin_R{0.85, 0.0, 0.95};  // H's origin in R
+  device::EndEffectorLimits limits = device::rigid_hand_limits(1).ee[0];  // end-effector 0 (the station sets it)
+  double period_s = 1e-3;
+};
+std::string validate(const Tool6Params& p);
+
+class Tool6Explorer {
+ public:
+  // Builds the tool and designs the coupling from p.limits (allocates);
+  // throws std::invalid_argument on bad parameters.
+  explicit Tool6Explorer(const Tool6Params& p);
+
+  // Servo thread: one tick for the end-effector sample s (H), the robot pose
+  // (W) and the snapshot's voxmap (null: none yet).
+  void tick(const device::EndEffectorSample& s, const math::Pose2& T_W_R, const vps::Voxmap* vm) noexcept;
+  // The wrench to display, scaled by gain (the stale-model fade), into c.
+  void write(double gain, device::EndEffectorCommand& c) const noexcept;
+  // The tick's goal pose, tool pose, displayed wrench (W) into the log record.
+  void fill(double gain, StationLogRecord& r) const noexcept;
+
+  const vps::ProbeTool& tool() const noexcept { return tool_; }
+  const vps::ToolParams& tool_params() const noexcept { return params_; }
+  const vps::ToolState& state() const noexcept { return state_; }
+  const Eigen::Isometry3d& goal_W() const noexcept { return goal_W_; }
+  const Tool6Params& params() const noexcept { return p_; }
+
+ private:
+  Tool6Params p_;
+  vps::ProbeTool tool_;
+  vps::ToolParams params_;
+  vps::ToolState state_;
+  Eigen::Isometry3d goal_W_ = Eigen::Isometry3d::Identity();
+  Eigen::Matrix3d R_W_H_ = Eigen::Matrix3d::Identity();
+  bool valid_ = false;
+};
+
+// The tool and its parameters as key value lines (robot_side/truth/
+// tool6_truth.h reads them for the SIMULATION-ONLY truth), and a voxmap's
+// surface voxels (x,y,z,sdf: layer 0) as CSV for the demo's image. Off the
+// servo thread; false with *error when the file cannot be written.
+bool write_tool6_params(const Tool6Explorer& t, const std::string& path, std::string* error);
+bool write_voxmap_csv(const vps::Voxmap& vm, const std::string& path, std::string* error);
+// The voxmap and the tool's pointshell as a .vps buffer (common/haptics/vps/cache.h), for
+// replaying a run against the final live voxmap offline (hemm-truth --tool6 --against).
+bool write_voxmap_vps(const vps::Voxmap& vm, const vps::PointShell& shell, const std::string& path,
+                      std::string* error);
+
+// The robot pose as an SE(3) transform (z = 0, yaw theta).
+Eigen::Isometry3d robot_pose3(const math::Pose2& T_W_R);
+
+// The named SIMULATED rigid hand's pose path (H, see above) for a tool whose
+// H origin sits at origin_R; throws std::invalid_argument on an unknown name.
+device::Trajectory make_hand6_trajectory(const std::string& name, const Eigen::Vector3d& origin_R);
+const char* hand6_script_names();  // "explore-table, explore-block"
+
+}  // namespace hemm::op
