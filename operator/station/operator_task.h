@@ -191,6 +191,17 @@ struct OperatorTaskParams {
   vps::PointProbeParams probe3d;  // force.period is set from proxy.period
   double probe3d_range = 0.6;
   Eigen::Vector3d probe3d_origin_R{0.9, 0.0, 0.85};
+  // Manipulation through the model (probe_3d on): the same point probe runs
+  // at the arm's tool tip on the live voxmap (goal: the stylus through
+  // M_T_H) and the robot is sent the PROXY as the arm target, so the
+  // commanded tool stops where the model has a surface and the operator
+  // feels the proxy's force before the real arm touches anything. Its
+  // radius is the tool's keep-out: above the robot's own scene keep-out
+  // around its seen points (link radius 0.02 + clearance 0.01 + pad 0.01 =
+  // 0.04 m, robot_side/control/safety.h ArmKeepOut), by 1 cm for the two
+  // models' differences (noise, voxels), so a target on the model's surface
+  // is not refused by the robot.
+  double tool_probe_radius = 0.05;
 };
 
 class OperatorServoTask final : public servo::ServoTask {
@@ -209,6 +220,9 @@ class OperatorServoTask final : public servo::ServoTask {
   math::Mode mode() const noexcept { return mode_; }
   const haptics::ProxyData& proxy() const noexcept { return proxy_; }
   const vps::PointProbeData& probe3d() const noexcept { return probe3d_; }
+  // The tool probe of manipulation through the model (probe_3d on).
+  const vps::PointProbeData& tool_probe() const noexcept { return tool_probe_; }
+  const vps::PointProbeParams& tool_probe_params() const noexcept { return tool_probe_params_; }
   const math::ScaledMap& probe3d_map() const noexcept { return probe3d_map_; }
   const math::ModeAnchor& anchor() const noexcept { return anchor_; }
   const StationSetpoint& last_setpoint() const noexcept { return last_; }
@@ -255,6 +269,9 @@ class OperatorServoTask final : public servo::ServoTask {
   math::ManipulationMap manipulate_;
   haptics::ProxyData proxy_;
   vps::PointProbeData probe3d_;
+  vps::PointProbeParams tool_probe_params_;
+  vps::PointProbeData tool_probe_;
+  bool tool_probe_active_ = false;  // on the last tick
   Eigen::Vector3d probe3d_goal_W_ = Eigen::Vector3d::Zero();
   math::ScaledMap probe3d_map_;
   mapping::MapSnapshot empty_map_;
