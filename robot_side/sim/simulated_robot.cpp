@@ -679,8 +679,12 @@ std::optional<std::string> SimulatedRobot::load(const config::RobotConfig& cfg, 
     start = {cfg.sim().start_x_m(), cfg.sim().start_y_m(), cfg.sim().start_theta_rad()};
   impl_ = std::move(impl);
   set_base_pose_sim(start);
-  // The arm starts folded over the base (inside the footprint).
-  set_arm_q_sim(kinematics::clamp_to_limits(impl_->arm, (kinematics::Arm5Vector() << 0, 1.2, -2.2, 0, 0).finished()));
+  // The arm starts folded over the base (inside the footprint), or where the
+  // config says (SIMULATION ONLY).
+  kinematics::Arm5Vector q0 = (kinematics::Arm5Vector() << 0, 1.2, -2.2, 0, 0).finished();
+  if (cfg.sim().start_arm_q_size() == 5)
+    for (int i = 0; i < 5; ++i) q0(i) = cfg.sim().start_arm_q(i);
+  set_arm_q_sim(kinematics::clamp_to_limits(impl_->arm, q0));
   return std::nullopt;
 }
 
@@ -717,23 +721,42 @@ std::optional<std::string> SimulatedRobot::set_command(const BaseArmCommand& c, 
   if (c.mode < wire::MODE_IDLE || c.mode > wire::MODE_EXPLORATION) return reject("command has an unknown mode");
   if (c.arm_target_R.norm() > 10.0) return reject("arm target farther than 10 m");
   if (std::abs(c.wrist_pitch) > 10.0 || std::abs(c.wrist_roll) > 10.0) return reject("wrist angles out of range");
-  if (c.mode == wire::MODE_MANIPULATION) {
+  // Without the deadman the arm holds whatever the target says (a held
+  // operator sends none: (0, 0, 0), which is in the base): nothing to solve.
+  if (c.mode == wire::MODE_MANIPULATION && c.deadman) {
     const kinematics::Arm5Target t{s.T_R_A.inverse() * c.arm_target_R, c.wrist_pitch, c.wrist_roll};
     const kinematics::Arm5Vector seed = s.have_arm_goal ? s.arm_goal : s.arm_state.q_ref;
-    const kinematics::IkResult ik = kinematics::inverse_kinematics(s.arm, t, seed);
+    kinematics::IkResult ik = kinematics::inverse_kinematics(s.arm, t, seed);
     if (ik.status == kinematics::IkStatus::kInvalidInput) return reject("arm target rejected by IK");
     // The pose the arm would go to (the IK's nearest reachable one) must stay
     // out of the floor, the base and what the sensors have seen.
-    std::array<Eigen::Vector3d, 5> chain;
-    chain[0] = s.T_R_A.translation();
-    const auto joints = kinematics::arm_points(s.arm, ik.q);
-    for (size_t i = 0; i < joints.size(); ++i) chain[i + 1] = s.T_R_A * joints[i];
-    const int64_t t0 = steady_now_ns();
-    const ArmRefusal why = check_arm_chain(s.arm_keep_out, chain, s.seen_scene());
-    const double us = static_cast<double>(steady_now_ns() - t0) * 1e-3;
-    s.seen_stats.checks += 1;
-    s.seen_stats.max_check_us = std::max(s.seen_stats.max_check_us, us);
-    s.seen_stats.sum_check_us += us;
+    const SeenScene seen = s.seen_scene();
+    const auto check = [&](const kinematics::Arm5Vector& q) {
+      std::array<Eigen::Vector3d, 5> chain;
+      chain[0] = s.T_R_A.translation();
+      const auto joints = kinematics::arm_points(s.arm, q);
+      for (size_t i = 0; i < joints.size(); ++i) chain[i + 1] = s.T_R_A * joints[i];
+      const int64_t t0 = steady_now_ns();
+      const ArmRefusal r = check_arm_chain(s.arm_keep_out, chain, seen);
+      const double us = static_cast<double>(steady_now_ns() - t0) * 1e-3;
+      s.seen_stats.checks += 1;
+      s.seen_stats.max_check_us = std::max(s.seen_stats.max_check_us, us);
+      s.seen_stats.sum_check_us += us;
+      return r;
+    };
+    ArmRefusal why = check(ik.q);
+    if (why == ArmRefusal::kBase || why == ArmRefusal::kScene) {
+      // The IK follows its seed: from the folded arm it may bring the elbow
+      // down onto the base where the elbow-up solution of the same target is
+      // clear. Try that one before refusing.
+      kinematics::Arm5Vector up;
+      up << std::atan2(t.p_A_E.y(), t.p_A_E.x()), 0.9, -1.4, c.wrist_roll, 0.0;
+      const kinematics::IkResult alt = kinematics::inverse_kinematics(s.arm, t, kinematics::clamp_to_limits(s.arm, up));
+      if (alt.status == ik.status && check(alt.q) == ArmRefusal::kNone) {
+        ik = alt;
+        why = ArmRefusal::kNone;
+      }
+    }
     if (why != ArmRefusal::kNone) {
       ++(why == ArmRefusal::kFloor ? s.arm_refusals.floor
          : why == ArmRefusal::kBase ? s.arm_refusals.base

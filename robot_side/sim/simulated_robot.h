@@ -80,8 +80,12 @@ class SimulatedRobot {
   // solved by IK at once; an unreachable one is replaced by the nearest
   // reachable pose and flagged SAFETY_JOINT_LIMIT.
   // A manipulation target whose arm pose would reach into the floor, the
-  // base or a return of the robot's own recent scans is refused too
-  // (ArmKeepOut in robot_side/control/safety.h), counted by reason.
+  // base or what the robot's own sensors have seen (recent scans; with the
+  // depth camera its seen voxels) is refused too (ArmKeepOut in
+  // robot_side/control/safety.h), counted by reason; when the IK's solution
+  // is refused for the base or the scene, the elbow-up solution of the same
+  // target is tried first. A manipulation command without the deadman moves
+  // nothing: its target is not solved (nor refused).
   std::optional<std::string> set_command(const BaseArmCommand& command, int64_t now_ns);
   uint64_t rejected_commands() const;
   struct ArmRefusals {

@@ -43,11 +43,14 @@
 #include "robot_side/truth/scene_slice.h"
 #include "tests/operator/client/loopback_client.h"
 #include "tests/operator/servo/alloc_counter.h"
+#include "tests/operator/station/world_log.h"
 #include "tests/robot_side/station/robot_side.h"
 
 namespace hr = hemm::robot;
 namespace ho = hemm::op;
 namespace hn = hemm::net;
+using hemm::test::median;
+using hemm::test::read_world_log;
 namespace vps = hemm::vps;
 
 namespace {
@@ -61,34 +64,6 @@ hn::Key test_key() {
 }
 
 void servo_hook(bool started) noexcept { hemm::test::count_allocations_on_this_thread(started); }
-
-// The world log (operator_task.h StationLogRecord) by column name.
-std::vector<std::map<std::string, double>> read_world_log(const std::string& path) {
-  std::ifstream in(path);
-  std::string line;
-  std::vector<std::string> names;
-  std::vector<std::map<std::string, double>> rows;
-  if (!std::getline(in, line)) return rows;
-  {
-    std::stringstream ss(line);
-    std::string n;
-    while (std::getline(ss, n, ',')) names.push_back(n);
-  }
-  while (std::getline(in, line)) {
-    std::stringstream ss(line);
-    std::string v;
-    std::map<std::string, double> r;
-    for (std::size_t i = 0; i < names.size() && std::getline(ss, v, ','); ++i) r[names[i]] = std::strtod(v.c_str(), nullptr);
-    rows.push_back(std::move(r));
-  }
-  return rows;
-}
-
-double median(std::vector<double> v) {
-  if (v.empty()) return NAN;
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
-  return v[v.size() / 2];
-}
 
 }  // namespace
 

@@ -302,8 +302,9 @@ TEST(DepthCamera, WristCameraSeesTheWallAndFloorWhereTheyAre) {
 }
 
 // ---------------------------------------------------------------- 3D arm keep-out (issue 13)
-// The robot before the west chair of the home scene (seat top z 0.46, front
-// face of its legs 0.32 m ahead of the base centre), its mast camera
+// The robot before the west chair of the home scene (seat top z 0.46 from
+// 0.36 m ahead of the base centre, the front face of its legs 0.38 m: the
+// folded arm's tool, 0.32 m ahead, clears it), its mast camera
 // pitched 60 deg down so it sees the seat in front of the arm. The table
 // (top 0.75 m) is out of the arm's reach: the tool tip reaches at most
 // 0.80 m high, straight above the shoulder.
@@ -323,7 +324,7 @@ TEST(ArmKeepOut3dSim, TheMastCameraLetsTheArmReachOverTheSeatButNotIntoIt) {
   cfg.mutable_depth_camera()->set_mast_pitch_deg(60);
   hr::SimulatedRobot r;
   ASSERT_FALSE(r.load(cfg, kScene));
-  r.set_base_pose_sim({0.55, 1.48, std::numbers::pi / 2});
+  r.set_base_pose_sim({0.55, 1.42, std::numbers::pi / 2});
   r.set_operator_in_control(true);
   ASSERT_FALSE(r.enable_depth_camera(hr::depth_camera_params_from_config(cfg)));
   r.step(400);  // 6 frames, laser scans
@@ -335,7 +336,7 @@ TEST(ArmKeepOut3dSim, TheMastCameraLetsTheArmReachOverTheSeatButNotIntoIt) {
   const double seat = 0.46, reach = 0.04;  // link radius + clearance + pad
   const int64_t t = r.time_ns();
   // Over the seat, 6 cm above its top: allowed, although the laser sees the
-  // chair's front 0.32 m ahead (its column is capped: the camera sees above it).
+  // chair's front 0.38 m ahead (its column is capped: the camera sees above it).
   EXPECT_FALSE(r.set_command(arm_command({0.45, 0.0, seat + reach + 0.02}, 10), t));
   // 1.5 cm above it (the tool's payload sphere would be in the seat's cushion
   // of 0.04 m): refused, as seen geometry.
@@ -365,7 +366,7 @@ TEST(ArmKeepOut3dSim, TheMastCameraLetsTheArmReachOverTheSeatButNotIntoIt) {
 TEST(ArmKeepOut3dSim, ArmContactsAndTheToolsTrueClearanceToTheSeat) {
   hr::SimulatedRobot r;
   ASSERT_FALSE(r.load(hemm::config::RobotConfig(), kScene));
-  r.set_base_pose_sim({0.55, 1.48, std::numbers::pi / 2});
+  r.set_base_pose_sim({0.55, 1.42, std::numbers::pi / 2});
   const hk::Arm5Model& m = r.arm_model();
   const double seat = 0.46, payload_radius = 0.02;
   // The tool level over the seat at height z: its payload sphere (radius
