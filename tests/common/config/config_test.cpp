@@ -112,6 +112,17 @@ TEST(ConfigTest, ShippedProbe3dConfigsLoadAndBadValuesAreNamed) {
   auto e4 = parse_text_config("probe_3d { probe_radius_m: 0.05 }", "o.pbtxt", &validate_operator_config, &ob);
   ASSERT_TRUE(e4);
   EXPECT_EQ(e4->field, "probe_3d.probe_radius_m");
+  // SIMULATION ONLY start arm pose: five finite angles or none.
+  RobotConfig ra;
+  auto e5 = parse_text_config("sim { start_arm_q: [0, 1.2, -0.8, 0] }", "r.pbtxt", &validate_robot_config, &ra);
+  ASSERT_TRUE(e5);
+  EXPECT_EQ(e5->field, "sim.start_arm_q");
+  EXPECT_EQ(ra.sim().start_arm_q_size(), 0);
+  auto e6 = parse_text_config("sim { start_arm_q: [0, 1.2, -0.8, 0, nan] }", "r.pbtxt", &validate_robot_config, &ra);
+  ASSERT_TRUE(e6);
+  EXPECT_EQ(e6->field, "sim.start_arm_q");
+  EXPECT_FALSE(parse_text_config("sim { start_arm_q: [0, 1.2, -0.8, 0, 0.4] }", "r.pbtxt", &validate_robot_config, &ra));
+  EXPECT_EQ(ra.sim().start_arm_q_size(), 5);
 }
 
 TEST(ConfigTest, ResolveRelative) {
