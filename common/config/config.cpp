@@ -199,6 +199,10 @@ std::vector<FieldIssue> validate_robot_config(const pb::Message& m) {
     out.push_back({"safety.guard_reaction_time_s", "must be within [0, 1]"});
   for (double v : {c.sim().start_x_m(), c.sim().start_y_m(), c.sim().start_theta_rad()})
     if (!(std::abs(v) <= 1000)) out.push_back({"sim.start_*", "must be finite, within 1000"});
+  if (c.sim().start_arm_q_size() != 0 && c.sim().start_arm_q_size() != 5)
+    out.push_back({"sim.start_arm_q", "must be empty or 5 joint angles"});
+  for (double q : c.sim().start_arm_q())
+    if (!(std::abs(q) <= 10)) out.push_back({"sim.start_arm_q", "must be finite, within 10 rad"});
   const auto& dc = c.depth_camera();
   if (dc.mount() != "mast" && dc.mount() != "wrist") out.push_back({"depth_camera.mount", "must be mast or wrist"});
   if (!in_range(dc.width(), 1, 1024)) out.push_back({"depth_camera.width", "must be 1..1024"});

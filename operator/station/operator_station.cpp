@@ -1,6 +1,7 @@
 #include "operator/station/operator_station.h"
 
 #include <algorithm>
+#include <bit>
 #include <cinttypes>
 #include <cmath>
 #include <cstdio>
@@ -52,6 +53,11 @@ void apply_probe3d_config(const config::Probe3dConfig& c, OperatorStationOptions
   o->task.probe3d.force.probe_radius = c.probe_radius_m();
   o->task.probe3d_range = c.range_m();
   o->task.probe3d_origin_R = Eigen::Vector3d(c.origin_x_m(), 0.0, c.origin_z_m());
+  // The tool probe of manipulation (operator_task.h tool_probe_radius) needs
+  // the signed distance to reach past its radius: rho < (layers - 0.5)
+  // voxels, as probe_radius_m's check (6 layers for 5 cm at 1 cm voxels).
+  o->model.voxmap.layers = std::max(
+      o->model.voxmap.layers, static_cast<int>(std::ceil(o->task.tool_probe_radius / c.voxel_size_m() + 0.5 + 1e-9)));
 }
 
 namespace {
@@ -84,6 +90,10 @@ std::string to_string(const OperatorStationSummary& s) {
     << "e-stop: device presses=" << s.estop_presses << " sent=" << s.commands.estops_sent
     << " acknowledged=" << s.estop_acks << " refused=" << s.estop_refusals << " robot reports "
     << (s.robot_estop < 0 ? "nothing" : s.robot_estop ? "engaged" : "released") << "\n"
+    << "arm targets refused by the robot: " << s.arm_refusals.refused << " (floor " << s.arm_refusals.floor
+    << ", base " << s.arm_refusals.base << ", scene " << s.arm_refusals.scene << " of " << s.arm_refusals.events
+    << " reports), last " << short_name(s.arm_refusals.last_reason) << " seq=" << s.arm_refusals.last_seq
+    << ", bad reports " << s.arm_refusals.errors << "\n"
     << "logs: servo written=" << s.servo_log_written << " dropped=" << s.servo_log_dropped
     << " world written=" << s.world_log_written << " dropped=" << s.world_log_dropped << "\n";
   o << "robot (predicted): x=" << s.robot_pose.x << " y=" << s.robot_pose.y << " theta=" << s.robot_pose.theta
@@ -166,6 +176,15 @@ report::OperatorStation to_report(const OperatorStationSummary& s) {
   e.set_acknowledged(s.estop_acks);
   e.set_refused(s.estop_refusals);
   if (s.robot_estop >= 0) e.set_robot_engaged(s.robot_estop == 1);
+  report::OperatorArmRefusals& ar = *r.mutable_arm_refusals();
+  ar.set_refused(s.arm_refusals.refused);
+  ar.set_reports(s.arm_refusals.events);
+  ar.set_floor(s.arm_refusals.floor);
+  ar.set_base(s.arm_refusals.base);
+  ar.set_scene(s.arm_refusals.scene);
+  ar.set_last_reason(short_name(s.arm_refusals.last_reason));
+  ar.set_last_seq(s.arm_refusals.last_seq);
+  ar.set_bad_reports(s.arm_refusals.errors);
   report::Logs& l = *r.mutable_logs();
   l.set_servo_written(s.servo_log_written);
   l.set_servo_dropped(s.servo_log_dropped);
@@ -291,6 +310,14 @@ servo::RealtimeStatus OperatorStation::start() {
                        [this](const net::DatagramHeader&, int64_t recv_ns, const wire::StreamMessage& m) {
                          if (taps_.on_stream) taps_.on_stream(recv_ns, false, m);
                          model_->submit_state(m.robot_state());
+                         std::string err;
+                         if (const auto e = observe_arm_refusals(arm_refusals_, m.robot_state(), &err)) {
+                           spdlog::warn("event=arm_target_refused reason={} seq={} new={} total={}", short_name(e->reason),
+                                        e->seq, e->new_refusals, e->total);
+                         } else if (!err.empty() && std::has_single_bit(arm_refusals_.summary.errors)) {
+                           spdlog::warn("event=robot_state_bad_refusal error=\"{}\" count={}", err,
+                                        arm_refusals_.summary.errors);
+                         }
                        });
   client_.streams().on(wire::StreamMessage::kRangeScan,
                        [this](const net::DatagramHeader&, int64_t recv_ns, const wire::StreamMessage& m) {
@@ -442,6 +469,7 @@ OperatorStationSummary OperatorStation::summary() const {
   s.estop_acks = estop_acks_;
   s.estop_refusals = estop_refusals_;
   s.robot_estop = robot_estop_;
+  s.arm_refusals = arm_refusals_.summary;
   if (servo_log_) {
     s.servo_log_written = servo_log_->written();
     s.servo_log_dropped = servo_log_->dropped();

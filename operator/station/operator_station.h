@@ -26,6 +26,7 @@
 #include "operator/model/model_thread.h"
 #include "operator/station/demo_scripts.h"
 #include "operator/servo/servo_loop.h"
+#include "operator/station/arm_refusals.h"
 #include "operator/station/command_sender.h"
 #include "operator/station/operator_task.h"
 
@@ -70,6 +71,7 @@ struct OperatorStationSummary {
   std::uint64_t estop_presses = 0;  // on the device (both buttons)
   std::uint64_t estop_acks = 0, estop_refusals = 0;  // the robot's answers to this station's EStop frames
   int robot_estop = -1;             // as the robot last reported it: 1 engaged, 0 released, -1 never reported
+  ArmRefusalSummary arm_refusals;   // arm targets the robot refused, as its states reported them
   std::uint64_t servo_log_written = 0, servo_log_dropped = 0;
   std::uint64_t world_log_written = 0, world_log_dropped = 0;
   // The robot pose the servo task predicted on its last tick (W), and whether
@@ -174,6 +176,7 @@ class OperatorStation {
   std::map<std::uint64_t, PendingAck> pending_acks_;  // network thread
   std::uint64_t estop_acks_ = 0, estop_refusals_ = 0;
   int robot_estop_ = -1;
+  ArmRefusalMonitor arm_refusals_;  // network thread
   bool started_ = false;
   bool stopped_ = false;
 };

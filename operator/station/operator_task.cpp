@@ -71,6 +71,10 @@ OperatorServoTask::OperatorServoTask(const OperatorTaskParams& p, StationLogger*
     if (!(p.probe3d_range > 0.0 && p.probe3d_range <= 10.0) || !p.probe3d_origin_R.allFinite() ||
         p.probe3d_origin_R.norm() > 5.0)
       throw std::invalid_argument("OperatorServoTask: probe3d_range in (0, 10] m, origin within 5 m");
+    tool_probe_params_ = p_.probe3d;
+    tool_probe_params_.force.probe_radius = p.tool_probe_radius;
+    if (std::string e = vps::validate(tool_probe_params_); !e.empty())
+      throw std::invalid_argument("OperatorServoTask: tool probe: " + e);
   }
   probe3d_map_.scale = p.probe3d_range / math::horizontal_half_extent(p.workspace);
   probe3d_map_.centre_B = p.workspace.centre_B;
@@ -213,6 +217,19 @@ void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelS
     tool6_->tick(in.ee[0], T_W_R_, live ? snap->voxmap.get() : nullptr);
   }
 
+  // Manipulation through the model (issue 13): the point probe at the tool
+  // tip on the live voxmap; the arm target below is taken from its proxy
+  // (proxy_B), so the commanded tool stops on the model's surface.
+  const bool tool3 = p_.probe_3d && mode_ == math::Mode::kManipulation;
+  if (tool3) {
+    if (resynced || !tool_probe_active_ || !tool_probe_.initialized) vps::point_probe_reset(tool_probe_, goal_W_);
+    const vps::Voxmap* vm = snap != nullptr && !snap->resyncing ? snap->voxmap.get() : nullptr;
+    vps::point_probe_tick(tool_probe_params_, vm, tool_probe_, goal_W_, sm.scale);
+    const Eigen::Vector3d tool_R = math::apply(math::inverse(T_W_R_), tool_probe_.proxy_W);
+    proxy_B = math::unmap_point(sm, tool_R) - anchor_.offset_B;
+  }
+  tool_probe_active_ = tool3;
+
   StationSetpoint sp;
   sp.t_ns = in.t_ns;
   sp.tick = ticks_;
@@ -240,7 +257,8 @@ void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelS
   last_ = sp;
   setpoints_.publish(sp);
 
-  const Eigen::Vector3d F_W = force_gain_ * (probe3 ? probe3d_.force_W : proxy_.force_W);  // rendered
+  const Eigen::Vector3d F_W =
+      force_gain_ * (probe3 ? probe3d_.force_W : tool3 ? tool_probe_.force_W : proxy_.force_W);  // rendered
   const Eigen::Vector3d F_B = math::force_W_to_B(T_W_R_, F_W);
   const Eigen::Vector3d F_H = R.transpose() * F_B;
   out.command.ee[0].force_H = F_H.allFinite() ? F_H : Eigen::Vector3d::Zero();
@@ -271,15 +289,16 @@ void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelS
     r.force_W[0] = F_W.x();
     r.force_W[1] = F_W.y();
     r.force_W_z = F_W.z();
-    if (probe3) {
-      for (int i = 0; i < 3; ++i) r.proxy3_W[i] = probe3d_.proxy_W[i];
-      r.probe3_contact = probe3d_.contact ? 1 : 0;
+    if (probe3 || tool3) {
+      const vps::PointProbeData& pd = probe3 ? probe3d_ : tool_probe_;
+      for (int i = 0; i < 3; ++i) r.proxy3_W[i] = pd.proxy_W[i];
+      r.probe3_contact = pd.contact ? 1 : 0;
     }
     r.force_gain = force_gain_;
     for (int i = 0; i < 3; ++i) r.force_H[i] = out.command.ee[0].force_H[i];
     r.v = sp.v;
     r.omega = sp.omega;
-    r.contacts = probe3 ? (probe3d_.contact ? 1 : 0) : proxy_.contact_count;
+    r.contacts = probe3 ? (probe3d_.contact ? 1 : 0) : tool3 ? (tool_probe_.contact ? 1 : 0) : proxy_.contact_count;
     r.model_version = model.version;
     r.model_age_ns = model.version != 0 ? in.t_ns - model.stamp_ns : -1;
     r.scale = sm.scale;

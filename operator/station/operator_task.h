@@ -206,6 +206,17 @@ struct OperatorTaskParams {
   // The 6-DoF tool against the live voxmap (tool6_explorer.h), in place of
   // the 3-DoF probe's force in exploration mode; needs a 6-DoF device.
   Tool6Params tool6;
+  // Manipulation through the model (probe_3d on): the same point probe runs
+  // at the arm's tool tip on the live voxmap (goal: the stylus through
+  // M_T_H) and the robot is sent the PROXY as the arm target, so the
+  // commanded tool stops where the model has a surface and the operator
+  // feels the proxy's force before the real arm touches anything. Its
+  // radius is the tool's keep-out: above the robot's own scene keep-out
+  // around its seen points (link radius 0.02 + clearance 0.01 + pad 0.01 =
+  // 0.04 m, robot_side/control/safety.h ArmKeepOut), by 1 cm for the two
+  // models' differences (noise, voxels), so a target on the model's surface
+  // is not refused by the robot.
+  double tool_probe_radius = 0.05;
 };
 
 class OperatorServoTask final : public servo::ServoTask {
@@ -224,6 +235,9 @@ class OperatorServoTask final : public servo::ServoTask {
   math::Mode mode() const noexcept { return mode_; }
   const haptics::ProxyData& proxy() const noexcept { return proxy_; }
   const vps::PointProbeData& probe3d() const noexcept { return probe3d_; }
+  // The tool probe of manipulation through the model (probe_3d on).
+  const vps::PointProbeData& tool_probe() const noexcept { return tool_probe_; }
+  const vps::PointProbeParams& tool_probe_params() const noexcept { return tool_probe_params_; }
   const math::ScaledMap& probe3d_map() const noexcept { return probe3d_map_; }
   const Tool6Explorer* tool6() const noexcept { return tool6_.get(); }
   const math::ModeAnchor& anchor() const noexcept { return anchor_; }
@@ -275,6 +289,9 @@ class OperatorServoTask final : public servo::ServoTask {
   math::ManipulationMap manipulate_;
   haptics::ProxyData proxy_;
   vps::PointProbeData probe3d_;
+  vps::PointProbeParams tool_probe_params_;
+  vps::PointProbeData tool_probe_;
+  bool tool_probe_active_ = false;  // on the last tick
   Eigen::Vector3d probe3d_goal_W_ = Eigen::Vector3d::Zero();
   math::ScaledMap probe3d_map_;
   std::unique_ptr<Tool6Explorer> tool6_;  // null unless params.tool6.enabled

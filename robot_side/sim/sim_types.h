@@ -49,6 +49,12 @@ struct RobotStateSim {
   uint32_t safety = 0;  // OR of hemm::wire::SafetyFlags
   wire::Mode mode = wire::MODE_IDLE;
   uint64_t last_command_seq = 0;
+  // Arm targets refused so far (floor, base and scene together), the newest
+  // refusal's reason (robot::ArmRefusal as int: 0 none, 1 floor, 2 base, 3
+  // scene) and the refused command's sequence number.
+  uint64_t arm_refusals = 0;
+  int last_arm_refusal = 0;
+  uint64_t last_refused_seq = 0;
 };
 
 enum class RangeSensorKind { kLaser, kSonar };

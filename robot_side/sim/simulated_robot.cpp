@@ -11,6 +11,8 @@
 #include <random>
 #include <thread>
 
+#include "common/clock/steady_clock.h"
+
 #include <mujoco/mujoco.h>
 
 #include "common/config/config.h"
@@ -24,6 +26,12 @@ namespace {
 
 constexpr double kDeg = std::numbers::pi / 180.0;
 constexpr size_t kMaxQueuedScans = 64;
+// SIMULATION ONLY: how far the tool's clearance to the world is measured.
+constexpr double kArmClearanceRange = 0.10;
+// The RobotState's refusal reason is the ArmRefusal's value.
+static_assert(static_cast<int>(ArmRefusal::kFloor) == wire::ARM_REFUSAL_FLOOR &&
+              static_cast<int>(ArmRefusal::kBase) == wire::ARM_REFUSAL_BASE &&
+              static_cast<int>(ArmRefusal::kScene) == wire::ARM_REFUSAL_SCENE);
 
 struct ModelDeleter {
   void operator()(mjModel* m) const { mj_deleteModel(m); }
@@ -88,6 +96,23 @@ SimSonarParams sonar_params_from_config(const config::RobotConfig& c) {
   return p;
 }
 
+// A depth frame into the robot's seen voxels (placed with its odometry
+// pose), timed; returns the new points snapshot.
+std::shared_ptr<const std::vector<Eigen::Vector3f>> integrate_seen(SeenVoxels& seen, const mapping::DepthImage& img,
+                                                                    SeenVoxelsStats* st) {
+  const int64_t t0 = steady_now_ns();
+  seen.add_frame(img, img.T_W_S);
+  auto pts = std::make_shared<std::vector<Eigen::Vector3f>>();
+  seen.points(pts.get());
+  const double us = static_cast<double>(steady_now_ns() - t0) * 1e-3;
+  st->frames += 1;
+  st->voxels = seen.size();
+  st->memory_bytes = seen.memory_bytes();
+  st->last_integrate_us = us;
+  st->max_integrate_us = std::max(st->max_integrate_us, us);
+  return pts;
+}
+
 // Casts depth frames on its own thread (DepthCasting::kWorker): one frame
 // is 4800 mj_ray calls against every geom, several milliseconds, which would
 // make the 1 kHz simulation thread late. The simulation thread hands over
@@ -106,10 +131,15 @@ struct DepthWorker {
   mapping::DepthImage job;                            // poses and stamp; guarded by mu
   std::deque<mapping::DepthImage> done;               // guarded by mu
   std::uint64_t skipped = 0;                          // simulation thread only
+  // The robot's own seen voxels, integrated here (off the simulation
+  // thread); each frame publishes a new points snapshot.
+  SeenVoxels seen;                                    // worker thread only
+  std::shared_ptr<const std::vector<Eigen::Vector3f>> seen_points;  // guarded by mu; null: taken
+  SeenVoxelsStats seen_stats;                         // guarded by mu
   std::thread thread;
 
-  DepthWorker(const mjModel* model, const SimDepthCameraParams& p, std::uint64_t seed)
-      : m(model), d(mj_makeData(model)), params(p), rng(seed) {
+  DepthWorker(const mjModel* model, const SimDepthCameraParams& p, std::uint64_t seed, const SeenVoxelParams& sp)
+      : m(model), d(mj_makeData(model)), params(p), rng(seed), seen(sp) {
     thread = std::thread([this] { run(); });
   }
   ~DepthWorker() {
@@ -140,6 +170,19 @@ struct DepthWorker {
     for (auto& img : done) out->push_back(std::move(img));
     done.clear();
   }
+  // Simulation thread: the newest seen points, if new (never blocks).
+  void take_seen(std::shared_ptr<const std::vector<Eigen::Vector3f>>* out, SeenVoxelsStats* stats) {
+    std::unique_lock<std::mutex> lk(mu, std::try_to_lock);
+    if (!lk.owns_lock() || !seen_points) return;
+    *out = std::move(seen_points);
+    seen_points.reset();
+    // The voxel figures; the checks' are the simulation thread's own.
+    stats->frames = seen_stats.frames;
+    stats->voxels = seen_stats.voxels;
+    stats->memory_bytes = seen_stats.memory_bytes;
+    stats->last_integrate_us = seen_stats.last_integrate_us;
+    stats->max_integrate_us = seen_stats.max_integrate_us;
+  }
   void run() {
     std::unique_lock<std::mutex> lk(mu);
     for (;;) {
@@ -154,7 +197,11 @@ struct DepthWorker {
       img.cloud_id = meta.cloud_id;
       img.T_W_S = meta.T_W_S;
       img.T_W_S_truth = meta.T_W_S_truth;
+      SeenVoxelsStats st = seen_stats;  // only this thread writes it
+      auto pts = integrate_seen(seen, img, &st);
       lk.lock();
+      seen_points = std::move(pts);
+      seen_stats = st;
       done.push_back(std::move(img));
       while (done.size() > 4) done.pop_front();
       busy = false;
@@ -232,6 +279,16 @@ struct SimulatedRobot::Impl {
   KnownFree known_free{};
   ArmKeepOut arm_keep_out;
   SimulatedRobot::ArmRefusals arm_refusals;
+  // The 3D keep-out: the seen voxels' points (frame: odometry W), from the
+  // worker (kWorker) or integrated inline (kInline, tests).
+  SeenVoxelParams seen_params;
+  std::unique_ptr<SeenVoxels> seen_inline;
+  std::shared_ptr<const std::vector<Eigen::Vector3f>> seen_points;
+  SeenVoxelsStats seen_stats;
+  std::vector<uint8_t> column_capped;  // scratch
+  // SIMULATION ONLY: contacts of the arm with the world, and the tool's clearance.
+  int arm_geom_first = -1, arm_geom_last = -1, tool_body = -1;
+  SimulatedRobot::ArmContactStats arm_contacts;
 
   int64_t now() const { return origin_ns + steps * dt_ns; }
 
@@ -334,6 +391,7 @@ struct SimulatedRobot::Impl {
     img.cloud_id = meta.cloud_id;
     img.T_W_S = meta.T_W_S;
     img.T_W_S_truth = meta.T_W_S_truth;
+    if (seen_inline) seen_points = integrate_seen(*seen_inline, img, &seen_stats);
     depth_images.push_back(std::move(img));
     while (depth_images.size() > 4) depth_images.pop_front();
   }
@@ -362,6 +420,33 @@ struct SimulatedRobot::Impl {
       add_known_free(guard_ends_R, gs->known, gs->cone_half_angle, gs->ring, known_free);
     }
     return collision_guard(g, guard_points_R, &known_free);
+  }
+
+  // What the arm check sees now: the guard's columns (refreshed every step),
+  // capped where the mast camera sees above them, and the newest seen points.
+  SeenScene seen_scene() {
+    SeenScene sc;
+    sc.columns_R = guard_points_R;
+    if (!depth_on) return sc;
+    if (depth_worker) depth_worker->take_seen(&seen_points, &seen_stats);
+    if (seen_points) sc.points_P = *seen_points;
+    const Eigen::Isometry3d T_W_R = base_pose();
+    sc.T_P_R = Eigen::Isometry3d::Identity();
+    sc.T_P_R.translation() << odom.x, odom.y, T_W_R.translation().z();
+    sc.T_P_R.linear() = Eigen::AngleAxisd(odom.theta, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    if (depth.mount_on_base) {
+      // A wrist camera moves with the arm: its columns stay infinite.
+      const mapping::DepthIntrinsics K = depth.intrinsics();
+      const Eigen::Isometry3d T_S_R = depth.T_mount_S.inverse();
+      const double top = laser.T_R_S.translation().z() + arm_keep_out.column_cap_margin;
+      const double arm_top = T_R_A.translation().z() + arm.A2 + arm.A4 + arm.A5 + arm_keep_out.link_radius;
+      column_capped.resize(guard_points_R.size());
+      for (size_t i = 0; i < guard_points_R.size(); ++i)
+        column_capped[i] = column_seen_from_above(K, T_S_R, guard_points_R[i], top, arm_top) ? 1 : 0;
+      sc.column_capped = column_capped;
+      sc.column_top_z = top;
+    }
+    return sc;
   }
 
   void control_step() {
@@ -421,6 +506,34 @@ struct SimulatedRobot::Impl {
     safety = flags;
   }
 
+  bool is_arm_geom(int g) const { return g >= arm_geom_first && g <= arm_geom_last; }
+
+  // SIMULATION ONLY. The arm's geoms carry a margin with an equal gap
+  // (load()): MuJoCo reports every world geom within that margin as an
+  // inactive contact (exclude = 1, no force) with its distance, so the
+  // tool's true clearance is read off the contacts; a contact with
+  // exclude = 0 is a real one.
+  void count_arm_contacts() {
+    bool touching = false;
+    double clearance = kArmClearanceRange;
+    for (int i = 0; i < d->ncon; ++i) {
+      const mjContact& c = d->contact[i];
+      const bool a1 = is_arm_geom(c.geom1), a2 = is_arm_geom(c.geom2);
+      if (a1 == a2) continue;
+      const int other = a1 ? c.geom2 : c.geom1;
+      if (is_robot_geom(other)) continue;
+      if (c.exclude == 0) {
+        touching = true;
+        ++arm_contacts.contacts;
+      }
+      const int mine = a1 ? c.geom1 : c.geom2;
+      if (m->geom_bodyid[mine] == tool_body) clearance = std::min(clearance, static_cast<double>(c.dist));
+    }
+    if (touching) ++arm_contacts.contact_steps;
+    arm_contacts.tool_min_clearance = std::min(arm_contacts.tool_min_clearance, clearance);
+    arm_contacts.tool_clearance = clearance;
+  }
+
   void step_once() {
     // qfrc_bias must match the current state: mj_step1 computes it (and the
     // rest of the position/velocity stages) before the controller reads it.
@@ -428,6 +541,7 @@ struct SimulatedRobot::Impl {
     control_step();
     mj_step2(m.get(), d.get());
     ++steps;
+    count_arm_contacts();
     if (laser_on && steps % laser_period == 0) take_scan(true);
     if (sonar_on && steps % sonar_period == 0) take_scan(false);
     if (depth_on && steps % depth_period == 0) take_depth_image();
@@ -505,6 +619,21 @@ std::optional<std::string> SimulatedRobot::load(const config::RobotConfig& cfg, 
   impl->arm.A5 = sp[0];
   if (auto e = kinematics::validate(impl->arm)) return "robot.xml arm: " + *e;
   impl->T_R_A = pose_from(m->body_pos + 3 * impl->arm_base_body, m->body_quat + 4 * impl->arm_base_body);
+  // SIMULATION ONLY: the arm's geoms (arm_base's subtree: MuJoCo numbers a
+  // body's descendants after it, geoms in body order) get a margin and an
+  // equal gap, so world geoms within kArmClearanceRange show up as inactive
+  // contacts carrying their distance (count_arm_contacts); no force changes.
+  impl->tool_body = id(mjOBJ_BODY, "arm_link5");
+  for (int g = 0; g < m->ngeom; ++g) {
+    int b = m->geom_bodyid[g];
+    while (b > 0 && b != impl->arm_base_body) b = m->body_parentid[b];
+    if (b != impl->arm_base_body) continue;
+    if (impl->arm_geom_first < 0) impl->arm_geom_first = g;
+    if (impl->arm_geom_last >= 0 && impl->arm_geom_last != g - 1) return "robot.xml: the arm's geoms must be consecutive";
+    impl->arm_geom_last = g;
+    m->geom_margin[g] = kArmClearanceRange;
+    m->geom_gap[g] = kArmClearanceRange;
+  }
 
   const char* wheels[4] = {"wheel_fl", "wheel_rl", "wheel_fr", "wheel_rr"};
   for (int i = 0; i < 4; ++i) {
@@ -550,8 +679,12 @@ std::optional<std::string> SimulatedRobot::load(const config::RobotConfig& cfg, 
     start = {cfg.sim().start_x_m(), cfg.sim().start_y_m(), cfg.sim().start_theta_rad()};
   impl_ = std::move(impl);
   set_base_pose_sim(start);
-  // The arm starts folded over the base (inside the footprint).
-  set_arm_q_sim(kinematics::clamp_to_limits(impl_->arm, (kinematics::Arm5Vector() << 0, 1.2, -2.2, 0, 0).finished()));
+  // The arm starts folded over the base (inside the footprint), or where the
+  // config says (SIMULATION ONLY).
+  kinematics::Arm5Vector q0 = (kinematics::Arm5Vector() << 0, 1.2, -2.2, 0, 0).finished();
+  if (cfg.sim().start_arm_q_size() == 5)
+    for (int i = 0; i < 5; ++i) q0(i) = cfg.sim().start_arm_q(i);
+  set_arm_q_sim(kinematics::clamp_to_limits(impl_->arm, q0));
   return std::nullopt;
 }
 
@@ -588,21 +721,48 @@ std::optional<std::string> SimulatedRobot::set_command(const BaseArmCommand& c, 
   if (c.mode < wire::MODE_IDLE || c.mode > wire::MODE_EXPLORATION) return reject("command has an unknown mode");
   if (c.arm_target_R.norm() > 10.0) return reject("arm target farther than 10 m");
   if (std::abs(c.wrist_pitch) > 10.0 || std::abs(c.wrist_roll) > 10.0) return reject("wrist angles out of range");
-  if (c.mode == wire::MODE_MANIPULATION) {
+  // Without the deadman the arm holds whatever the target says (a held
+  // operator sends none: (0, 0, 0), which is in the base): nothing to solve.
+  if (c.mode == wire::MODE_MANIPULATION && c.deadman) {
     const kinematics::Arm5Target t{s.T_R_A.inverse() * c.arm_target_R, c.wrist_pitch, c.wrist_roll};
     const kinematics::Arm5Vector seed = s.have_arm_goal ? s.arm_goal : s.arm_state.q_ref;
-    const kinematics::IkResult ik = kinematics::inverse_kinematics(s.arm, t, seed);
+    kinematics::IkResult ik = kinematics::inverse_kinematics(s.arm, t, seed);
     if (ik.status == kinematics::IkStatus::kInvalidInput) return reject("arm target rejected by IK");
     // The pose the arm would go to (the IK's nearest reachable one) must stay
     // out of the floor, the base and what the sensors have seen.
-    std::array<Eigen::Vector3d, 5> chain;
-    chain[0] = s.T_R_A.translation();
-    const auto joints = kinematics::arm_points(s.arm, ik.q);
-    for (size_t i = 0; i < joints.size(); ++i) chain[i + 1] = s.T_R_A * joints[i];
-    if (const ArmRefusal why = check_arm_chain(s.arm_keep_out, chain, s.guard_points_R); why != ArmRefusal::kNone) {
+    const SeenScene seen = s.seen_scene();
+    const auto check = [&](const kinematics::Arm5Vector& q) {
+      std::array<Eigen::Vector3d, 5> chain;
+      chain[0] = s.T_R_A.translation();
+      const auto joints = kinematics::arm_points(s.arm, q);
+      for (size_t i = 0; i < joints.size(); ++i) chain[i + 1] = s.T_R_A * joints[i];
+      const int64_t t0 = steady_now_ns();
+      const ArmRefusal r = check_arm_chain(s.arm_keep_out, chain, seen);
+      const double us = static_cast<double>(steady_now_ns() - t0) * 1e-3;
+      s.seen_stats.checks += 1;
+      s.seen_stats.max_check_us = std::max(s.seen_stats.max_check_us, us);
+      s.seen_stats.sum_check_us += us;
+      return r;
+    };
+    ArmRefusal why = check(ik.q);
+    if (why == ArmRefusal::kBase || why == ArmRefusal::kScene) {
+      // The IK follows its seed: from the folded arm it may bring the elbow
+      // down onto the base where the elbow-up solution of the same target is
+      // clear. Try that one before refusing.
+      kinematics::Arm5Vector up;
+      up << std::atan2(t.p_A_E.y(), t.p_A_E.x()), 0.9, -1.4, c.wrist_roll, 0.0;
+      const kinematics::IkResult alt = kinematics::inverse_kinematics(s.arm, t, kinematics::clamp_to_limits(s.arm, up));
+      if (alt.status == ik.status && check(alt.q) == ArmRefusal::kNone) {
+        ik = alt;
+        why = ArmRefusal::kNone;
+      }
+    }
+    if (why != ArmRefusal::kNone) {
       ++(why == ArmRefusal::kFloor ? s.arm_refusals.floor
          : why == ArmRefusal::kBase ? s.arm_refusals.base
                                     : s.arm_refusals.scene);
+      s.arm_refusals.last = why;
+      s.arm_refusals.last_seq = c.seq;
       return reject(to_string(why));
     }
     s.arm_goal = ik.q;
@@ -616,6 +776,10 @@ std::optional<std::string> SimulatedRobot::set_command(const BaseArmCommand& c, 
 
 uint64_t SimulatedRobot::rejected_commands() const { return impl_ ? impl_->rejected : 0; }
 SimulatedRobot::ArmRefusals SimulatedRobot::arm_refusals() const { return impl_ ? impl_->arm_refusals : ArmRefusals{}; }
+SeenVoxelsStats SimulatedRobot::seen_voxels_stats() const { return impl_ ? impl_->seen_stats : SeenVoxelsStats{}; }
+SimulatedRobot::ArmContactStats SimulatedRobot::arm_contacts_sim() const {
+  return impl_ ? impl_->arm_contacts : ArmContactStats{};
+}
 void SimulatedRobot::set_operator_in_control(bool b) {
   if (impl_) impl_->operator_in_control = b;
 }
@@ -654,6 +818,9 @@ RobotStateSim SimulatedRobot::state() const {
   st.safety = s.safety;
   st.mode = s.command.mode;
   st.last_command_seq = s.command.seq;
+  st.arm_refusals = s.arm_refusals.floor + s.arm_refusals.base + s.arm_refusals.scene;
+  st.last_arm_refusal = static_cast<int>(s.arm_refusals.last);
+  st.last_refused_seq = s.arm_refusals.last_seq;
   return st;
 }
 
@@ -695,8 +862,13 @@ std::optional<std::string> SimulatedRobot::enable_depth_camera(const SimDepthCam
   if (auto e = check_params(params)) return e;
   if (!params.T_mount_S.matrix().allFinite()) return "depth camera: mount not finite";
   impl_->depth_worker.reset();
+  impl_->seen_inline.reset();
+  impl_->seen_points.reset();
+  impl_->seen_stats = {};
   if (casting == DepthCasting::kWorker)
-    impl_->depth_worker = std::make_unique<DepthWorker>(impl_->m.get(), params, impl_->rng());
+    impl_->depth_worker = std::make_unique<DepthWorker>(impl_->m.get(), params, impl_->rng(), impl_->seen_params);
+  else
+    impl_->seen_inline = std::make_unique<SeenVoxels>(impl_->seen_params);
   impl_->depth = params;
   impl_->depth_period =
       std::max(1, static_cast<int>(std::lround(1.0 / (params.rate_hz * impl_->m->opt.timestep))));
@@ -708,6 +880,8 @@ void SimulatedRobot::disable_depth_camera() {
   if (!impl_) return;
   impl_->depth_on = false;
   impl_->depth_worker.reset();
+  impl_->seen_inline.reset();
+  impl_->seen_points.reset();
 }
 
 std::vector<mapping::DepthImage> SimulatedRobot::take_depth_images() {
@@ -785,6 +959,7 @@ int SimulatedRobot::robot_contacts_sim(const std::string& world_geom) const {
   int n = 0;
   for (int i = 0; i < s.d->ncon; ++i) {
     const mjContact& c = s.d->contact[i];
+    if (c.exclude != 0) continue;  // the arm's clearance probes (inactive), not contacts
     const bool r1 = s.is_robot_geom(c.geom1), r2 = s.is_robot_geom(c.geom2);
     if (r1 == r2) continue;
     const int other = r1 ? c.geom2 : c.geom1;
@@ -798,14 +973,15 @@ void SimulatedRobot::view_frame_sim(SimViewFrame* out) const {
   const Impl& s = *impl_;
   out->t_ns = time_ns();
   out->qpos.assign(s.d->qpos, s.d->qpos + s.m->nq);
-  out->contacts.resize(static_cast<std::size_t>(s.d->ncon));
+  out->contacts.clear();
   for (int i = 0; i < s.d->ncon; ++i) {
     const mjContact& c = s.d->contact[i];
+    if (c.exclude != 0) continue;  // the arm's clearance probes (inactive), not contacts
     mjtNum f[6];
     mj_contactForce(s.m.get(), s.d.get(), i, f);
     // The contact frame's rows are its axes (normal first) in W.
     const Eigen::Map<const Eigen::Matrix<mjtNum, 3, 3, Eigen::RowMajor>> frame(c.frame);
-    SimContact& o = out->contacts[static_cast<std::size_t>(i)];
+    SimContact& o = out->contacts.emplace_back();
     o.pos_W = Eigen::Vector3d(c.pos[0], c.pos[1], c.pos[2]);
     o.force_W = frame.transpose() * Eigen::Vector3d(f[0], f[1], f[2]);
     o.geom1 = c.geom1;

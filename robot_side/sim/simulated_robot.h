@@ -28,6 +28,7 @@
 #include <vector>
 
 #include "robot_side/control/base_control.h"
+#include "robot_side/control/safety.h"
 #include "robot_side/sim/depth_camera.h"
 #include "robot_side/sim/range_sensors.h"
 #include "robot_side/sim/sim_types.h"
@@ -37,6 +38,16 @@ class RobotConfig;
 }
 
 namespace hemm::robot {
+
+// The 3D keep-out's bookkeeping and cost (SimulatedRobot::seen_voxels_stats).
+struct SeenVoxelsStats {
+  uint64_t frames = 0;          // depth frames integrated
+  std::size_t voxels = 0;       // seen voxels now
+  std::size_t memory_bytes = 0;  // of the voxel set (the points snapshot adds 12 B a voxel)
+  double last_integrate_us = 0.0, max_integrate_us = 0.0;  // per frame, incl. the snapshot
+  uint64_t checks = 0;           // arm chain checks (manipulation commands)
+  double max_check_us = 0.0, sum_check_us = 0.0;
+};
 
 class SimulatedRobot {
  public:
@@ -69,14 +80,25 @@ class SimulatedRobot {
   // solved by IK at once; an unreachable one is replaced by the nearest
   // reachable pose and flagged SAFETY_JOINT_LIMIT.
   // A manipulation target whose arm pose would reach into the floor, the
-  // base or a return of the robot's own recent scans is refused too
-  // (ArmKeepOut in robot_side/control/safety.h), counted by reason.
+  // base or what the robot's own sensors have seen (recent scans; with the
+  // depth camera its seen voxels) is refused too (ArmKeepOut in
+  // robot_side/control/safety.h), counted by reason; when the IK's solution
+  // is refused for the base or the scene, the elbow-up solution of the same
+  // target is tried first. A manipulation command without the deadman moves
+  // nothing: its target is not solved (nor refused).
   std::optional<std::string> set_command(const BaseArmCommand& command, int64_t now_ns);
   uint64_t rejected_commands() const;
   struct ArmRefusals {
     uint64_t floor = 0, base = 0, scene = 0;
+    ArmRefusal last = ArmRefusal::kNone;  // the newest refusal's reason
+    uint64_t last_seq = 0;                // and its command's sequence number
   };
   ArmRefusals arm_refusals() const;
+  // The 3D keep-out's bookkeeping (seen voxels from the depth camera, on the
+  // depth worker thread with kWorker) and the arm checks' cost (simulation
+  // thread, in set_command). With kWorker the voxel figures are those of
+  // the newest snapshot the simulation thread took.
+  SeenVoxelsStats seen_voxels_stats() const;
 
   void set_operator_in_control(bool in_control);  // set by the authenticated session
   void set_estop(bool engaged);
@@ -122,6 +144,17 @@ class SimulatedRobot {
   // Number of active contacts between robot geoms and the named world geom
   // (or any non-robot geom but the floor when the name is empty).
   int robot_contacts_sim(const std::string& world_geom = "") const;
+  // Contacts between the arm's geoms (arm_base and its links) and any
+  // non-robot geom, counted every step, and the tool's (arm_link5: the
+  // forearm tip capsule and the payload sphere) true clearance to the world,
+  // measured up to 0.10 m (beyond: 0.10).
+  struct ArmContactStats {
+    uint64_t contact_steps = 0;  // steps with at least one arm contact
+    uint64_t contacts = 0;       // contacts summed over steps
+    double tool_clearance = 0.10;      // m, now
+    double tool_min_clearance = 0.10;  // m, the smallest so far
+  };
+  ArmContactStats arm_contacts_sim() const;
   // The MuJoCo state for a live view: time, qpos and every active contact
   // with its force (scans and state are the caller's). Reuses out's storage.
   void view_frame_sim(SimViewFrame* out) const;

@@ -46,6 +46,9 @@ void to_wire(const RobotStateSim& s, wire::RobotState* out) {
   out->set_safety(s.safety);
   out->set_mode(s.mode);
   out->set_last_command_seq(s.last_command_seq);
+  out->set_arm_refusals(s.arm_refusals);
+  out->set_last_arm_refusal(static_cast<wire::ArmRefusalReason>(s.last_arm_refusal));
+  out->set_last_refused_seq(s.last_refused_seq);
 }
 
 std::optional<std::string> from_wire(const wire::RobotState& m, RobotStateSim* out) {
@@ -66,6 +69,9 @@ std::optional<std::string> from_wire(const wire::RobotState& m, RobotStateSim* o
       !std::isfinite(m.wheel_right()))
     return "base speeds not finite";
   if (!wire::Mode_IsValid(m.mode())) return "unknown mode";
+  if (!wire::ArmRefusalReason_IsValid(m.last_arm_refusal())) return "unknown arm refusal reason";
+  if ((m.arm_refusals() == 0) != (m.last_arm_refusal() == wire::ARM_REFUSAL_UNSPECIFIED))
+    return "arm refusal count and reason disagree";
   s.stamp_ns = m.stamp_ns();
   s.v = m.v();
   s.omega = m.omega();
@@ -74,6 +80,9 @@ std::optional<std::string> from_wire(const wire::RobotState& m, RobotStateSim* o
   s.safety = m.safety();
   s.mode = m.mode();
   s.last_command_seq = m.last_command_seq();
+  s.arm_refusals = m.arm_refusals();
+  s.last_arm_refusal = static_cast<int>(m.last_arm_refusal());
+  s.last_refused_seq = m.last_refused_seq();
   *out = s;
   return std::nullopt;
 }

@@ -65,6 +65,9 @@ struct RobotStation::Shared {
 
   mutable std::mutex state_mu;
   RobotStateSim latest;  // guarded by state_mu
+  SeenVoxelsStats seen;  // guarded by state_mu
+  SimulatedRobot::ArmContactStats arm_contacts;  // guarded by state_mu
+  uint64_t arm_refused_last_seq = 0;  // guarded by state_mu
 
   std::atomic<uint64_t> sim_steps{0}, late_steps{0}, resyncs{0}, contact_steps{0}, guard_states{0};
   std::atomic<int64_t> max_lateness_ns{0}, lateness_sum_ns{0};
@@ -129,6 +132,14 @@ report::RobotStation to_report(const RobotStationStatistics& s) {
   r.set_arm_refused_floor(s.arm_refused_floor);
   r.set_arm_refused_base(s.arm_refused_base);
   r.set_arm_refused_scene(s.arm_refused_scene);
+  r.set_arm_refused_last_seq(s.arm_refused_last_seq);
+  r.set_seen_voxels(s.seen_voxels);
+  r.set_seen_voxel_bytes(s.seen_voxel_bytes);
+  r.set_seen_integrate_max_us(s.seen_integrate_max_us);
+  r.set_arm_check_max_us(s.arm_check_max_us);
+  r.set_arm_check_mean_us(s.arm_check_mean_us);
+  r.set_arm_contact_steps(s.arm_contact_steps);
+  r.set_tool_min_clearance_m(s.tool_min_clearance_m);
   r.set_states_sent(s.states_sent);
   r.set_scans_sent(s.scans_sent);
   r.set_scan_chunks_sent(s.scan_chunks_sent);
@@ -155,6 +166,9 @@ std::string to_log_fields(const RobotStationStatistics& s) {
      << " commands_received=" << s.commands_received << " commands_applied=" << s.commands_applied
      << " commands_rejected=" << s.commands_rejected << " arm_refused_floor=" << s.arm_refused_floor
      << " arm_refused_base=" << s.arm_refused_base << " arm_refused_scene=" << s.arm_refused_scene
+     << " arm_refused_last_seq=" << s.arm_refused_last_seq << " seen_voxels=" << s.seen_voxels
+     << " arm_check_max_us=" << s.arm_check_max_us << " arm_contact_steps=" << s.arm_contact_steps
+     << " tool_min_clearance_m=" << s.tool_min_clearance_m
      << " commands_without_control=" << s.commands_without_control
      << " commands_malformed=" << s.commands_malformed << " commands_mode_mismatch=" << s.commands_mode_mismatch
      << " commands_stale=" << s.commands_stale
@@ -181,7 +195,10 @@ std::string to_summary(const RobotStationStatistics& s) {
      << s.commands_malformed << " malformed, " << s.commands_mode_mismatch << " wrong mode, " << s.commands_stale
      << " stale\n"
      << "  arm targets refused: " << s.arm_refused_floor << " into the floor, " << s.arm_refused_base
-     << " into the base, " << s.arm_refused_scene << " into seen geometry\n"
+     << " into the base, " << s.arm_refused_scene << " into seen geometry; " << s.seen_voxels
+     << " seen voxels, arm check max " << s.arm_check_max_us << " us\n"
+     << "  arm (SIMULATION ONLY): " << s.arm_contact_steps << " steps touching the scene, tool clearance min "
+     << s.tool_min_clearance_m << " m\n"
      << "  sent: " << s.states_sent << " states, " << s.scans_sent << " scans (" << s.scan_chunks_sent
      << " chunks), " << s.send_failures << " send failures\n"
      << "  session: " << s.mode_changes << " mode changes, " << s.estop_changes << " e-stop changes, "
@@ -336,6 +353,17 @@ RobotStationStatistics RobotStation::statistics() const {
   s.arm_refused_floor = sh.arm_refused_floor.load();
   s.arm_refused_base = sh.arm_refused_base.load();
   s.arm_refused_scene = sh.arm_refused_scene.load();
+  {
+    std::lock_guard<std::mutex> lk(sh.state_mu);
+    s.arm_refused_last_seq = sh.arm_refused_last_seq;
+    s.seen_voxels = sh.seen.voxels;
+    s.seen_voxel_bytes = sh.seen.memory_bytes;
+    s.seen_integrate_max_us = sh.seen.max_integrate_us;
+    s.arm_check_max_us = sh.seen.max_check_us;
+    s.arm_check_mean_us = sh.seen.checks ? sh.seen.sum_check_us / static_cast<double>(sh.seen.checks) : 0.0;
+    s.arm_contact_steps = sh.arm_contacts.contact_steps;
+    s.tool_min_clearance_m = sh.arm_contacts.tool_min_clearance;
+  }
   s.states_sent = sh.states_sent.load();
   s.scans_sent = sh.scans_sent.load();
   s.scan_chunks_sent = sh.scan_chunks_sent.load();
@@ -516,8 +544,13 @@ void RobotStation::run() {
       if (next_state_ns <= now) next_state_ns = now + state_period;  // after a resync
       const RobotStateSim st = robot_.state();
       {
+        const SeenVoxelsStats seen = robot_.seen_voxels_stats();
+        const SimulatedRobot::ArmContactStats ac = robot_.arm_contacts_sim();
         std::lock_guard<std::mutex> lk(sh.state_mu);
         sh.latest = st;
+        sh.seen = seen;
+        sh.arm_contacts = ac;
+        sh.arm_refused_last_seq = st.last_refused_seq;
       }
       sh.safety.store(st.safety);
       if (view_ && view_->due(now)) {

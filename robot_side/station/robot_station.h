@@ -87,6 +87,18 @@ struct RobotStationStatistics {
   uint64_t arm_refused_floor = 0;        // ... the floor
   uint64_t arm_refused_base = 0;         // ... the robot's base
   uint64_t arm_refused_scene = 0;        // ... something its sensors have seen
+  uint64_t arm_refused_last_seq = 0;     // the newest refused command's sequence number
+  // The 3D arm keep-out (depth camera on): seen voxels now, their memory,
+  // the worst depth-frame integration (depth worker thread) and the worst
+  // and mean arm check (simulation thread, per manipulation command).
+  uint64_t seen_voxels = 0;
+  uint64_t seen_voxel_bytes = 0;
+  double seen_integrate_max_us = 0.0;
+  double arm_check_max_us = 0.0, arm_check_mean_us = 0.0;
+  // SIMULATION ONLY: steps with the arm touching a non-robot geom, and the
+  // tool's smallest true clearance to the world (measured up to 0.10 m).
+  uint64_t arm_contact_steps = 0;
+  double tool_min_clearance_m = 0.10;
   uint64_t states_sent = 0;
   uint64_t scans_sent = 0;               // scans whose every chunk was sent
   uint64_t scan_chunks_sent = 0;

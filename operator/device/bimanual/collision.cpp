@@ -30,42 +30,6 @@ ArmCapsules arm_capsules(const RigGeometry& rig, ArmSide side, const HandleSpec&
   return c;
 }
 
-ClosestPoints segment_segment(const Eigen::Vector3d& p1, const Eigen::Vector3d& q1, const Eigen::Vector3d& p2,
-                              const Eigen::Vector3d& q2) {
-  // Closest points of two segments: minimise |p1 + s d1 - p2 - t d2| over
-  // s, t in [0, 1] (the unconstrained optimum, then clamped edge by edge).
-  const Eigen::Vector3d d1 = q1 - p1, d2 = q2 - p2, r = p1 - p2;
-  const double a = d1.squaredNorm(), e = d2.squaredNorm(), f = d2.dot(r);
-  constexpr double eps = 1e-18;
-  double s = 0.0, t = 0.0;
-  if (a <= eps && e <= eps) {
-    s = t = 0.0;
-  } else if (a <= eps) {
-    t = std::clamp(f / e, 0.0, 1.0);
-  } else {
-    const double c = d1.dot(r);
-    if (e <= eps) {
-      s = std::clamp(-c / a, 0.0, 1.0);
-    } else {
-      const double b = d1.dot(d2), denom = a * e - b * b;
-      s = denom > eps * a * e ? std::clamp((b * f - c * e) / denom, 0.0, 1.0) : 0.0;
-      t = (b * s + f) / e;
-      if (t < 0.0) {
-        t = 0.0;
-        s = std::clamp(-c / a, 0.0, 1.0);
-      } else if (t > 1.0) {
-        t = 1.0;
-        s = std::clamp((b - c) / a, 0.0, 1.0);
-      }
-    }
-  }
-  ClosestPoints out;
-  out.p = p1 + s * d1;
-  out.q = p2 + t * d2;
-  out.distance = (out.p - out.q).norm();
-  return out;
-}
-
 ClosestPoints segment_box(const Eigen::Vector3d& a0, const Eigen::Vector3d& a1, const Box& box) {
   // The distance from a point moving along the segment to a convex box is
   // convex in the segment parameter: golden-section search.

@@ -12,6 +12,7 @@
 #include <Eigen/Core>
 
 #include "common/kinematics/arm7.h"
+#include "common/math/geometry3.h"
 #include "operator/device/bimanual/handles.h"
 #include "operator/device/bimanual/rig.h"
 
@@ -34,13 +35,8 @@ using ArmCapsules = std::array<Capsule, kArmCapsules>;
 ArmCapsules arm_capsules(const RigGeometry& rig, ArmSide side, const HandleSpec& handle,
                          const kinematics::Arm7Frames& frames_A);
 
-struct ClosestPoints {
-  Eigen::Vector3d p = Eigen::Vector3d::Zero();  // on the first shape
-  Eigen::Vector3d q = Eigen::Vector3d::Zero();  // on the second
-  double distance = 0.0;                        // |p - q|
-};
-ClosestPoints segment_segment(const Eigen::Vector3d& a0, const Eigen::Vector3d& a1, const Eigen::Vector3d& b0,
-                              const Eigen::Vector3d& b1);
+using math::ClosestPoints;
+using math::segment_segment;
 // Segment to axis-aligned box (0 if they intersect; p then lies inside the box).
 ClosestPoints segment_box(const Eigen::Vector3d& a0, const Eigen::Vector3d& a1, const Box& box);
 

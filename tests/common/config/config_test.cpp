@@ -147,6 +147,17 @@ TEST(ConfigTest, ShippedExplore3dConfigLoadsAndTheToolNeedsItsDevice) {
       &validate_operator_config, &ob);
   ASSERT_TRUE(e3);
   EXPECT_EQ(e3->field, "probe_3d.tool_work_budget");
+  // SIMULATION ONLY start arm pose: five finite angles or none.
+  RobotConfig ra;
+  auto e5 = parse_text_config("sim { start_arm_q: [0, 1.2, -0.8, 0] }", "r.pbtxt", &validate_robot_config, &ra);
+  ASSERT_TRUE(e5);
+  EXPECT_EQ(e5->field, "sim.start_arm_q");
+  EXPECT_EQ(ra.sim().start_arm_q_size(), 0);
+  auto e6 = parse_text_config("sim { start_arm_q: [0, 1.2, -0.8, 0, nan] }", "r.pbtxt", &validate_robot_config, &ra);
+  ASSERT_TRUE(e6);
+  EXPECT_EQ(e6->field, "sim.start_arm_q");
+  EXPECT_FALSE(parse_text_config("sim { start_arm_q: [0, 1.2, -0.8, 0, 0.4] }", "r.pbtxt", &validate_robot_config, &ra));
+  EXPECT_EQ(ra.sim().start_arm_q_size(), 5);
 }
 
 TEST(ConfigTest, ResolveRelative) {

@@ -41,10 +41,11 @@ namespace hr = hemm::robot;
 namespace ho = hemm::op;
 namespace vps = hemm::vps;
 
+using hemm::test::median;
+
 namespace {
 
 const std::string& kScene = hemm::test::kHomeScene;
-using hemm::test::median_of;
 
 }  // namespace
 
@@ -125,14 +126,14 @@ TEST(Explore3dLoopback, ToolRestsOnTheTrueBlockTopAndFollowsTheTrueForce) {
     }
   }
   std::printf("rest on the block top: live tip centre z %.4f m, truth %.4f m, true top + radius %.4f m\n",
-              median_of(rest_live), median_of(rest_true), z_top + a);
+              median(rest_live), median(rest_true), z_top + a);
   std::printf("force error over %zu contact ticks: rms %.3f N, max %.3f N (true peak %.3f N); torque rms %.4f N m, "
               "max %.4f N m (true peak %.4f N m)\n",
               t.contact_ticks, t.force_rms, t.force_max, t.true_force_peak, t.torque_rms, t.torque_max,
               t.true_torque_peak);
   ASSERT_GT(rest_live.size(), 300u);
-  EXPECT_NEAR(median_of(rest_true), z_top + a - 0.0024, 0.0015);  // the truth's own depth (~2.4 mm at ~10 N)
-  EXPECT_NEAR(median_of(rest_live), median_of(rest_true), 0.003);  // the 1 cm voxmap of the cloud: within 3 mm
+  EXPECT_NEAR(median(rest_true), z_top + a - 0.0024, 0.0015);  // the truth's own depth (~2.4 mm at ~10 N)
+  EXPECT_NEAR(median(rest_live), median(rest_true), 0.003);  // the 1 cm voxmap of the cloud: within 3 mm
   ASSERT_GT(t.contact_ticks, 5000u);
   EXPECT_GT(t.true_force_peak, 5.0);
   // The bound: the tool pressed on a surface is held by the coupling

@@ -45,11 +45,14 @@
 #include "tests/operator/client/loopback_client.h"
 #include "tests/operator/servo/alloc_counter.h"
 #include "tests/integration/probe3d/table_scene.h"
+#include "tests/operator/station/world_log.h"
 #include "tests/robot_side/station/robot_side.h"
 
 namespace hr = hemm::robot;
 namespace ho = hemm::op;
 namespace hn = hemm::net;
+using hemm::test::median;
+using hemm::test::read_world_log;
 namespace vps = hemm::vps;
 
 namespace {
@@ -57,29 +60,6 @@ namespace {
 const std::string& kScene = hemm::test::kHomeScene;
 hn::Key test_key() { return hemm::test::table_test_key(13, 5); }
 constexpr auto servo_hook = &hemm::test::count_servo_allocations;
-using hemm::test::median_of;
-
-// The world log (operator_task.h StationLogRecord) by column name.
-std::vector<std::map<std::string, double>> read_world_log(const std::string& path) {
-  std::ifstream in(path);
-  std::string line;
-  std::vector<std::string> names;
-  std::vector<std::map<std::string, double>> rows;
-  if (!std::getline(in, line)) return rows;
-  {
-    std::stringstream ss(line);
-    std::string n;
-    while (std::getline(ss, n, ',')) names.push_back(n);
-  }
-  while (std::getline(in, line)) {
-    std::stringstream ss(line);
-    std::string v;
-    std::map<std::string, double> r;
-    for (std::size_t i = 0; i < names.size() && std::getline(ss, v, ','); ++i) r[names[i]] = std::strtod(v.c_str(), nullptr);
-    rows.push_back(std::move(r));
-  }
-  return rows;
-}
 
 }  // namespace
 
@@ -243,7 +223,7 @@ TEST_P(Probe3dLoopback, ProbeRestsOnTheTrueTableTopAndTheServoHoldsItsPeriod) {
     for (double x : v) s += x;
     return v.empty() ? NAN : std::sqrt(s / static_cast<double>(v.size()));
   };
-  const double rest = median_of(rest_z);
+  const double rest = median(rest_z);
   std::printf("rtt %d ms, loss %.0f %%: ", link.rtt_ms, 100 * link.loss);
   std::printf("truth: rest proxy z %.4f m (true top + rho %.4f m, %zu ticks); force error rms %.3f N (contact %.3f N, "
               "%zu ticks), max %.3f N, true peak %.3f N\n",

@@ -1,6 +1,6 @@
 // Shared by the live-voxmap loopback tests (probe3d, explore3d): the home
 // scene, the SIMULATED robot standing before its table with the mast depth
-// camera on, a test key, the servo thread's allocation counter hook, a median.
+// camera on, a test key, the servo thread's allocation counter hook (the world log's reader and a median: world_log.h).
 #pragma once
 
 #include <asio.hpp>
@@ -17,6 +17,7 @@
 #include "common/net/crypto.h"
 #include "config_robot.pb.h"
 #include "tests/operator/servo/alloc_counter.h"
+#include "tests/operator/station/world_log.h"  // read_world_log, median
 
 namespace hemm::test {
 
@@ -41,11 +42,6 @@ inline config::RobotConfig robot_before_table() {
   return c;
 }
 
-inline double median_of(std::vector<double> v) {
-  if (v.empty()) return NAN;
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
-  return v[v.size() / 2];
-}
 
 // Runs a started station (its client started) for `ms` with the io_context
 // on a network thread, then stops station, client and io. before_stop() runs

@@ -7,6 +7,8 @@
 #include <cmath>
 #include <vector>
 
+#include "common/haptics/vps/voxmap.h"
+#include "common/mesh/primitives.h"
 #include "operator/station/operator_task.h"
 #include "tests/operator/servo/alloc_counter.h"
 
@@ -421,6 +423,55 @@ TEST(Manipulation, ArmTargetFollowsTheProxyInR) {
   const hm::ManipulationTarget want = hm::manipulation_target(mm, Eigen::Vector3d(0.01, 0.005, 0.0));
   EXPECT_TRUE(sp.arm_target_R.isApprox(want.p_R, 1e-9)) << sp.arm_target_R.transpose() << " vs "
                                                          << want.p_R.transpose();
+}
+
+// Manipulation through the model (issue 13): with the live voxmap the point
+// probe runs at the tool tip and the arm target is its proxy, so pressing
+// the stylus into a seat leaves the target on the seat's top + the tool
+// radius (not at the stylus's point below it), the operator feels the
+// push back, and the tick stays allocation-free.
+TEST(Manipulation, WithTheVoxmapTheArmTargetIsTheToolProbesProxyOnTheSurface) {
+  ho::OperatorTaskParams p;
+  p.initial_mode = hm::Mode::kManipulation;
+  p.probe_3d = true;
+  p.probe3d.force = p.proxy;
+  p.probe3d.force.probe_radius = 0.01;
+  p.arm_base_R = {0.08, 0.0, 0.36};
+  p.arm_workspace_centre_R = {0.42, 0.0, 0.56};
+  p.arm_reach = 0.44;
+  Runner r(p);
+  // A seat 0.6 x 0.6 m, top at z 0.46 under the tool (robot at the origin of W).
+  hemm::mesh::TriangleMesh m = hemm::mesh::make_box({0.3, 0.3, 0.1}, 4);
+  for (auto& v : m.vertices) v += Eigen::Vector3d(0.5, 0.0, 0.36);
+  hemm::vps::VoxmapParams vp;
+  vp.voxel_size = 0.01;
+  vp.layers_in = vp.layers_out = 7;
+  auto vm = std::make_shared<hemm::vps::Voxmap>();
+  ASSERT_FALSE(hemm::vps::build_voxmap(m, vp, vm.get(), nullptr));
+  auto snap = std::make_unique<ho::OperatorModelSnapshot>();
+  snap->map = hmap::build_snapshot(hmap::MapParams{}, hmap::LocalMap{});
+  snap->have_state = true;
+  snap->version = 1;
+  snap->voxmap = vm;
+  const double scale = r.task.map_of(hm::Mode::kManipulation).scale;
+  const double z_goal = 0.46 + p.tool_probe_radius - 0.02;  // 2 cm (W) into the tool's cushion
+  const Eigen::Vector3d press_B(0, 0, (z_goal - 0.56) / scale);
+  const auto out = r.move(*snap, H(0, 0, 0.003), H(press_B.x(), press_B.y(), press_B.z()), 1500, 300);
+  const ho::StationSetpoint& sp = r.task.last_setpoint();
+  ASSERT_TRUE(sp.arm_valid);
+  EXPECT_TRUE(r.task.tool_probe().contact);
+  EXPECT_NEAR(sp.arm_target_R.z(), 0.46 + p.tool_probe_radius, 0.002) << sp.arm_target_R.transpose();
+  EXPECT_NEAR(sp.arm_target_R.x(), 0.42, 0.002);
+  const Eigen::Vector3d F_B = ho::R_B_H() * out.command.ee[0].force_H;
+  EXPECT_GT(F_B.z(), 0.5 * kK * 0.02 / scale);  // the spring on 2 cm of W, device side
+  // Sliding on it allocates nothing.
+  hemm::test::count_allocations_on_this_thread(true);
+  const std::uint64_t before = hemm::test::counted_allocations();
+  r.move(*snap, H(press_B.x(), press_B.y(), press_B.z()), H(press_B.x(), press_B.y() - 0.02, press_B.z()), 1000, 0);
+  const std::uint64_t allocs = hemm::test::counted_allocations() - before;
+  hemm::test::count_allocations_on_this_thread(false);
+  EXPECT_EQ(allocs, 0u);
+  EXPECT_NEAR(r.task.last_setpoint().arm_target_R.z(), 0.46 + p.tool_probe_radius, 0.002);
 }
 
 TEST(Tick, NeverAllocatesOrFrees) {

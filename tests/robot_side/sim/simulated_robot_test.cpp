@@ -300,3 +300,96 @@ TEST(DepthCamera, WristCameraSeesTheWallAndFloorWhereTheyAre) {
   }
   EXPECT_GT(valid, 4 * 1500);
 }
+
+// ---------------------------------------------------------------- 3D arm keep-out (issue 13)
+// The robot before the west chair of the home scene (seat top z 0.46 from
+// 0.36 m ahead of the base centre, the front face of its legs 0.38 m: the
+// folded arm's tool, 0.32 m ahead, clears it), its mast camera
+// pitched 60 deg down so it sees the seat in front of the arm. The table
+// (top 0.75 m) is out of the arm's reach: the tool tip reaches at most
+// 0.80 m high, straight above the shoulder.
+namespace {
+hr::BaseArmCommand arm_command(const Eigen::Vector3d& p_R, std::uint64_t seq) {
+  hr::BaseArmCommand c;
+  c.mode = hemm::wire::MODE_MANIPULATION;
+  c.arm_target_R = p_R;
+  c.deadman = true;
+  c.seq = seq;
+  return c;
+}
+}  // namespace
+
+TEST(ArmKeepOut3dSim, TheMastCameraLetsTheArmReachOverTheSeatButNotIntoIt) {
+  hemm::config::RobotConfig cfg;
+  cfg.mutable_depth_camera()->set_mast_pitch_deg(60);
+  hr::SimulatedRobot r;
+  ASSERT_FALSE(r.load(cfg, kScene));
+  r.set_base_pose_sim({0.55, 1.42, std::numbers::pi / 2});
+  r.set_operator_in_control(true);
+  ASSERT_FALSE(r.enable_depth_camera(hr::depth_camera_params_from_config(cfg)));
+  r.step(400);  // 6 frames, laser scans
+  const hr::SeenVoxelsStats st = r.seen_voxels_stats();
+  std::printf("seen voxels %zu (%.0f kB), %llu frames, integrate max %.0f us\n", st.voxels, st.memory_bytes / 1e3,
+              static_cast<unsigned long long>(st.frames), st.max_integrate_us);
+  ASSERT_GE(st.frames, 5u);
+  EXPECT_GT(st.voxels, 200u);
+  const double seat = 0.46, reach = 0.04;  // link radius + clearance + pad
+  const int64_t t = r.time_ns();
+  // Over the seat, 6 cm above its top: allowed, although the laser sees the
+  // chair's front 0.38 m ahead (its column is capped: the camera sees above it).
+  EXPECT_FALSE(r.set_command(arm_command({0.45, 0.0, seat + reach + 0.02}, 10), t));
+  // 1.5 cm above it (the tool's payload sphere would be in the seat's cushion
+  // of 0.04 m): refused, as seen geometry.
+  auto err = r.set_command(arm_command({0.45, 0.0, seat + 0.015}, 11), t);
+  ASSERT_TRUE(err);
+  EXPECT_EQ(r.arm_refusals().scene, 1u);
+  EXPECT_EQ(r.arm_refusals().last, hr::ArmRefusal::kScene);
+  EXPECT_EQ(r.arm_refusals().last_seq, 11u);
+  // Into the floor beside the robot, and onto the laser head.
+  EXPECT_TRUE(r.set_command(arm_command({0.02, 0.30, -0.2}, 12), t));
+  EXPECT_EQ(r.arm_refusals().floor, 1u);
+  EXPECT_TRUE(r.set_command(arm_command({0.18, 0.0, 0.34}, 13), t));
+  EXPECT_EQ(r.arm_refusals().base, 1u);
+  const hr::RobotStateSim s = r.state();
+  EXPECT_EQ(s.arm_refusals, 3u);
+  EXPECT_EQ(s.last_arm_refusal, static_cast<int>(hr::ArmRefusal::kBase));
+  EXPECT_EQ(s.last_refused_seq, 13u);
+  EXPECT_EQ(s.last_command_seq, 10u);  // the allowed one is what the arm follows
+  EXPECT_GT(r.seen_voxels_stats().checks, 3u);
+  // Without the camera the laser's columns are infinite: the reach over the
+  // seat is refused too.
+  r.disable_depth_camera();
+  EXPECT_TRUE(r.set_command(arm_command({0.45, 0.0, seat + reach + 0.02}, 14), t));
+  EXPECT_EQ(r.arm_refusals().scene, 2u);
+}
+
+TEST(ArmKeepOut3dSim, ArmContactsAndTheToolsTrueClearanceToTheSeat) {
+  hr::SimulatedRobot r;
+  ASSERT_FALSE(r.load(hemm::config::RobotConfig(), kScene));
+  r.set_base_pose_sim({0.55, 1.42, std::numbers::pi / 2});
+  const hk::Arm5Model& m = r.arm_model();
+  const double seat = 0.46, payload_radius = 0.02;
+  // The tool level over the seat at height z: its payload sphere (radius
+  // 0.02, at the tip) is the nearest part, the sphere-box distance exact.
+  auto put_tip_at = [&](double z) {
+    const Eigen::Vector3d p_R(0.40, 0.0, z);
+    const hk::IkResult ik = hk::inverse_kinematics(m, {r.T_R_A().inverse() * p_R, 0.0, 0.0},
+                                                   (hk::Arm5Vector() << 0, 0.5, -1.0, 0, 0).finished());
+    ASSERT_EQ(ik.status, hk::IkStatus::kConverged);
+    r.set_arm_q_sim(ik.q);
+    r.step(1);
+  };
+  for (double gap : {0.08, 0.03, 0.005}) {
+    put_tip_at(seat + payload_radius + gap);
+    const double tip_z = (r.T_R_A() * r.mujoco_T_A_E_sim()).translation().z();
+    EXPECT_NEAR(r.arm_contacts_sim().tool_clearance, tip_z - seat - payload_radius, 1e-4) << gap;
+  }
+  EXPECT_EQ(r.arm_contacts_sim().contact_steps, 0u);
+  EXPECT_NEAR(r.arm_contacts_sim().tool_min_clearance, 0.005, 1e-3);
+  EXPECT_EQ(r.robot_contacts_sim(), 0);  // the clearance probes are not contacts
+  // 5 mm into the seat: a contact.
+  put_tip_at(seat + payload_radius - 0.005);
+  EXPECT_GE(r.arm_contacts_sim().contact_steps, 1u);
+  EXPECT_LT(r.arm_contacts_sim().tool_clearance, 0.0);
+  EXPECT_GT(r.robot_contacts_sim("chair_w_seat"), 0);
+}

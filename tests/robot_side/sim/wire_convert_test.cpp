@@ -85,10 +85,25 @@ TEST(WireConvert, RobotStateAndCommandRoundTrip) {
   s.safety = hemm::wire::SAFETY_WATCHDOG | hemm::wire::SAFETY_COLLISION_GUARD;
   s.mode = hemm::wire::MODE_MANIPULATION;
   s.last_command_seq = 77;
+  s.arm_refusals = 4;
+  s.last_arm_refusal = hemm::wire::ARM_REFUSAL_SCENE;
+  s.last_refused_seq = 75;
   hemm::wire::RobotState m;
   hr::to_wire(s, &m);
   hr::RobotStateSim b;
   ASSERT_FALSE(hr::from_wire(m, &b));
+  EXPECT_EQ(b.arm_refusals, 4u);
+  EXPECT_EQ(b.last_arm_refusal, hemm::wire::ARM_REFUSAL_SCENE);
+  EXPECT_EQ(b.last_refused_seq, 75u);
+  // An unknown refusal reason, or a count without a reason: refused.
+  for (int reason : {9, 0}) {
+    hemm::wire::RobotState bad = m;
+    bad.set_last_arm_refusal(static_cast<hemm::wire::ArmRefusalReason>(reason));
+    hr::RobotStateSim untouched;
+    untouched.stamp_ns = -5;
+    EXPECT_TRUE(hr::from_wire(bad, &untouched));
+    EXPECT_EQ(untouched.stamp_ns, -5);
+  }
   EXPECT_EQ(b.q, s.q);
   EXPECT_EQ(b.tau, s.tau);
   EXPECT_LT((b.T_R_E.matrix() - s.T_R_E.matrix()).norm(), 1e-12);
