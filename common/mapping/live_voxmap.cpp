@@ -111,8 +111,25 @@ struct LiveVoxmap::Impl {
       if (q.z() <= 0.0) continue;
       const double u = f.K.fx * q.x() / q.z() + f.K.cx, v = f.K.fy * q.y() / q.z() + f.K.cy;
       if (!(u >= 0.0 && v >= 0.0 && u < f.K.width && v < f.K.height)) continue;
-      const std::size_t k = static_cast<std::size_t>(v) * static_cast<std::size_t>(f.K.width) + static_cast<std::size_t>(u);
-      if (q.norm() < f.cleared_range[k]) return true;
+      // The ray through x lies between four pixels' rays: on a surface seen
+      // obliquely their ranges differ by centimetres, so the nearest pixel
+      // alone would clear space just behind it. Interpolate the cleared range
+      // bilinearly (exact enough on a plane); where a pixel says nothing,
+      // only the nearest one answers.
+      const auto W = static_cast<std::size_t>(f.K.width);
+      const double uc = std::clamp(u - 0.5, 0.0, f.K.width - 1.0), vc = std::clamp(v - 0.5, 0.0, f.K.height - 1.0);
+      const auto u0 = static_cast<std::size_t>(uc), v0 = static_cast<std::size_t>(vc);
+      const std::size_t u1 = std::min(u0 + 1, W - 1), v1 = std::min(v0 + 1, static_cast<std::size_t>(f.K.height) - 1);
+      const double a = uc - static_cast<double>(u0), b = vc - static_cast<double>(v0);
+      const float r00 = f.cleared_range[v0 * W + u0], r01 = f.cleared_range[v0 * W + u1];
+      const float r10 = f.cleared_range[v1 * W + u0], r11 = f.cleared_range[v1 * W + u1];
+      double cleared = 0.0;
+      if (r00 > 0.0f && r01 > 0.0f && r10 > 0.0f && r11 > 0.0f) {
+        cleared = (1 - b) * ((1 - a) * r00 + a * r01) + b * ((1 - a) * r10 + a * r11);
+      } else {
+        cleared = f.cleared_range[static_cast<std::size_t>(v) * W + static_cast<std::size_t>(u)];
+      }
+      if (q.norm() < cleared) return true;
     }
     return false;
   }
@@ -459,15 +476,17 @@ std::optional<std::string> LiveVoxmap::snapshot(vps::Voxmap* out) const {
       vps::Voxel& vx = blk.v[vi];
       if (vx.sdf < 0.0f) {
         // Behind the nearest patch, but a ray passed through: outside, at
-        // the distance of the nearest patch it lies in front of (else its
-        // distance to the nearest one, with no gradient to trust).
+        // the distance of the nearest patch it lies in front of if that is
+        // nearer than the nearest patch's (a voxel cleared by the noise just
+        // behind a surface stays at its small distance: no step in the field);
+        // else at the nearest patch's distance, with no gradient to trust.
         const auto i = static_cast<int>(vi);
         const Eigen::Vector3i v = block_first[bi] + Eigen::Vector3i(i & (vps::kBlockDim - 1),
                                                                     (i >> vps::kBlockShift) & (vps::kBlockDim - 1),
                                                                     i >> (2 * vps::kBlockShift));
         if (m.seen_free(vps::voxel_centre(vm, v))) {
           const vps::Voxel& o = best_outside[bi][vi];
-          if (std::isfinite(o.sdf)) {
+          if (o.sdf < -vx.sdf) {
             vx.sdf = o.sdf;
             std::copy(std::begin(o.grad), std::end(o.grad), std::begin(vx.grad));
             vx.flags = o.flags;
