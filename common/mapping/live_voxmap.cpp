@@ -10,6 +10,7 @@
 #include <array>
 #include <cmath>
 #include <deque>
+#include <iterator>
 #include <limits>
 #include <unordered_map>
 #include <vector>
@@ -62,12 +63,76 @@ bool clip_segment(const Eigen::AlignedBox3d& box, const Eigen::Vector3d& a, cons
   return true;
 }
 
+// The newest depth frames, kept as how far each pixel's ray cleared space
+// (what integrate() clears: up to clear_margin before a valid return, up to
+// range_max along a no-return ray; 0 where the pixel says nothing). The
+// snapshot asks them whether a voxel it would put behind a seen surface was
+// passed through by a ray: free-space evidence beats the plane-side guess.
+constexpr std::size_t kSeenFrames = 3;  // 0.2 s at 15 Hz; 19 kB each at 80 x 60
+
+struct SeenFrame {
+  std::uint32_t cloud_id = 0;
+  DepthIntrinsics K;
+  Eigen::Isometry3d T_S_W = Eigen::Isometry3d::Identity();
+  std::vector<float> cleared_range;  // metres along the pixel's ray, row-major
+};
+
 }  // namespace
 
 struct LiveVoxmap::Impl {
   LiveVoxmapParams p;
   LiveVoxmapStats stats;
   std::unordered_map<std::uint64_t, Cell> cells;
+  std::deque<SeenFrame> seen;  // oldest first
+
+  // The frame a chunk belongs to (its cloud id and image size), begun afresh
+  // (replacing the oldest) for a new cloud.
+  SeenFrame& seen_frame_of(const DepthChunkData& c) {
+    for (SeenFrame& f : seen)
+      if (f.cloud_id == c.cloud_id && f.K.width == c.K.width && f.K.height == c.K.height) return f;
+    SeenFrame f;
+    if (seen.size() >= kSeenFrames) {
+      f = std::move(seen.front());
+      seen.pop_front();
+    }
+    f.cloud_id = c.cloud_id;
+    f.K = c.K;
+    f.T_S_W = c.T_W_S.inverse();
+    f.cleared_range.assign(static_cast<std::size_t>(c.K.width) * static_cast<std::size_t>(c.K.height), 0.0f);
+    seen.push_back(std::move(f));
+    return seen.back();
+  }
+
+  // True if a ray of a kept frame passed through x (W) on its way to a
+  // return beyond it (or to range_max): x is free space.
+  bool seen_free(const Eigen::Vector3d& x) const {
+    for (const SeenFrame& f : seen) {
+      const Eigen::Vector3d q = f.T_S_W * x;
+      if (q.z() <= 0.0) continue;
+      const double u = f.K.fx * q.x() / q.z() + f.K.cx, v = f.K.fy * q.y() / q.z() + f.K.cy;
+      if (!(u >= 0.0 && v >= 0.0 && u < f.K.width && v < f.K.height)) continue;
+      // The ray through x lies between four pixels' rays: on a surface seen
+      // obliquely their ranges differ by centimetres, so the nearest pixel
+      // alone would clear space just behind it. Interpolate the cleared range
+      // bilinearly (exact enough on a plane); where a pixel says nothing,
+      // only the nearest one answers.
+      const auto W = static_cast<std::size_t>(f.K.width);
+      const double uc = std::clamp(u - 0.5, 0.0, f.K.width - 1.0), vc = std::clamp(v - 0.5, 0.0, f.K.height - 1.0);
+      const auto u0 = static_cast<std::size_t>(uc), v0 = static_cast<std::size_t>(vc);
+      const std::size_t u1 = std::min(u0 + 1, W - 1), v1 = std::min(v0 + 1, static_cast<std::size_t>(f.K.height) - 1);
+      const double a = uc - static_cast<double>(u0), b = vc - static_cast<double>(v0);
+      const float r00 = f.cleared_range[v0 * W + u0], r01 = f.cleared_range[v0 * W + u1];
+      const float r10 = f.cleared_range[v1 * W + u0], r11 = f.cleared_range[v1 * W + u1];
+      double cleared = 0.0;
+      if (r00 > 0.0f && r01 > 0.0f && r10 > 0.0f && r11 > 0.0f) {
+        cleared = (1 - b) * ((1 - a) * r00 + a * r01) + b * ((1 - a) * r10 + a * r11);
+      } else {
+        cleared = f.cleared_range[static_cast<std::size_t>(v) * W + static_cast<std::size_t>(u)];
+      }
+      if (q.norm() < cleared) return true;
+    }
+    return false;
+  }
 
   Eigen::Vector3i index(const Eigen::Vector3d& x) const {
     return {static_cast<int>(std::floor(x.x() / p.voxel_size)), static_cast<int>(std::floor(x.y() / p.voxel_size)),
@@ -173,6 +238,19 @@ void LiveVoxmap::integrate(const DepthChunkData& c) {
   Impl& m = *impl_;
   const LiveVoxmapParams& p = m.p;
   ++m.stats.chunks;
+  SeenFrame& seen = m.seen_frame_of(c);
+  for (int r = 0; r < c.row_count; ++r) {
+    for (int u = 0; u < c.K.width; ++u) {
+      const std::size_t k = static_cast<std::size_t>(r) * c.K.width + u;
+      float& cleared = seen.cleared_range[static_cast<std::size_t>(c.first_row + r) * c.K.width + u];
+      if (c.status[k] == DepthStatus::kNoReturn) {
+        cleared = static_cast<float>(c.K.range_max);
+      } else if (c.status[k] == DepthStatus::kValid) {
+        const double range = c.depth[k] * pixel_ray_z1(c.K, u, c.first_row + r).norm();
+        cleared = static_cast<float>(std::max(0.0, range - p.clear_margin));
+      }
+    }
+  }
   const Eigen::Vector3d o = c.T_W_S.translation();
   const Eigen::Matrix3d R = c.T_W_S.linear();
   // Hits whose cell can be in the ROI; rays of everything else only clear.
@@ -307,6 +385,10 @@ std::optional<std::string> LiveVoxmap::snapshot(vps::Voxmap* out) const {
   vm.top.assign(nblocks, vps::kBlockEmpty);
   std::vector<std::array<float, vps::kBlockVoxels>> best;  // |distance| to the nearest patch so far
   std::vector<std::array<std::int8_t, vps::kBlockVoxels>> cheb;
+  // Per voxel, the nearest patch it lies in front of: its value if a ray
+  // shows that a voxel some patch puts behind it is free.
+  std::vector<std::array<vps::Voxel, vps::kBlockVoxels>> best_outside;
+  std::vector<Eigen::Vector3i> block_first;  // the first voxel of each stored block
   const float far_out = vm.far_outside_sdf();
   std::vector<std::uint8_t> has_surface;
   for (std::size_t i = 0; i < idx.size(); ++i) {
@@ -343,6 +425,9 @@ std::optional<std::string> LiveVoxmap::snapshot(vps::Voxmap* out) const {
             cheb.emplace_back();
             cheb.back().fill(std::numeric_limits<std::int8_t>::max());
             has_surface.push_back(0);
+            best_outside.emplace_back();
+            best_outside.back().fill(vps::Voxel{std::numeric_limits<float>::infinity(), {0, 0, 0}, 0, 0});
+            block_first.push_back(b * vps::kBlockDim);
           }
           const auto bi = static_cast<std::size_t>(t);
           const int vi = vps::voxel_in_block(v);
@@ -360,14 +445,23 @@ std::optional<std::string> LiveVoxmap::snapshot(vps::Voxmap* out) const {
           const double lateral = (x - c - h * n).norm();
           const double sd = std::copysign(std::hypot(std::max(lateral - s, 0.0), h), h);
           const auto dist = static_cast<float>(std::abs(sd));
-          if (dist < best[bi][static_cast<std::size_t>(vi)]) {
-            best[bi][static_cast<std::size_t>(vi)] = dist;
-            vps::Voxel& vx = vm.blocks[bi].v[static_cast<std::size_t>(vi)];
-            vx.sdf = static_cast<float>(sd);
+          vps::Voxel& out_vx = best_outside[bi][static_cast<std::size_t>(vi)];
+          const bool nearest = dist < best[bi][static_cast<std::size_t>(vi)];
+          const bool nearest_outside = sd >= 0.0 && dist < out_vx.sdf;
+          if (nearest || nearest_outside) {
+            vps::Voxel vx{static_cast<float>(sd), {0, 0, 0}, 0, 0};
             // Over the patch the field's gradient is its normal; beyond its
             // rim it bends round the edge: there the engine interpolates.
             for (int a = 0; a < 3; ++a) vx.grad[a] = static_cast<std::int16_t>(std::lround(n[a] * vps::kGradScale));
             vx.flags = lateral > s ? vps::kFlagNoGradient : std::uint8_t{0};
+            if (nearest) {
+              best[bi][static_cast<std::size_t>(vi)] = dist;
+              vps::Voxel& dst = vm.blocks[bi].v[static_cast<std::size_t>(vi)];
+              dst.sdf = vx.sdf;
+              std::copy(std::begin(vx.grad), std::end(vx.grad), std::begin(dst.grad));
+              dst.flags = vx.flags;
+            }
+            if (nearest_outside) out_vx = vx;
           }
         }
       }
@@ -379,6 +473,29 @@ std::optional<std::string> LiveVoxmap::snapshot(vps::Voxmap* out) const {
       const std::int8_t ch = cheb[bi][vi];
       if (ch == std::numeric_limits<std::int8_t>::max()) continue;
       if (ch == 0) ++vm.surface_voxels;
+      vps::Voxel& vx = blk.v[vi];
+      if (vx.sdf < 0.0f) {
+        // Behind the nearest patch, but a ray passed through: outside, at
+        // the distance of the nearest patch it lies in front of if that is
+        // nearer than the nearest patch's (a voxel cleared by the noise just
+        // behind a surface stays at its small distance: no step in the field);
+        // else at the nearest patch's distance, with no gradient to trust.
+        const auto i = static_cast<int>(vi);
+        const Eigen::Vector3i v = block_first[bi] + Eigen::Vector3i(i & (vps::kBlockDim - 1),
+                                                                    (i >> vps::kBlockShift) & (vps::kBlockDim - 1),
+                                                                    i >> (2 * vps::kBlockShift));
+        if (m.seen_free(vps::voxel_centre(vm, v))) {
+          const vps::Voxel& o = best_outside[bi][vi];
+          if (o.sdf < -vx.sdf) {
+            vx.sdf = o.sdf;
+            std::copy(std::begin(o.grad), std::end(o.grad), std::begin(vx.grad));
+            vx.flags = o.flags;
+          } else {
+            vx.sdf = -vx.sdf;
+            vx.flags = vps::kFlagNoGradient;
+          }
+        }
+      }
       blk.v[vi].layer = static_cast<std::int8_t>(blk.v[vi].sdf < 0.0f ? -ch : ch);
     }
   }

@@ -19,8 +19,12 @@
 // through its neighbourhood's centroid: exact for planes, so the continuous
 // VPS contact renders a plane without voxel steps). Cells with too little
 // support around them (stray returns) are not rendered. Space behind a
-// seen surface is inside (unseen is not free); beyond the layers it is far
-// outside, so the model is meant for penetrations below layers * voxel_size.
+// seen surface is inside (unseen is not free), unless a ray of one of the
+// newest 3 frames passed through it (to a return more than clear_margin
+// beyond, or to range_max): then it is outside, whatever side of its nearest
+// patch it lies on (near a convex edge whose top is seen edge-on that patch
+// is often the front face's). Beyond the layers it is far outside, so the
+// model is meant for penetrations below layers * voxel_size.
 #pragma once
 
 #include <Eigen/Core>
