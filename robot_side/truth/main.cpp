@@ -97,11 +97,17 @@ int run_tool6(const std::string& scene, const std::string& log_path, const std::
   }
   if (!json_path.empty()) {
     std::ofstream f(json_path);
-    f << "{\"ticks\": " << ticks.size() << ", \"contact_ticks\": " << t.contact_ticks
-      << ", \"force_rms_n\": " << t.force_rms << ", \"force_max_n\": " << t.force_max
-      << ", \"true_force_peak_n\": " << t.true_force_peak << ", \"torque_rms_nm\": " << t.torque_rms
-      << ", \"torque_max_nm\": " << t.torque_max << ", \"true_torque_peak_nm\": " << t.true_torque_peak
-      << ", \"voxel_m\": " << voxel << "}\n";
+    report::Tool6Truth j;
+    j.set_ticks(ticks.size());
+    j.set_contact_ticks(static_cast<std::uint64_t>(t.contact_ticks));
+    j.set_force_rms_n(t.force_rms);
+    j.set_force_max_n(t.force_max);
+    j.set_true_force_peak_n(t.true_force_peak);
+    j.set_torque_rms_nm(t.torque_rms);
+    j.set_torque_max_nm(t.torque_max);
+    j.set_true_torque_peak_nm(t.true_torque_peak);
+    j.set_voxel_m(voxel);
+    f << config::to_json(j);
     if (!f) return usage_error(json_path + ": write failed");
   }
   return kExitOk;

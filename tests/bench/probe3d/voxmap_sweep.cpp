@@ -29,6 +29,7 @@
 // Usage: voxmap_sweep [out_dir]   (default: the current directory)
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 #include <cstdio>
 #include <cstdlib>
 #include <optional>
@@ -391,7 +392,7 @@ int main(int argc, char** argv) {
                        {"book -y", {1.25, 1.785, 0.765}, -Eigen::Vector3d::UnitY()}};
     std::printf("\ncamera at W (%.3f, %.3f, %.3f); faces seen at (from their normal):", o.x(), o.y(), o.z());
     for (const F& f : faces)
-      std::printf(" %s %.0f deg,", f.name, std::acos(f.n.dot((o - f.c).normalized())) * 180.0 / 3.14159265358979);
+      std::printf(" %s %.0f deg,", f.name, std::acos(f.n.dot((o - f.c).normalized())) * 180.0 / std::numbers::pi);
     std::printf("\n");
   }
   hr::VisibleSurfaceParams vsp;
