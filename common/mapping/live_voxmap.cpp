@@ -239,18 +239,6 @@ void LiveVoxmap::integrate(const DepthChunkData& c) {
   const LiveVoxmapParams& p = m.p;
   ++m.stats.chunks;
   SeenFrame& seen = m.seen_frame_of(c);
-  for (int r = 0; r < c.row_count; ++r) {
-    for (int u = 0; u < c.K.width; ++u) {
-      const std::size_t k = static_cast<std::size_t>(r) * c.K.width + u;
-      float& cleared = seen.cleared_range[static_cast<std::size_t>(c.first_row + r) * c.K.width + u];
-      if (c.status[k] == DepthStatus::kNoReturn) {
-        cleared = static_cast<float>(c.K.range_max);
-      } else if (c.status[k] == DepthStatus::kValid) {
-        const double range = c.depth[k] * pixel_ray_z1(c.K, u, c.first_row + r).norm();
-        cleared = static_cast<float>(std::max(0.0, range - p.clear_margin));
-      }
-    }
-  }
   const Eigen::Vector3d o = c.T_W_S.translation();
   const Eigen::Matrix3d R = c.T_W_S.linear();
   // Hits whose cell can be in the ROI; rays of everything else only clear.
@@ -262,15 +250,19 @@ void LiveVoxmap::integrate(const DepthChunkData& c) {
     for (int u = 0; u < c.K.width; ++u) {
       const std::size_t k = static_cast<std::size_t>(r) * c.K.width + u;
       const Eigen::Vector3d ray_W = R * pixel_ray_z1(c.K, u, c.first_row + r);
+      // How far this pixel's ray cleared space, kept for snapshot()'s free-space check.
+      float& cleared = seen.cleared_range[static_cast<std::size_t>(c.first_row + r) * c.K.width + u];
       if (c.status[k] == DepthStatus::kNoReturn) {
+        cleared = static_cast<float>(c.K.range_max);
         free_segments.emplace_back(o, o + c.K.range_max * ray_W.normalized());
       } else if (c.status[k] == DepthStatus::kValid) {
         const Eigen::Vector3d x = o + static_cast<double>(c.depth[k]) * ray_W;
+        const double len = (x - o).norm();
+        cleared = static_cast<float>(std::max(0.0, len - p.clear_margin));
         if (grown.contains(x)) {
           raw->push_back(pcl::PointXYZ(static_cast<float>(x.x()), static_cast<float>(x.y()), static_cast<float>(x.z())));
-        } else {
-          const double len = (x - o).norm();
-          if (len > p.clear_margin) free_segments.emplace_back(o, o + (x - o) * ((len - p.clear_margin) / len));
+        } else if (len > p.clear_margin) {
+          free_segments.emplace_back(o, o + (x - o) * ((len - p.clear_margin) / len));
         }
       }
     }
