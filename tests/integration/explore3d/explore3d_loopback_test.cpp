@@ -70,7 +70,7 @@ TEST(Explore3dLoopback, ToolRestsOnTheTrueBlockTopAndFollowsTheTrueForce) {
   ho::apply_probe3d_config(ocfg.probe_3d(), &so);
   so.device = "sim-hand6";
   ho::OperatorStation station(io, client, so);
-  station.task().set_servo_thread_hook(&hemm::test::count_servo_allocations);
+  station.task().set_servo_thread_hook(&hemm::test::count_allocations_on_this_thread);
   ASSERT_NE(station.task().tool6(), nullptr);
 
   std::string err;

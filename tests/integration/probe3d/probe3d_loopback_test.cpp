@@ -59,7 +59,7 @@ namespace {
 
 const std::string& kScene = hemm::test::kHomeScene;
 hn::Key test_key() { return hemm::test::table_test_key(13, 5); }
-constexpr auto servo_hook = &hemm::test::count_servo_allocations;
+constexpr auto servo_hook = &hemm::test::count_allocations_on_this_thread;
 
 }  // namespace
 

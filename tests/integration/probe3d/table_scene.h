@@ -29,8 +29,6 @@ inline net::Key table_test_key(std::uint8_t a, std::uint8_t b) {
   return k;
 }
 
-inline void count_servo_allocations(bool started) noexcept { count_allocations_on_this_thread(started); }
-
 // The robot at W (1.5, 1.0) facing +y (the table top 1.2 x 0.8 m at z 0.75,
 // centre (1.5, 2.0)), its front 0.38 m from the table's edge; depth camera on.
 inline config::RobotConfig robot_before_table() {
@@ -46,7 +44,7 @@ inline config::RobotConfig robot_before_table() {
 // Runs a started station (its client started) for `ms` with the io_context
 // on a network thread, then stops station, client and io. before_stop() runs
 // just before the station stops. Returns the heap allocations counted
-// meanwhile (the servo thread's, with count_servo_allocations as its hook).
+// meanwhile (the servo thread's, with count_allocations_on_this_thread as its hook).
 template <class Station, class Client, class F>
 std::uint64_t run_station_for(asio::io_context& io, Client& client, Station& station, int ms, F&& before_stop) {
   const std::uint64_t before = counted_allocations();
