@@ -22,14 +22,17 @@ void reset_arm(ArmControlState& s, const Arm5Vector& q) {
   s.qd_ref.setZero();
 }
 
+Arm5Vector arm_reference_after(const Arm5Vector& q_from, const Arm5Vector& q_to, double travel) {
+  Arm5Vector q = q_from;
+  for (int i = 0; i < kinematics::kArm5Dof; ++i) q(i) += std::clamp(q_to(i) - q_from(i), -travel, travel);
+  return q;
+}
+
 Arm5Vector arm_control_step(const ArmControlParams& p, ArmControlState& s, const Arm5Vector& q, const Arm5Vector& qd,
                             const Arm5Vector& bias, double dt, bool* saturated) {
-  const double step = p.max_joint_speed * dt;
-  for (int i = 0; i < kinematics::kArm5Dof; ++i) {
-    const double d = std::clamp(s.q_goal(i) - s.q_ref(i), -step, step);
-    s.q_ref(i) += d;
-    s.qd_ref(i) = dt > 0 ? d / dt : 0.0;
-  }
+  const Arm5Vector next = arm_reference_after(s.q_ref, s.q_goal, p.max_joint_speed * dt);
+  s.qd_ref = dt > 0 ? Arm5Vector((next - s.q_ref) / dt) : Arm5Vector::Zero();
+  s.q_ref = next;
   Arm5Vector tau = p.kp * (s.q_ref - q) + p.kd * (s.qd_ref - qd) + bias;
   bool sat = false;
   for (int i = 0; i < kinematics::kArm5Dof; ++i) {

@@ -32,6 +32,12 @@ void hold_arm(ArmControlState& state);
 // Starts (or restarts) the reference at the measured position.
 void reset_arm(ArmControlState& state, const Arm5Vector& q);
 
+// The path the reference takes from q_from to q_to: where it is after
+// `travel` rad (max_joint_speed x time), each joint moving at the speed
+// limit and stopping when it arrives. arm_control_step follows it; the robot
+// checks the poses along it before it accepts a goal.
+Arm5Vector arm_reference_after(const Arm5Vector& q_from, const Arm5Vector& q_to, double travel);
+
 // One control period: advances the reference and returns the joint torques.
 // `bias` is the generalized bias force (gravity + Coriolis) to compensate.
 // `saturated` (optional) reports whether any torque hit the limit.

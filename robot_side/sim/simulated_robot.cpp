@@ -744,7 +744,31 @@ std::optional<std::string> SimulatedRobot::set_command(const BaseArmCommand& c, 
       s.seen_stats.sum_check_us += us;
       return r;
     };
-    ArmRefusal why = check(ik.q);
+    // The arm gets there along its reference's path (arm_control.h), not in
+    // one jump: the goal is checked first (its refusal names what the target
+    // itself is in), then the poses on the way, every kPathStep rad of the
+    // fastest joint (with all five joints turning, the tool moves at most
+    // ~1.9 cm between two checks, within the 2-3 cm kept beyond the links).
+    // A keep-out the path starts in (something seen next to the arm) may be
+    // left, not entered anew.
+    const auto check_path = [&](const kinematics::Arm5Vector& q_to) {
+      constexpr double kPathStep = 0.015;
+      if (const ArmRefusal end = check(q_to); end != ArmRefusal::kNone) return end;
+      const kinematics::Arm5Vector q0 = s.arm_state.q_ref;
+      const double span = (q_to - q0).cwiseAbs().maxCoeff();
+      const int n = static_cast<int>(std::ceil(span / kPathStep));
+      ArmRefusal leaving = n > 1 ? check(q0) : ArmRefusal::kNone;
+      for (int k = 1; k < n; ++k) {
+        const ArmRefusal r = check(arm_reference_after(q0, q_to, span * k / n));
+        if (r == ArmRefusal::kNone) {
+          leaving = ArmRefusal::kNone;
+        } else if (r != leaving) {
+          return r;
+        }
+      }
+      return ArmRefusal::kNone;
+    };
+    ArmRefusal why = check_path(ik.q);
     if (why == ArmRefusal::kBase || why == ArmRefusal::kScene) {
       // The IK follows its seed: from the folded arm it may bring the elbow
       // down onto the base where the elbow-up solution of the same target is
@@ -752,7 +776,7 @@ std::optional<std::string> SimulatedRobot::set_command(const BaseArmCommand& c, 
       kinematics::Arm5Vector up;
       up << std::atan2(t.p_A_E.y(), t.p_A_E.x()), 0.9, -1.4, c.wrist_roll, 0.0;
       const kinematics::IkResult alt = kinematics::inverse_kinematics(s.arm, t, kinematics::clamp_to_limits(s.arm, up));
-      if (alt.status == ik.status && check(alt.q) == ArmRefusal::kNone) {
+      if (alt.status == ik.status && check_path(alt.q) == ArmRefusal::kNone) {
         ik = alt;
         why = ArmRefusal::kNone;
       }

@@ -300,7 +300,9 @@ TEST(ServoLoop, FallsBackGracefullyWithoutRealtimePrivileges) {
   EXPECT_TRUE(fifo_warned);
   // mlockall may still succeed if the memlock limit is unlimited.
   EXPECT_TRUE(rt.memory_locked || mlock_warned);
-  EXPECT_GT(loop.summary().ticks, 100u);  // the loop ran anyway
+  // The loop ran anyway: ~190 ticks in the 200 ms unloaded; without SCHED_FIFO
+  // on a loaded 2-core VM as few as 98 were seen, so only a fifth is asked.
+  EXPECT_GT(loop.summary().ticks, 40u);
 }
 
 TEST(ServoLoop, StartTwiceThrowsAndStopIsIdempotent) {

@@ -13,6 +13,7 @@
 
 #include "config_robot.pb.h"
 #include "robot_side/sim/realtime.h"
+#include "robot_side/control/arm_control.h"
 #include "robot_side/sim/simulated_robot.h"
 
 namespace hr = hemm::robot;
@@ -317,17 +318,29 @@ hr::BaseArmCommand arm_command(const Eigen::Vector3d& p_R, std::uint64_t seq) {
   c.seq = seq;
   return c;
 }
-}  // namespace
 
-TEST(ArmKeepOut3dSim, TheMastCameraLetsTheArmReachOverTheSeatButNotIntoIt) {
+// The robot before the west chair with its mast camera on, 6 frames seen.
+void stand_before_the_chair(hr::SimulatedRobot& r) {
   hemm::config::RobotConfig cfg;
   cfg.mutable_depth_camera()->set_mast_pitch_deg(60);
-  hr::SimulatedRobot r;
   ASSERT_FALSE(r.load(cfg, kScene));
   r.set_base_pose_sim({0.55, 1.42, std::numbers::pi / 2});
   r.set_operator_in_control(true);
   ASSERT_FALSE(r.enable_depth_camera(hr::depth_camera_params_from_config(cfg)));
   r.step(400);  // 6 frames, laser scans
+}
+
+// The arm raised: the upper arm nearly upright, the tool tip 0.34 m ahead
+// and 0.65 m high, above the seat's front edge.
+const hk::Arm5Vector kRaised = (hk::Arm5Vector() << 0.0, 1.5, -1.0, 0.0, 0.0).finished();
+}  // namespace
+
+TEST(ArmKeepOut3dSim, TheMastCameraLetsTheArmReachOverTheSeatButNotIntoIt) {
+  hr::SimulatedRobot r;
+  stand_before_the_chair(r);
+  // The arm raised (from the fold its path to the seat would sweep through
+  // the chair: ThePathToAGoalIsCheckedNotOnlyTheGoal).
+  r.set_arm_q_sim(kRaised);
   const hr::SeenVoxelsStats st = r.seen_voxels_stats();
   std::printf("seen voxels %zu (%.0f kB), %llu frames, integrate max %.0f us\n", st.voxels, st.memory_bytes / 1e3,
               static_cast<unsigned long long>(st.frames), st.max_integrate_us);
@@ -361,6 +374,55 @@ TEST(ArmKeepOut3dSim, TheMastCameraLetsTheArmReachOverTheSeatButNotIntoIt) {
   r.disable_depth_camera();
   EXPECT_TRUE(r.set_command(arm_command({0.45, 0.0, seat + reach + 0.02}, 14), t));
   EXPECT_EQ(r.arm_refusals().scene, 2u);
+}
+
+TEST(ArmKeepOut3dSim, ThePathToAGoalIsCheckedNotOnlyTheGoal) {
+  hr::SimulatedRobot r;
+  stand_before_the_chair(r);
+  const Eigen::Vector3d over_seat(0.45, 0.0, 0.46 + 0.06);  // allowed as a pose from above (test above)
+  // From the folded arm the reference unfolds each joint at the speed limit:
+  // the tool sweeps forward low, through the chair. Refused as seen geometry.
+  const hk::Arm5Vector fold = r.state().q;
+  const int64_t t = r.time_ns();
+  ASSERT_TRUE(r.set_command(arm_command(over_seat, 20), t));
+  EXPECT_EQ(r.arm_refusals().last, hr::ArmRefusal::kScene);
+  EXPECT_EQ(r.arm_refusals().scene, 1u);
+  // Truth (MuJoCo): that path really meets the chair. Put the arm at the
+  // path's poses and read the arm's contacts with the scene.
+  const hk::IkResult ik = hk::inverse_kinematics(r.arm_model(), {r.T_R_A().inverse() * over_seat, 0.0, 0.0}, fold);
+  ASSERT_EQ(ik.status, hk::IkStatus::kConverged);
+  const hk::Arm5Vector goal = ik.q;
+  const double span = (goal - fold).cwiseAbs().maxCoeff();
+  int touching = 0;
+  for (int k = 0; k <= 50; ++k) {
+    r.set_arm_q_sim(hr::arm_reference_after(fold, goal, span * k / 50));
+    r.step(1);
+    if (r.robot_contacts_sim() > 0) ++touching;  // any scene geom but the floor
+  }
+  std::printf("fold -> over the seat: %d of 51 poses on the path touch the chair\n", touching);
+  EXPECT_GT(touching, 0);
+  // From the raised arm the same goal's path is clear: accepted, and the
+  // arm gets there without touching anything.
+  r.set_arm_q_sim(kRaised);
+  r.step(1);
+  const std::uint64_t touched = r.arm_contacts_sim().contact_steps;  // on the path poses above
+  const std::uint64_t checks0 = r.seen_voxels_stats().checks;
+  const auto t0 = std::chrono::steady_clock::now();
+  const auto err = r.set_command(arm_command(over_seat, 21), r.time_ns());
+  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  ASSERT_FALSE(err) << *err;
+  std::printf("raised -> over the seat: accepted after %llu pose checks in %.2f ms\n",
+              static_cast<unsigned long long>(r.seen_voxels_stats().checks - checks0), ms);
+  for (int i = 0; i < 2000; ++i) {  // 2 s (1.5 rad/s), the command refreshed as an operator's would be
+    if (i % 5 == 0) {
+      ASSERT_FALSE(r.set_command(arm_command(over_seat, 22 + i), r.time_ns()));
+    }
+    r.step(1);
+  }
+  const Eigen::Vector3d tip = (r.T_R_A() * r.mujoco_T_A_E_sim()).translation();
+  EXPECT_LT((tip - over_seat).norm(), 0.02) << tip.transpose();
+  EXPECT_EQ(r.arm_contacts_sim().contact_steps, touched);
+  EXPECT_EQ(r.arm_refusals().scene, 1u);
 }
 
 TEST(ArmKeepOut3dSim, ArmContactsAndTheToolsTrueClearanceToTheSeat) {
