@@ -385,8 +385,9 @@ std::optional<std::string> LiveVoxmap::snapshot(vps::Voxmap* out) const {
   std::vector<std::array<std::uint8_t, vps::kBlockVoxels>> shadowed;
   // A patch's shadow: the space behind it whose line of sight toward where
   // it was seen from crosses its plane within this radius of its centre.
-  // Only there does "behind a seen surface is inside" hold; behind the plane
-  // but beside the shadow (above a small top the camera saw edge-on or not
+  // Right behind a patch (within its rim) is inside; beyond the rims only
+  // a shadow shows that a seen surface is in front; behind the plane but
+  // beside every shadow (above a small top the camera saw edge-on or not
   // at all, beside a side seen edge-on) nothing was seen in front of it. A
   // rendered cell has the neighbouring image rows within normal_radius (else
   // its normal is not rendered), so half of it covers the surface between
@@ -492,11 +493,11 @@ std::optional<std::string> LiveVoxmap::snapshot(vps::Voxmap* out) const {
       if (ch == 0) ++vm.surface_voxels;
       vps::Voxel& vx = blk.v[vi];
       if (vx.sdf < 0.0f) {
-        // Behind the nearest patch, but in no patch's shadow (beside the
-        // seen surfaces: above a small top seen edge-on whose front face's
-        // plane reaches over it, out of the image or in the row the camera
-        // dropped at its silhouette; beside a side seen edge-on), or a ray
-        // passed through: outside, at
+        // Behind the nearest patch's plane but beyond its rim, in no patch's
+        // shadow (beside the seen surfaces: above a small top seen edge-on
+        // whose front face's plane reaches over it, out of the image or in
+        // the row the camera dropped at its silhouette; beside a side seen
+        // edge-on), or a ray passed through: outside, at
         // the distance of the nearest patch it lies in front of if that is
         // nearer than the nearest patch's (a voxel cleared by the noise just
         // behind a surface stays at its small distance: no step in the field);
@@ -505,7 +506,8 @@ std::optional<std::string> LiveVoxmap::snapshot(vps::Voxmap* out) const {
         const Eigen::Vector3i v = block_first[bi] + Eigen::Vector3i(i & (vps::kBlockDim - 1),
                                                                     (i >> vps::kBlockShift) & (vps::kBlockDim - 1),
                                                                     i >> (2 * vps::kBlockShift));
-        if (shadowed[bi][vi] == 0 || m.seen_free(vps::voxel_centre(vm, v))) {
+        const bool beyond_rim = (vx.flags & vps::kFlagNoGradient) != 0;
+        if ((beyond_rim && shadowed[bi][vi] == 0) || m.seen_free(vps::voxel_centre(vm, v))) {
           const vps::Voxel& o = best_outside[bi][vi];
           if (o.sdf < -vx.sdf) {
             vx.sdf = o.sdf;
