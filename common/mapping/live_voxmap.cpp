@@ -381,6 +381,26 @@ std::optional<std::string> LiveVoxmap::snapshot(vps::Voxmap* out) const {
   // shows that a voxel some patch puts behind it is free.
   std::vector<std::array<vps::Voxel, vps::kBlockVoxels>> best_outside;
   std::vector<Eigen::Vector3i> block_first;  // the first voxel of each stored block
+  // Per voxel, whether it lies in the shadow of some patch (see below).
+  std::vector<std::array<std::uint8_t, vps::kBlockVoxels>> shadowed;
+  // A patch's shadow: the space behind it whose line of sight toward where
+  // it was seen from crosses its plane within a radius of its centre. Right
+  // behind a patch (within its rim) is inside; beyond the rims only a shadow
+  // shows that a seen surface is in front (beside every shadow: over a small
+  // top seen edge-on or out of the image, beside a side seen edge-on).
+  // Radius: half the normal radius (a rendered cell has the next image rows
+  // within it, and at a surface's edge its centre lies up to about that far
+  // inside) plus half a voxel; or, where the camera's samples lie farther
+  // apart (fine voxels), half the sample spacing on the surface plus half a
+  // voxel: the newest frame's pixel pitch at the cell's range over the
+  // cosine between normal and view. (Tests: 2.5 cm with the probe's 5 cm
+  // radius cut a block's top seen at 11 degrees 5 mm low, 3.5 cm reached
+  // over the mug's top; without the spacing term 5 mm voxels left holes
+  // under the bench's table, 60 % force error against 26 %.)
+  const double shadow_radius = 0.5 * (p.normal_radius + s);
+  const SeenFrame* newest = m.seen.empty() ? nullptr : &m.seen.back();
+  const Eigen::Vector3d newest_origin =
+      newest != nullptr ? Eigen::Vector3d(newest->T_S_W.inverse().translation()) : Eigen::Vector3d::Zero();
   const float far_out = vm.far_outside_sdf();
   std::vector<std::uint8_t> has_surface;
   for (std::size_t i = 0; i < idx.size(); ++i) {
@@ -399,6 +419,12 @@ std::optional<std::string> LiveVoxmap::snapshot(vps::Voxmap* out) const {
     if (n.dot(view[i]) < p.min_view_cosine) continue;
     const Eigen::Vector3d& c = centroid[i];
     const Eigen::Vector3i base = idx[i] - org;
+    double shadow_r = shadow_radius;
+    if (newest != nullptr && newest->K.fx > 0.0) {
+      const double spacing = (c - newest_origin).norm() / newest->K.fx / n.dot(view[i]);
+      shadow_r = std::max(shadow_radius, 0.5 * (spacing + s));
+    }
+    const double shadow_r2 = shadow_r * shadow_r;
     for (int dz = -L; dz <= L; ++dz) {
       for (int dy = -L; dy <= L; ++dy) {
         for (int dx = -L; dx <= L; ++dx) {
@@ -419,6 +445,8 @@ std::optional<std::string> LiveVoxmap::snapshot(vps::Voxmap* out) const {
             has_surface.push_back(0);
             best_outside.emplace_back();
             best_outside.back().fill(vps::Voxel{std::numeric_limits<float>::infinity(), {0, 0, 0}, 0, 0});
+            shadowed.emplace_back();
+            shadowed.back().fill(0);
             block_first.push_back(b * vps::kBlockDim);
           }
           const auto bi = static_cast<std::size_t>(t);
@@ -435,6 +463,13 @@ std::optional<std::string> LiveVoxmap::snapshot(vps::Voxmap* out) const {
           // cell from reaching as far as an endless plane. The nearest patch wins.
           const double h = n.dot(x - c);
           const double lateral = (x - c - h * n).norm();
+          if (h < 0.0) {
+            // Behind the plane: in the patch's shadow if the line of sight
+            // from x toward the sensor crosses the plane near the patch.
+            // (n . view >= min_view_cosine > 0 here.)
+            const Eigen::Vector3d on_plane = x - (h / n.dot(view[i])) * view[i] - c;
+            if (on_plane.squaredNorm() <= shadow_r2) shadowed[bi][static_cast<std::size_t>(vi)] = 1;
+          }
           const double sd = std::copysign(std::hypot(std::max(lateral - s, 0.0), h), h);
           const auto dist = static_cast<float>(std::abs(sd));
           vps::Voxel& out_vx = best_outside[bi][static_cast<std::size_t>(vi)];
@@ -467,7 +502,11 @@ std::optional<std::string> LiveVoxmap::snapshot(vps::Voxmap* out) const {
       if (ch == 0) ++vm.surface_voxels;
       vps::Voxel& vx = blk.v[vi];
       if (vx.sdf < 0.0f) {
-        // Behind the nearest patch, but a ray passed through: outside, at
+        // Behind the nearest patch's plane but beyond its rim, in no patch's
+        // shadow (beside the seen surfaces: above a small top seen edge-on
+        // whose front face's plane reaches over it, out of the image or in
+        // the row the camera dropped at its silhouette; beside a side seen
+        // edge-on), or a ray passed through: outside, at
         // the distance of the nearest patch it lies in front of if that is
         // nearer than the nearest patch's (a voxel cleared by the noise just
         // behind a surface stays at its small distance: no step in the field);
@@ -476,7 +515,8 @@ std::optional<std::string> LiveVoxmap::snapshot(vps::Voxmap* out) const {
         const Eigen::Vector3i v = block_first[bi] + Eigen::Vector3i(i & (vps::kBlockDim - 1),
                                                                     (i >> vps::kBlockShift) & (vps::kBlockDim - 1),
                                                                     i >> (2 * vps::kBlockShift));
-        if (m.seen_free(vps::voxel_centre(vm, v))) {
+        const bool beyond_rim = (vx.flags & vps::kFlagNoGradient) != 0;
+        if ((beyond_rim && shadowed[bi][vi] == 0) || m.seen_free(vps::voxel_centre(vm, v))) {
           const vps::Voxel& o = best_outside[bi][vi];
           if (o.sdf < -vx.sdf) {
             vx.sdf = o.sdf;

@@ -19,11 +19,16 @@
 // through its neighbourhood's centroid: exact for planes, so the continuous
 // VPS contact renders a plane without voxel steps). Cells with too little
 // support around them (stray returns) are not rendered. Space behind a
-// seen surface is inside (unseen is not free), unless a ray of one of the
-// newest 3 frames passed through it (to a return more than clear_margin
-// beyond, or to range_max): then it is outside, whatever side of its nearest
-// patch it lies on (near a convex edge whose top is seen edge-on that patch
-// is often the front face's). Beyond the layers it is far outside, so the
+// seen surface is inside (unseen is not free) right behind a patch or in a
+// patch's shadow (its line of sight toward where the patch was seen from
+// crosses the patch's plane near it); behind a patch's plane but beyond its
+// rim and beside every shadow
+// (over a small top the camera saw edge-on, out of its image or in the row
+// it dropped at the silhouette) it is outside. So is space a ray of one of
+// the newest 3 frames passed through (to a return more than clear_margin
+// beyond, or to range_max), whatever side of its nearest patch it lies on
+// (near a convex edge whose top is seen edge-on that patch is often the
+// front face's). Beyond the layers it is far outside, so the
 // model is meant for penetrations below layers * voxel_size.
 #pragma once
 

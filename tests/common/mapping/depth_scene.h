@@ -38,8 +38,37 @@ inline double ray_box(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const 
   return t0 <= t1 && t0 > 0 ? t0 : -1.0;
 }
 
+// Distance along unit d from o to the upright cylinder of the given axis
+// (x, y), radius and z range (side and both caps), or -1.
+inline double ray_upright_cylinder(const Eigen::Vector3d& o, const Eigen::Vector3d& d, const Eigen::Vector2d& axis,
+                                   double radius, double z0, double z1) {
+  double best = -1.0;
+  auto take = [&](double t) {
+    if (t > 0 && (best < 0 || t < best)) best = t;
+  };
+  const double ox = o.x() - axis.x(), oy = o.y() - axis.y();
+  const double a = d.x() * d.x() + d.y() * d.y(), b = ox * d.x() + oy * d.y(), c = ox * ox + oy * oy - radius * radius;
+  if (a > 1e-15 && b * b - a * c >= 0) {
+    for (const double t : {(-b - std::sqrt(b * b - a * c)) / a, (-b + std::sqrt(b * b - a * c)) / a}) {
+      const double z = o.z() + t * d.z();
+      if (z >= z0 && z <= z1) take(t);
+    }
+  }
+  if (std::abs(d.z()) > 1e-15) {
+    for (const double zc : {z0, z1}) {
+      const double t = (zc - o.z()) / d.z();
+      const double x = ox + t * d.x(), y = oy + t * d.y();
+      if (x * x + y * y <= radius * radius) take(t);
+    }
+  }
+  return best;
+}
+
 struct TableScene {
   bool block = false;  // a 10 cm cube on the table at (1.0, 0.0)
+  bool mug = false;    // the home scene's mug (radius 4 cm, 10 cm high) on the table at (1.2, 0.0)
+  static constexpr double kMugRadius = 0.04, kMugHeight = 0.1;
+  static Eigen::Vector2d mug_axis() { return {1.2, 0.0}; }
   double cast(const Eigen::Vector3d& o, const Eigen::Vector3d& d) const {
     double best = d.z() < 0 ? o.z() / -d.z() : -1.0;  // floor z = 0
     auto take = [&](double t) {
@@ -47,6 +76,7 @@ struct TableScene {
     };
     take(ray_box(o, d, {0.6, -0.5, 0.0}, {1.4, 0.5, kTableTop}));
     if (block) take(ray_box(o, d, {0.95, -0.05, kTableTop}, {1.05, 0.05, kTableTop + 0.1}));
+    if (mug) take(ray_upright_cylinder(o, d, mug_axis(), kMugRadius, kTableTop, kTableTop + kMugHeight));
     return best;
   }
 };
