@@ -16,7 +16,8 @@
 # hand's actual path); output under out/explore3d_bimanual, plot
 # DOC/explore3d_bimanual_wrench.png.
 #
-# Usage: deploy/explore3d.sh BUILD_DIR [--device sim-hand6|sim-bimanual] [--rtts 0,300] [--out DIR] [--doc DIR]
+# Usage: deploy/explore3d.sh BUILD_DIR [--device sim-hand6|sim-bimanual] [--rtts 0,300] [--out DIR] [--doc DIR] [--port-base P]
+# (ports P, P+1 for the robot and P+100, P+101 for the relay; P default 47300).
 # Takes about 75 s per round trip.
 set -euo pipefail
 
@@ -33,8 +34,10 @@ rtts="0,300"
 out=""
 doc="$root/deploy/doc"
 device="sim-hand6"
+base=47300
 while (($#)); do
   case "$1" in
+    --port-base) base="${2:?--port-base needs a port}"; shift 2 ;;
     --device) device="${2:?--device needs sim-hand6 or sim-bimanual}"; shift 2 ;;
     --rtts) rtts="${2:?--rtts needs a list}"; shift 2 ;;
     --out) out="${2:?--out needs a directory}"; shift 2 ;;
@@ -53,6 +56,7 @@ bin="$build/bin"
 for b in hemm-robot hemm-operator hemm-relay hemm-truth; do
   [[ -x "$bin/$b" ]] || { echo "explore3d: $bin/$b not found (build first: bash deploy/run.sh build)" >&2; exit 2; }
 done
+[[ "$base" =~ ^[0-9]+$ ]] && ((base >= 1024 && base <= 65000)) || { echo "explore3d: --port-base '$base': 1024..65000" >&2; exit 2; }
 for r in ${rtts//,/ }; do
   [[ "$r" =~ ^[0-9]+$ ]] || { echo "explore3d: --rtts '$rtts': round trips are whole milliseconds" >&2; exit 2; }
 done
@@ -69,21 +73,21 @@ run() {  # RTT_MS
   local rtt="$1" dir="$out/${1}ms"
   mkdir -p "$dir"
   echo "explore3d: ${rtt} ms round trip$( ((rtt > 0)) && echo ", 5 % loss each way") ($secs s) -> $dir" >&2
-  "$bin/hemm-robot" --config "$cfg/robot_depth.pbtxt" --session-port 47300 --stream-port 47301 \
+  "$bin/hemm-robot" --config "$cfg/robot_depth.pbtxt" --session-port "$base" --stream-port $((base + 1)) \
     --duration $((secs + 10)) --log-level warn >"$dir/robot.txt" 2>"$dir/robot.log" &
-  local robot=$! relay="" port=47300 stream=47301
+  local robot=$! relay="" port="$base" stream=$((base + 1))
   pids+=("$robot")
   if ((rtt > 0)); then
     local one_way=$((rtt / 2))
-    "$bin/hemm-relay" --tcp-listen 127.0.0.1:47400 --tcp-forward 127.0.0.1:47300 \
-      --udp-listen 127.0.0.1:47401 --udp-forward 127.0.0.1:47301 \
+    "$bin/hemm-relay" --tcp-listen 127.0.0.1:$((base + 100)) --tcp-forward 127.0.0.1:"$base" \
+      --udp-listen 127.0.0.1:$((base + 101)) --udp-forward 127.0.0.1:$((base + 1)) \
       --delay-ms "$one_way" --loss 0.05 --seed 13 >"$dir/relay.txt" 2>"$dir/relay.log" &
     relay=$!
     pids+=("$relay")
     for _ in $(seq 50); do grep -q "hemm-relay ready" "$dir/relay.txt" 2>/dev/null && break; sleep 0.1; done
     grep -q "hemm-relay ready" "$dir/relay.txt" || { echo "explore3d: hemm-relay did not start ($dir/relay.log)" >&2; return 1; }
-    port=47400
-    stream=47401
+    port=$((base + 100))
+    stream=$((base + 101))
   fi
   sleep 1
   local rc=0

@@ -53,6 +53,13 @@ TEST(Explore3dBimanualLoopback, ToolOnTheRightArmRestsOnTheTrueBlockTopAndFollow
   EXPECT_GT(F, 1.0);  // the hand presses
   EXPECT_NEAR(r.rest_true_z, z_top + a - depth, 0.0015);
   EXPECT_NEAR(r.rest_live_z, r.rest_true_z, 0.003);  // the 1 cm voxmap of the cloud: within 3 mm
+  // The hand yields: its path (the logged goal, which the truth replays) is
+  // held above the script's target there (the tip centre 5 mm into the top).
+  std::vector<double> goal_z;
+  for (std::size_t i = 7500; i < 8000; ++i) goal_z.push_back(r.ticks[i].goal.translation().z());
+  std::printf("hand (goal) on the block top %.4f m, the script's target %.4f m\n", hemm::test::median(goal_z),
+              z_top + a - 0.005);
+  EXPECT_GT(hemm::test::median(goal_z), z_top + a - 0.005 + 0.001);
   ASSERT_GT(t.contact_ticks, 5000u);
   EXPECT_GT(t.true_force_peak, 5.0);
   // The bound: replayed along the hand's path, the truth's tool is held by
