@@ -10,25 +10,35 @@
 # --tool6 replays the logged hand path against a 2.5 mm voxmap of the scene's
 # true geometry with the same tool, contact and coupling. Prints the force and
 # torque error table and the servo's numbers, and writes the plots.
+# --device sim-bimanual holds the tool with the right arm of the SIMULATED
+# bimanual device instead (operator_explore3d_bimanual.pbtxt: its SIMULATED
+# human follows the same script and yields to the force; the truth replays the
+# hand's actual path); output under out/explore3d_bimanual, plot
+# DOC/explore3d_bimanual_wrench.png.
 #
-# Usage: deploy/explore3d.sh BUILD_DIR [--rtts 0,300] [--out DIR] [--doc DIR]
+# Usage: deploy/explore3d.sh BUILD_DIR [--device sim-hand6|sim-bimanual] [--rtts 0,300] [--out DIR] [--doc DIR] [--port-base P]
+# (ports P, P+1 for the robot and P+100, P+101 for the relay; P default 47300).
 # Takes about 75 s per round trip.
 set -euo pipefail
 
 usage() {
   sed -n '/^# Usage:/s/^# //p' "${BASH_SOURCE[0]}"
   echo "Writes DIR/<rtt>ms/{servo.csv*,truth.csv,truth.json,station.json}; DOC/explore3d_wrench.png and"
-  echo "DOC/explore3d_voxmap.png (DOC default deploy/doc)."
+  echo "DOC/explore3d_voxmap.png (DOC default deploy/doc; sim-bimanual: DOC/explore3d_bimanual_wrench.png)."
 }
 build="${1:-}"
 if [[ -z "$build" || "$build" == -h || "$build" == --help ]]; then usage; [[ -n "$build" ]] && exit 0 || exit 2; fi
 shift
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 rtts="0,300"
-out="$root/out/explore3d"
+out=""
 doc="$root/deploy/doc"
+device="sim-hand6"
+base=47300
 while (($#)); do
   case "$1" in
+    --port-base) base="${2:?--port-base needs a port}"; shift 2 ;;
+    --device) device="${2:?--device needs sim-hand6 or sim-bimanual}"; shift 2 ;;
     --rtts) rtts="${2:?--rtts needs a list}"; shift 2 ;;
     --out) out="${2:?--out needs a directory}"; shift 2 ;;
     --doc) doc="${2:?--doc needs a directory}"; shift 2 ;;
@@ -36,10 +46,17 @@ while (($#)); do
     *) echo "explore3d: unknown argument '$1'" >&2; usage >&2; exit 2 ;;
   esac
 done
+case "$device" in
+  sim-hand6) opcfg="operator_explore3d.pbtxt"; tag="explore3d" ;;
+  sim-bimanual) opcfg="operator_explore3d_bimanual.pbtxt"; tag="explore3d_bimanual" ;;
+  *) echo "explore3d: --device '$device': sim-hand6 or sim-bimanual" >&2; exit 2 ;;
+esac
+out="${out:-$root/out/$tag}"
 bin="$build/bin"
 for b in hemm-robot hemm-operator hemm-relay hemm-truth; do
   [[ -x "$bin/$b" ]] || { echo "explore3d: $bin/$b not found (build first: bash deploy/run.sh build)" >&2; exit 2; }
 done
+[[ "$base" =~ ^[0-9]+$ ]] && ((base >= 1024 && base <= 65000)) || { echo "explore3d: --port-base '$base': 1024..65000" >&2; exit 2; }
 for r in ${rtts//,/ }; do
   [[ "$r" =~ ^[0-9]+$ ]] || { echo "explore3d: --rtts '$rtts': round trips are whole milliseconds" >&2; exit 2; }
 done
@@ -56,25 +73,25 @@ run() {  # RTT_MS
   local rtt="$1" dir="$out/${1}ms"
   mkdir -p "$dir"
   echo "explore3d: ${rtt} ms round trip$( ((rtt > 0)) && echo ", 5 % loss each way") ($secs s) -> $dir" >&2
-  "$bin/hemm-robot" --config "$cfg/robot_depth.pbtxt" --session-port 47300 --stream-port 47301 \
+  "$bin/hemm-robot" --config "$cfg/robot_depth.pbtxt" --session-port "$base" --stream-port $((base + 1)) \
     --duration $((secs + 10)) --log-level warn >"$dir/robot.txt" 2>"$dir/robot.log" &
-  local robot=$! relay="" port=47300 stream=47301
+  local robot=$! relay="" port="$base" stream=$((base + 1))
   pids+=("$robot")
   if ((rtt > 0)); then
     local one_way=$((rtt / 2))
-    "$bin/hemm-relay" --tcp-listen 127.0.0.1:47400 --tcp-forward 127.0.0.1:47300 \
-      --udp-listen 127.0.0.1:47401 --udp-forward 127.0.0.1:47301 \
+    "$bin/hemm-relay" --tcp-listen 127.0.0.1:$((base + 100)) --tcp-forward 127.0.0.1:"$base" \
+      --udp-listen 127.0.0.1:$((base + 101)) --udp-forward 127.0.0.1:$((base + 1)) \
       --delay-ms "$one_way" --loss 0.05 --seed 13 >"$dir/relay.txt" 2>"$dir/relay.log" &
     relay=$!
     pids+=("$relay")
     for _ in $(seq 50); do grep -q "hemm-relay ready" "$dir/relay.txt" 2>/dev/null && break; sleep 0.1; done
     grep -q "hemm-relay ready" "$dir/relay.txt" || { echo "explore3d: hemm-relay did not start ($dir/relay.log)" >&2; return 1; }
-    port=47400
-    stream=47401
+    port=$((base + 100))
+    stream=$((base + 101))
   fi
   sleep 1
   local rc=0
-  "$bin/hemm-operator" --config "$cfg/operator_explore3d.pbtxt" --session-port "$port" --stream-port "$stream" \
+  "$bin/hemm-operator" --config "$cfg/$opcfg" --session-port "$port" --stream-port "$stream" \
     --log "$dir/servo.csv" --duration "$secs" --log-level warn --station-json "$dir/station.json" \
     >"$dir/operator.txt" 2>"$dir/operator.log" || rc=$?
   kill -INT "$robot" 2>/dev/null || true
@@ -102,9 +119,16 @@ for r in ${rtts//,/ }; do
   ((r > 0)) && label="$r ms round trip, 5 % loss each way" || label="0 ms (direct)"
   args+=(--run "$label=$out/${r}ms/truth.csv")
 done
-/usr/bin/python3 "$root/deploy/plots/plot_explore3d.py" --wrench "$doc/explore3d_wrench.png" \
-  --voxmap "$doc/explore3d_voxmap.png" --voxcsv "$out/${first}ms/servo.csv.voxmap.csv" "${args[@]}"
-echo "explore3d: wrote $doc/explore3d_wrench.png and $doc/explore3d_voxmap.png" >&2
+if [[ "$device" == sim-bimanual ]]; then
+  /usr/bin/python3 "$root/deploy/plots/plot_explore3d.py" --wrench "$doc/explore3d_bimanual_wrench.png" \
+    --title "6-DoF probe tool on the right arm of the SIMULATED bimanual device: block, book, mug (SIMULATION)" \
+    "${args[@]}"
+  echo "explore3d: wrote $doc/explore3d_bimanual_wrench.png" >&2
+else
+  /usr/bin/python3 "$root/deploy/plots/plot_explore3d.py" --wrench "$doc/explore3d_wrench.png" \
+    --voxmap "$doc/explore3d_voxmap.png" --voxcsv "$out/${first}ms/servo.csv.voxmap.csv" "${args[@]}"
+  echo "explore3d: wrote $doc/explore3d_wrench.png and $doc/explore3d_voxmap.png" >&2
+fi
 
 /usr/bin/python3 - "$out" "$rtts" <<'PY'
 import json, os, sys

@@ -9,7 +9,9 @@
 // started with --control-socket PATH. With a `vps` block in its config it renders that VPS scene (meshes,
 // held objects, 6-DoF couplings) with the device instead, without a robot.
 // With the SIMULATED bimanual interface (device sim-bimanual) it runs
-// that device in the same servo loop against local planes, without a robot.
+// that device in the same servo loop against local planes, without a robot;
+// with probe_3d.tool "pointshell" its right arm holds the robot's 6-DoF probe
+// tool in the networked station instead (operator/station/tool6_bimanual.h).
 // --view / --view-png show each of these runs (the robot's world, or the
 // device, its arms and the VPS scene).
 #include <CLI/CLI.hpp>
@@ -341,7 +343,8 @@ int run(int argc, char** argv) {
                  "device (overrides device.type): sim-omni, replay, sim-hand6 (a SIMULATED rigid 6-DoF scripted hand for "
                  "probe_3d.tool pointshell), or sim-bimanual (the SIMULATED bimanual "
                  "interface: two 7-DoF arms in MuJoCo with scripted hands, rendering local planes, or with a vps "
-                 "config the scene's VPS objects along its scripted hand paths; no robot)")
+                 "config the scene's VPS objects along its scripted hand paths, no robot; or with probe_3d.tool "
+                 "pointshell the robot's 6-DoF probe tool in its right hand)")
       ->check(CLI::IsMember({"sim-omni", "replay", "sim-bimanual", "sim-hand6"}));
   app.add_option("--hands", bimanual_hands,
                  "SIMULATED hand script for the sim-bimanual device (overrides device.bimanual.script): features "
@@ -443,7 +446,10 @@ int run(int argc, char** argv) {
     return net::kExitUsage;
 #endif
   }
-  if (replay_file.empty() && cfg.device().type() == "sim-bimanual") {
+  // With the 6-DoF tool the bimanual device's right arm holds it in the
+  // networked station (tool6_bimanual.h); without it, the device runs alone.
+  const bool tool6_bimanual = cfg.device().type() == "sim-bimanual" && cfg.probe_3d().tool() == "pointshell";
+  if (replay_file.empty() && cfg.device().type() == "sim-bimanual" && !tool6_bimanual) {
     if (app.count("--script") > 0 || !goal_route.empty()) {
       std::cerr << "hemm-operator: --script and --goal drive the sim-omni hand; the sim-bimanual device takes "
                    "--hands\n";
@@ -466,7 +472,8 @@ int run(int argc, char** argv) {
 #endif
   }
   if (!bimanual_hands.empty()) {
-    std::cerr << "hemm-operator: --hands needs the sim-bimanual device\n";
+    std::cerr << (tool6_bimanual ? "hemm-operator: --hands: the 6-DoF tool's SIMULATED hand follows probe_3d.tool_hand_script\n"
+                                 : "hemm-operator: --hands needs the sim-bimanual device\n");
     return net::kExitUsage;
   }
   const std::string robot_address = robot.empty() ? cfg.net().robot_address() : robot;
@@ -504,6 +511,7 @@ int run(int argc, char** argv) {
   so.servo = servo_config(cfg);
   so.task.proxy.period = static_cast<double>(so.servo.period_ns) * 1e-9;
   op::apply_probe3d_config(cfg.probe_3d(), &so);
+  so.bimanual = std::make_shared<const config::BimanualDeviceConfig>(cfg.device().bimanual());
 
   asio::io_context io;
   op::OperatorClient client(io, o);

@@ -254,9 +254,12 @@ std::vector<FieldIssue> validate_operator_config(const pb::Message& m) {
   const bool shell = p3.tool() == "pointshell";
   if (!shell && p3.tool() != "point") out.push_back({"probe_3d.tool", "must be \"point\" or \"pointshell\""});
   if (shell && !p3.enabled()) out.push_back({"probe_3d.tool", "\"pointshell\" needs probe_3d.enabled"});
-  if (shell != (type == "sim-hand6"))
-    out.push_back({"device.type", "the 6-DoF tool (probe_3d.tool \"pointshell\") and the 6-DoF device \"sim-hand6\" "
-                                  "go together"});
+  if (shell && type != "sim-hand6" && type != "sim-bimanual")
+    out.push_back({"device.type", "the 6-DoF tool (probe_3d.tool \"pointshell\") needs a 6-DoF device: \"sim-hand6\" "
+                                  "or \"sim-bimanual\""});
+  if (!shell && type == "sim-hand6")
+    out.push_back({"device.type", "the 6-DoF device \"sim-hand6\" holds the 6-DoF tool: it needs probe_3d.tool "
+                                  "\"pointshell\""});
   if (!(p3.tool_work_budget() >= 100 && p3.tool_work_budget() <= 1000000))
     out.push_back({"probe_3d.tool_work_budget", "must be within [100, 1000000]"});
   if (!(p3.tool_contact_stiffness() > 0 && p3.tool_contact_stiffness() <= 1e10))

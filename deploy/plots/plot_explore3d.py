@@ -47,8 +47,9 @@ def norm3(c, a, b, d):
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--wrench", required=True)
-    ap.add_argument("--voxmap", required=True)
-    ap.add_argument("--voxcsv", required=True)
+    ap.add_argument("--voxmap", help="the live voxmap and tool path image (with --voxcsv)")
+    ap.add_argument("--voxcsv")
+    ap.add_argument("--title", default="6-DoF probe tool on the live voxmap: block, book, mug (SIMULATION)")
     ap.add_argument("--run", action="append", required=True, help="LABEL=TRUTH_CSV")
     a = ap.parse_args()
     runs = []
@@ -74,9 +75,11 @@ def main():
                 ax.legend(loc="upper right", fontsize=8)
             else:
                 ax.set_xlabel("script time [s]")
-    fig.suptitle("6-DoF probe tool on the live voxmap: block, book, mug (SIMULATION)")
+    fig.suptitle(a.title)
     fig.tight_layout()
     fig.savefig(a.wrench, dpi=110)
+    if not (a.voxmap and a.voxcsv):
+        return 0
 
     v = read_columns(a.voxcsv)
     c = runs[0][1]

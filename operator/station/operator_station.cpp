@@ -18,6 +18,7 @@
 #include "operator/device/simulated_omni.h"
 #include "operator/device/trajectory_csv.h"
 #include "operator/station/demo_scripts.h"
+#include "operator/station/tool6_bimanual.h"
 #include "operator/station/tool6_explorer.h"
 #include "config_operator.pb.h"
 #include "report.pb.h"
@@ -46,6 +47,8 @@ void apply_probe3d_config(const config::Probe3dConfig& c, OperatorStationOptions
     o->task.tool6.contact_stiffness = c.tool_contact_stiffness();
     o->task.tool6.origin_R = Eigen::Vector3d(c.origin_x_m(), 0.0, c.origin_z_m());
     o->hand6_script = c.tool_hand_script();
+    o->tool_device_offset_D =
+        Eigen::Vector3d(c.tool_device_offset_x_m(), c.tool_device_offset_y_m(), c.tool_device_offset_z_m());
     return;
   }
   o->task.probe_3d = true;
@@ -254,12 +257,24 @@ OperatorStation::OperatorStation(asio::io_context& io, OperatorClient& client, c
     if (!tp.tool6.enabled) throw std::invalid_argument("device sim-hand6 needs probe_3d { tool: \"pointshell\" }");
     device_ = std::make_unique<device::ReplayDevice>(make_hand6_trajectory(o.hand6_script, tp.tool6.origin_R),
                                                      device::rigid_hand_limits(1));
+  } else if (o.device == "sim-bimanual") {
+    // The right arm of the SIMULATED bimanual device holds the 6-DoF tool
+    // (tool6_bimanual.h); without the tool it runs without a robot (main.cpp).
+    if (!tp.tool6.enabled)
+      throw std::invalid_argument("device sim-bimanual in the networked station holds the 6-DoF tool: it needs "
+                                  "probe_3d { tool: \"pointshell\" } (without it hemm-operator runs the device "
+                                  "against its local planes, no robot)");
+    device_ = make_tool6_bimanual_device(o.bimanual ? *o.bimanual : config::BimanualDeviceConfig{},
+                                         make_hand6_trajectory(o.hand6_script, tp.tool6.origin_R),
+                                         o.tool_device_offset_D, static_cast<double>(o.servo.period_ns) * 1e-9,
+                                         &tp.tool6);
   } else {
-    throw std::invalid_argument("unknown device type '" + o.device + "' (sim-omni, replay or sim-hand6)");
+    throw std::invalid_argument("unknown device type '" + o.device + "' (sim-omni, replay, sim-hand6 or sim-bimanual)");
   }
   if (tp.tool6.enabled) {
     if (!device_->limits().ee[0].renders_torque)
-      throw std::invalid_argument("the 6-DoF tool (probe_3d.tool \"pointshell\") needs a 6-DoF device (sim-hand6)");
+      throw std::invalid_argument(
+          "the 6-DoF tool (probe_3d.tool \"pointshell\") needs a 6-DoF device (sim-hand6 or sim-bimanual)");
     tp.tool6.limits = device_->limits().ee[0];
   }
   if (!(o.stats_period_s > 0)) throw std::invalid_argument("stats_period_s must be positive");

@@ -36,13 +36,19 @@ class OperatorStation;  // report.pb.h
 
 namespace hemm::config {
 class Probe3dConfig;  // config_operator.pb.h
+class BimanualDeviceConfig;
 }  // namespace hemm::config
 
 namespace hemm::op {
 
 struct OperatorStationOptions {
-  std::string device = "sim-omni";  // or "replay", or "sim-hand6" (needs task.tool6.enabled)
-  std::string hand6_script = "explore-table";  // device == "sim-hand6": tool6_explorer.h
+  // or "replay", or "sim-hand6" / "sim-bimanual" (need task.tool6.enabled)
+  std::string device = "sim-omni";
+  std::string hand6_script = "explore-table";  // device == "sim-hand6" or "sim-bimanual": tool6_explorer.h
+  // device == "sim-bimanual" (tool6_bimanual.h): the device's block (null:
+  // the defaults) and where H's origin sits in the device frame D.
+  std::shared_ptr<const config::BimanualDeviceConfig> bimanual;
+  Eigen::Vector3d tool_device_offset_D = Eigen::Vector3d::Zero();
   std::string replay_file;          // device == "replay"
   std::string script = "idle";      // device == "sim-omni": demo_scripts.h
   // device == "sim-omni": if set, this hand instead of the script, starting

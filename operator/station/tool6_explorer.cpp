@@ -20,6 +20,11 @@ std::string validate(const Tool6Params& p) {
   if (!(p.period_s > 0 && p.period_s <= 0.01)) return "period must be in (0, 10 ms]";
   if (!(p.limits.peak_force > 0 && p.limits.max_stiffness > 0))
     return "the device's end-effector 0 must report a peak force and a stiffness";
+  if (!p.T_H_D.matrix().allFinite() || !p.T_H_D.linear().isUnitary(1e-9) || p.T_H_D.linear().determinant() < 0 ||
+      p.T_H_D.translation().norm() > 5.0)
+    return "the device frame in H must be a rigid transform within 5 m";
+  if (!p.R_E_P.allFinite() || !p.R_E_P.isUnitary(1e-9) || p.R_E_P.determinant() < 0)
+    return "the tool's grasp R_E_P must be a rotation";
   return {};
 }
 
@@ -49,13 +54,14 @@ Tool6Explorer::Tool6Explorer(const Tool6Params& p) : p_(p) {
 
 void Tool6Explorer::tick(const device::EndEffectorSample& s, const math::Pose2& T_W_R, const vps::Voxmap* vm) noexcept {
   valid_ = s.position_H.allFinite() && s.orientation_H.coeffs().allFinite() && s.orientation_H.norm() > 0.5;
-  const Eigen::Isometry3d T_W_H = robot_pose3(T_W_R) * Eigen::Translation3d(p_.origin_R);
-  R_W_H_ = T_W_H.linear();
+  // The sample is in the device's frame (D, the HapticDevice API's "H").
+  const Eigen::Isometry3d T_W_D = robot_pose3(T_W_R) * Eigen::Translation3d(p_.origin_R) * p_.T_H_D;
+  R_W_D_ = T_W_D.linear();
   if (valid_) {
-    Eigen::Isometry3d T_H_E = Eigen::Isometry3d::Identity();
-    T_H_E.linear() = s.orientation_H.normalized().toRotationMatrix();
-    T_H_E.translation() = s.position_H;
-    goal_W_ = T_W_H * T_H_E;
+    Eigen::Isometry3d T_D_P = Eigen::Isometry3d::Identity();
+    T_D_P.linear() = s.orientation_H.normalized().toRotationMatrix() * p_.R_E_P;
+    T_D_P.translation() = s.position_H;
+    goal_W_ = T_W_D * T_D_P;
   }
   if (!s.enabled) vm = nullptr;  // a detached hand: the tool follows the device, nothing displayed
   Eigen::Isometry3d goal = goal_W_;
@@ -67,10 +73,10 @@ void Tool6Explorer::write(double gain, device::EndEffectorCommand& c) const noex
   // The coupling's reaction acts at the goal's centre of mass; moved to the E point (the tip).
   const vps::Wrench& w = state_.device;
   const Eigen::Vector3d r = goal_W_.linear() * tool_.shell.reference_point;
-  const Eigen::Vector3d F_H = R_W_H_.transpose() * (gain * w.force);
-  const Eigen::Vector3d tau_H = R_W_H_.transpose() * (gain * (w.torque + r.cross(w.force)));
-  c.force_H = F_H.allFinite() ? F_H : Eigen::Vector3d::Zero();
-  c.torque_H = tau_H.allFinite() ? tau_H : Eigen::Vector3d::Zero();
+  const Eigen::Vector3d F_D = R_W_D_.transpose() * (gain * w.force);
+  const Eigen::Vector3d tau_D = R_W_D_.transpose() * (gain * (w.torque + r.cross(w.force)));
+  c.force_H = F_D.allFinite() ? F_D : Eigen::Vector3d::Zero();
+  c.torque_H = tau_D.allFinite() ? tau_D : Eigen::Vector3d::Zero();
 }
 
 void Tool6Explorer::fill(double gain, StationLogRecord& r) const noexcept {

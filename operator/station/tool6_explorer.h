@@ -6,16 +6,19 @@
 //
 // Mapping (motion scale 1, as the bimanual paper maps its arms to objects):
 // H has R's axes and its origin at origin_R in the robot frame, and the tool
-// frame P is the end-effector frame E (tip at the E point, rod along E's z),
-// so the hand wants the tool at T_W_P = T_W_R T_R_H T_H_E, with T_W_R the
-// task's predicted robot pose. The coupling's reaction goes to the device at
-// the E point in H (force, and torque when the device renders it).
+// frame P is the end-effector frame E turned by R_E_P (tip at the E point,
+// rod along P's z), so the hand wants the tool at
+// T_W_P = T_W_R T_R_H T_H_D T_D_E R_E_P, with T_W_R the task's predicted
+// robot pose and T_D_E the device's end-effector pose in its own frame D.
+// The coupling's reaction goes to the device at the E point in D (force, and
+// torque when the device renders it).
 //
-// Device: the SIMULATED rigid 6-DoF scripted hand (device type "sim-hand6":
+// Devices: the SIMULATED rigid 6-DoF scripted hand (device type "sim-hand6":
 // a replayed pose path that does not yield to the force, with the limits of
-// an LWR-class arm, device::rigid_hand_limits), not the SIMULATED bimanual
-// arm: wiring the bimanual device into the networked station was left for
-// later. Scripts (make_hand6_trajectory): "explore-table" presses and slides
+// an LWR-class arm, device::rigid_hand_limits; D = H, P = E), or the right
+// arm of the SIMULATED bimanual device ("sim-bimanual", tool6_bimanual.h:
+// its SIMULATED human follows the same script mapped into D, and yields).
+// Scripts (make_hand6_trajectory): "explore-table" presses and slides
 // on the tops and the robot-facing sides of the block, the book and the mug
 // of deploy/scenes/home.xml's table with the robot at W (1.5, 1.0) facing +y;
 // "explore-block" the block's top (pressed, slid, tilted) and front side.
@@ -47,6 +50,13 @@ struct Tool6Params {
   std::int64_t budget = 4000;  // VPS work per tick (sphere nodes + points): time-critical mode
   Eigen::Vector3d origin_R{0.85, 0.0, 0.95};  // H's origin in R
   device::EndEffectorLimits limits = device::rigid_hand_limits(1).ee[0];  // end-effector 0 (the station sets it)
+  // The device's frame (D) in H, and the tool frame P in the end-effector
+  // frame E (a rotation: the tip stays at the E point). Identity for
+  // sim-hand6, whose frame is H and whose E is P; sim-bimanual:
+  // tool6_bimanual.h (H = D shifted, P turned so the tool starts upright in
+  // the hand's resting grasp).
+  Eigen::Isometry3d T_H_D = Eigen::Isometry3d::Identity();
+  Eigen::Matrix3d R_E_P = Eigen::Matrix3d::Identity();
   double period_s = 1e-3;
 };
 std::string validate(const Tool6Params& p);
@@ -77,7 +87,7 @@ class Tool6Explorer {
   vps::ToolParams params_;
   vps::ToolState state_;
   Eigen::Isometry3d goal_W_ = Eigen::Isometry3d::Identity();
-  Eigen::Matrix3d R_W_H_ = Eigen::Matrix3d::Identity();
+  Eigen::Matrix3d R_W_D_ = Eigen::Matrix3d::Identity();
   bool valid_ = false;
 };
 

@@ -19,6 +19,7 @@
 #include <memory>
 
 #include "config_operator.pb.h"
+#include "operator/bimanual/hand_path_check.h"
 #include "operator/device/bimanual/simulated_bimanual_device.h"
 #include "operator/vps/vps_session.h"
 #include "operator/vps/vps_task.h"
@@ -52,24 +53,14 @@ class SceneHandScript final : public device::bimanual::HumanScript {
 // humans' voluntary effort (human.h) takes the sag out in well under 1 s.
 inline constexpr double kStartHold_s = 1.0;
 
-// How far a path's start may be from where the hand rests: the object
-// appears where the hand holds it at the first tick, so a larger jump would
-// start it somewhere the path does not go (possibly inside the other object).
-inline constexpr double kStartTolerance_m = 0.005;
-inline constexpr double kStartTolerance_rad = 0.05;
-// The least elbow bend a path may need (|q4|, kinematics::elbow_bend): 20
-// degrees keeps the arm's Jacobian well away from the stretched-elbow
-// singularity where the SIMULATED hand stalled (assembly drill, README).
-inline constexpr double kMinElbowBend_rad = 0.35;
 
 // The SIMULATED bimanual device of cfg.device().bimanual() at `period_s`,
 // its humans following scene `scene`'s paths through `mapping` (right: 0,
 // left: 1). Checks, with errors "field: message" (std::invalid_argument):
-// the bimanual block; each path's start within kStartTolerance of where
-// that hand rests (the message gives the h_origin and grasp that would put
-// it there); each whole path inside its arm's workspace, within its reach
-// with the elbow bent at least kMinElbowBend_rad, and with the wrist and
-// handle out of the table's collision-avoidance zone.
+// the bimanual block; each path with check_hand_path (hand_path_check.h:
+// start at the hand's rest, workspace, reach and elbow bend, table zone;
+// for a start off the rest the message gives the h_origin and grasp that
+// would put it there).
 std::unique_ptr<device::bimanual::SimulatedBimanualDevice> make_vps_bimanual_device(
     const config::OperatorConfig& cfg, const std::string& scene,
     const std::array<VpsEndEffectorParams, device::kMaxEndEffectors>& mapping, double period_s);

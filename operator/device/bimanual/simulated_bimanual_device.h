@@ -59,6 +59,8 @@ class SimulatedBimanualDevice final : public HapticDevice {
   const BimanualSimulation& simulation() const noexcept { return sim_; }
   BimanualSimulation& simulation() noexcept { return sim_; }
   const BimanualDeviceCounters& counters() const noexcept { return counters_; }
+  // The SIMULATED human's script of arm s (what it asks of its hand).
+  const HumanScript& hand(ArmSide s) const noexcept { return *hands_[static_cast<std::size_t>(index(s))]; }
   // Smallest gaps over the run so far (the controller's and MuJoCo's), and
   // MuJoCo's contact substeps (SIMULATION truth).
   double min_arm_arm_m() const noexcept { return min_arm_arm_m_; }

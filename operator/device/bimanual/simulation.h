@@ -54,6 +54,7 @@ class BimanualSimulation {
 
   BimanualPlant& plant() noexcept { return plant_; }
   BimanualController& controller() noexcept { return controller_; }
+  const BimanualController& controller() const noexcept { return controller_; }
   const SimulationConfig& config() const noexcept { return config_; }
 
  private:

@@ -139,6 +139,18 @@ TEST(ConfigTest, ShippedExplore3dConfigLoadsAndTheToolNeedsItsDevice) {
   ASSERT_TRUE(e1);
   EXPECT_EQ(e1->field, "device.type");
   EXPECT_FALSE(ob.has_probe_3d());
+  // The rigid hand without the tool: refused; the bimanual device's right arm may hold it.
+  auto e1b = parse_text_config("device { type: \"sim-hand6\" }", "o.pbtxt", &validate_operator_config, &ob);
+  ASSERT_TRUE(e1b);
+  EXPECT_EQ(e1b->field, "device.type");
+  OperatorConfig obm;
+  auto e1c = parse_text_config("device { type: \"sim-bimanual\" } probe_3d { enabled: true tool: \"pointshell\" }",
+                               "o.pbtxt", &validate_operator_config, &obm);
+  EXPECT_FALSE(e1c) << e1c->to_string();
+  OperatorConfig os;
+  auto e1d = load_operator_config(src + "/deploy/configs/operator_explore3d_bimanual.pbtxt", &os);
+  EXPECT_FALSE(e1d) << e1d->to_string();
+  EXPECT_EQ(os.device().type(), "sim-bimanual");
   auto e2 = parse_text_config("probe_3d { enabled: true tool: \"stick\" }", "o.pbtxt", &validate_operator_config, &ob);
   ASSERT_TRUE(e2);
   EXPECT_EQ(e2->field, "probe_3d.tool");

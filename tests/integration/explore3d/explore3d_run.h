@@ -1,0 +1,123 @@
+// One run of the 6-DoF probe tool's "explore-block" script on the live
+// voxmap over real loopback sockets (robot and operator stations in one
+// process), and its SIMULATION-ONLY truth: the logged goal path replayed with
+// the same tool, contact and coupling against the scene's geometry voxelised
+// exactly at 2.5 mm (robot_side/truth/tool6_truth.h). Shared by the tests of
+// each device that holds the tool (sim-hand6, sim-bimanual).
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "config_operator.pb.h"
+#include "operator/client/operator_client.h"
+#include "operator/station/operator_station.h"
+#include "robot_side/truth/tool6_truth.h"
+#include "tests/integration/probe3d/table_scene.h"
+#include "tests/operator/client/loopback_client.h"
+#include "tests/operator/servo/alloc_counter.h"
+#include "tests/robot_side/station/robot_side.h"
+
+namespace hemm::test {
+
+struct Explore3dRun {
+  op::OperatorStationSummary sum;
+  std::uint64_t servo_allocs = 0;
+  std::vector<robot::Tool6Tick> ticks;  // row i: the hand's script at i ms
+  vps::ProbeToolGeometry geometry;
+  vps::ToolParams params;  // from the log's sidecar (the live tool's)
+  robot::Tool6Truth truth;
+  // Resting pressed on the block's top (t 7.5-8 s of the script, before the
+  // slide): the tool tip centre's median z, live and true.
+  double rest_live_z = 0, rest_true_z = 0;
+  std::size_t rest_ticks = 0;
+};
+
+inline constexpr double kBlockTop_m = 0.85;
+
+// Runs for `ms` with probe_3d from `ocfg` (tool "pointshell", script set
+// here to "explore-block"); `device` picks the station's device.
+inline void run_explore_block(const std::string& log, config::OperatorConfig ocfg,
+                              const std::function<void(op::OperatorStationOptions&)>& device, int ms,
+                              Explore3dRun* out) {
+  RobotSide robot(robot_before_table(), table_test_key(11, 3), kHomeScene);
+  robot.start();
+  asio::io_context io;
+  op::OperatorClientOptions co =
+      loopback_client_options("explore3d-test", robot.server->session_port(), table_test_key(11, 3));
+  op::OperatorClient client(io, co);
+  op::OperatorStationOptions so = loopback_station_options(log);
+  so.task.initial_mode = math::Mode::kExploration;
+  auto* p3 = ocfg.mutable_probe_3d();
+  p3->set_enabled(true);
+  p3->set_tool("pointshell");
+  p3->set_tool_hand_script("explore-block");
+  op::apply_probe3d_config(ocfg.probe_3d(), &so);
+  device(so);
+  op::OperatorStation station(io, client, so);
+  station.task().set_servo_thread_hook(&count_allocations_on_this_thread);
+  ASSERT_NE(station.task().tool6(), nullptr);
+
+  std::string err;
+  ASSERT_TRUE(client.start([](int, const std::string& why) { ADD_FAILURE() << "fatal: " << why; }, &err)) << err;
+  out->servo_allocs = run_station_for(io, client, station, ms, [] {});
+  out->sum = station.summary();
+  const op::OperatorStationSummary& sum = out->sum;
+  const op::VoxmapStats& vs = sum.model.voxmap;
+  std::printf("voxmap: chunks %llu, builds %llu, occupied cells %zu; servo: %llu ticks, period median %.1f us p99 "
+              "%.1f us, misses %llu, compute median %.1f us p99 %.1f us; allocations on the servo thread %llu\n",
+              static_cast<unsigned long long>(vs.stream.accepted), static_cast<unsigned long long>(vs.builds),
+              vs.occupied_cells, static_cast<unsigned long long>(sum.timing.ticks), sum.timing.period.median_us,
+              sum.timing.period.p99_us, static_cast<unsigned long long>(sum.timing.misses),
+              sum.timing.compute.median_us, sum.timing.compute.p99_us,
+              static_cast<unsigned long long>(out->servo_allocs));
+  EXPECT_GT(vs.builds, 5u);
+  ASSERT_EQ(sum.world_log_dropped, 0u);  // one row per tick: row i is the hand's script at i ms
+
+  // Simulation truth.
+  ASSERT_TRUE(robot::read_tool6_world_log(so.log_path + ".world.csv", &out->ticks, &err)) << err;
+  ASSERT_GT(out->ticks.size(), 15000u);
+  ASSERT_TRUE(robot::read_tool6_params(so.log_path + ".tool6.txt", &out->geometry, &out->params, &err)) << err;
+  EXPECT_EQ(out->params.coupling.k_lin, station.task().tool6()->tool_params().coupling.k_lin);  // the live tool's
+  vps::ProbeTool tool;
+  ASSERT_FALSE(vps::make_probe_tool(out->geometry, &tool));
+  vps::Voxmap truth;
+  std::vector<std::string> parts;
+  // Around the block (the script's reach: W x 1.6-1.9, y 1.65-2.0) and the table top under it.
+  const Eigen::AlignedBox3d region(Eigen::Vector3d(1.55, 1.6, 0.7), Eigen::Vector3d(1.95, 2.05, 1.1));
+  ASSERT_TRUE(robot::build_truth_voxmap(kHomeScene, region, 0.0025, &truth, &parts, &err)) << err;
+  ASSERT_NE(std::find(parts.begin(), parts.end(), "table_block"), parts.end());
+  vps::ToolParams tp = out->params;
+  tp.budget = vps::kUnlimitedWork;  // the reference: every point
+  const auto t0 = std::chrono::steady_clock::now();
+  out->truth = robot::evaluate_tool6(out->ticks, tool, tp, truth);
+  std::printf("truth replay %.2f s\n", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+
+  std::vector<double> rest_live, rest_true;
+  for (std::size_t i = 0; i < out->ticks.size(); ++i) {
+    const double ts = static_cast<double>(i) * 1e-3;  // the hand's script time: one period per tick (not wall time)
+    if (ts > 7.5 && ts < 8.0) {
+      rest_live.push_back(out->ticks[i].tool.z());
+      rest_true.push_back(out->truth.replay.tool_W[i].z());
+    }
+  }
+  ASSERT_GT(rest_live.size(), 300u);
+  out->rest_ticks = rest_live.size();
+  out->rest_live_z = median(rest_live);
+  out->rest_true_z = median(rest_true);
+  const robot::Tool6Truth& t = out->truth;
+  std::printf("rest on the block top: live tip centre z %.4f m, truth %.4f m, true top + radius %.4f m\n",
+              out->rest_live_z, out->rest_true_z, kBlockTop_m + out->geometry.tip_radius);
+  std::printf("force error over %zu contact ticks: rms %.3f N, max %.3f N (true peak %.3f N); torque rms %.4f N m, "
+              "max %.4f N m (true peak %.4f N m)\n",
+              t.contact_ticks, t.force_rms, t.force_max, t.true_force_peak, t.torque_rms, t.torque_max,
+              t.true_torque_peak);
+}
+
+}  // namespace hemm::test
