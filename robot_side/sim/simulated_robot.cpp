@@ -731,13 +731,13 @@ std::optional<std::string> SimulatedRobot::set_command(const BaseArmCommand& c, 
     // The pose the arm would go to (the IK's nearest reachable one) must stay
     // out of the floor, the base and what the sensors have seen.
     const SeenScene seen = s.seen_scene();
-    const auto check = [&](const kinematics::Arm5Vector& q) {
+    const auto check = [&](const kinematics::Arm5Vector& q, const ArmKeepOut& keep_out) {
       std::array<Eigen::Vector3d, 5> chain;
       chain[0] = s.T_R_A.translation();
       const auto joints = kinematics::arm_points(s.arm, q);
       for (size_t i = 0; i < joints.size(); ++i) chain[i + 1] = s.T_R_A * joints[i];
       const int64_t t0 = steady_now_ns();
-      const ArmRefusal r = check_arm_chain(s.arm_keep_out, chain, seen);
+      const ArmRefusal r = check_arm_chain(keep_out, chain, seen);
       const double us = static_cast<double>(steady_now_ns() - t0) * 1e-3;
       s.seen_stats.checks += 1;
       s.seen_stats.max_check_us = std::max(s.seen_stats.max_check_us, us);
@@ -748,18 +748,22 @@ std::optional<std::string> SimulatedRobot::set_command(const BaseArmCommand& c, 
     // one jump: the goal is checked first (its refusal names what the target
     // itself is in), then the poses on the way, every kPathStep rad of the
     // fastest joint (with all five joints turning, the tool moves at most
-    // ~1.9 cm between two checks, within the 2-3 cm kept beyond the links).
-    // A keep-out the path starts in (something seen next to the arm) may be
-    // left, not entered anew.
+    // ~1.9 cm between two checks). On the way the links must stay out of
+    // contact (their radius, and the seen points' pad for the gaps between
+    // samples); the clearance is kept where the arm will hold still (the
+    // folded arm itself is 5-10 mm inside it, by the laser head). A keep-out
+    // the path starts in may be left, not entered anew.
+    ArmKeepOut on_the_way = s.arm_keep_out;
+    on_the_way.clearance = 0.0;
     const auto check_path = [&](const kinematics::Arm5Vector& q_to) {
       constexpr double kPathStep = 0.015;
-      if (const ArmRefusal end = check(q_to); end != ArmRefusal::kNone) return end;
+      if (const ArmRefusal end = check(q_to, s.arm_keep_out); end != ArmRefusal::kNone) return end;
       const kinematics::Arm5Vector q0 = s.arm_state.q_ref;
       const double span = (q_to - q0).cwiseAbs().maxCoeff();
       const int n = static_cast<int>(std::ceil(span / kPathStep));
-      ArmRefusal leaving = n > 1 ? check(q0) : ArmRefusal::kNone;
+      ArmRefusal leaving = n > 1 ? check(q0, on_the_way) : ArmRefusal::kNone;
       for (int k = 1; k < n; ++k) {
-        const ArmRefusal r = check(arm_reference_after(q0, q_to, span * k / n));
+        const ArmRefusal r = check(arm_reference_after(q0, q_to, span * k / n), on_the_way);
         if (r == ArmRefusal::kNone) {
           leaving = ArmRefusal::kNone;
         } else if (r != leaving) {
