@@ -58,13 +58,7 @@ std::unique_ptr<hb::SimulatedBimanualDevice> make_tool6_bimanual_device(const co
       setup.sim, std::array<std::shared_ptr<const hb::HumanScript>, hb::kArms>{right, left});
   const auto issue = check_hand_path(
       *dev, hb::ArmSide::kRight,
-      [&right](double t) {
-        const hb::HumanTarget g = right->at(t);
-        Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-        T.linear() = g.orientation_D.toRotationMatrix();
-        T.translation() = g.position_D;
-        return T;
-      },
+      [&right](double t) { return hb::pose_D(right->at(t)); },
       path_H.samples.back().t_s);
   if (issue) {
     using Kind = HandPathIssue::Kind;

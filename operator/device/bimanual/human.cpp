@@ -6,6 +6,13 @@
 
 namespace hemm::device::bimanual {
 
+Eigen::Isometry3d pose_D(const HumanTarget& g) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = g.orientation_D.normalized().toRotationMatrix();
+  T.translation() = g.position_D;
+  return T;
+}
+
 std::optional<std::string> validate(const HumanModel& h) {
   auto pos = [](double v) { return std::isfinite(v) && v > 0.0; };
   auto nonneg = [](double v) { return std::isfinite(v) && v >= 0.0; };

@@ -74,6 +74,9 @@ struct HumanTarget {
   bool switch_on = false;
 };
 
+// The pose T_D_E the target asks of the hand (the handle's E frame, in D).
+Eigen::Isometry3d pose_D(const HumanTarget& g);
+
 class HumanScript {
  public:
   virtual ~HumanScript() = default;

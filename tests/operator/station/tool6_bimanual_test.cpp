@@ -18,13 +18,6 @@ namespace hb = hemm::device::bimanual;
 
 namespace {
 
-Eigen::Isometry3d pose(const hb::HumanTarget& g) {
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.linear() = g.orientation_D.normalized().toRotationMatrix();
-  T.translation() = g.position_D;
-  return T;
-}
-
 // The shipped config's offset (probe_3d defaults).
 Eigen::Vector3d shipped_offset() {
   const hemm::config::Probe3dConfig c;
@@ -61,7 +54,7 @@ TEST(Tool6Bimanual, RightHandFollowsTheHand6ScriptInDAndTheToolMapsItBackToH) {
         Eigen::Isometry3d T_H_P_script = Eigen::Isometry3d::Identity();
         T_H_P_script.translation() = a.ee[0].position_H + u * (b.ee[0].position_H - a.ee[0].position_H);
         T_H_P_script.linear() = a.ee[0].orientation_H.slerp(u, b.ee[0].orientation_H).toRotationMatrix();
-        const Eigen::Isometry3d T_D_E = pose(dev->hand(hb::ArmSide::kRight).at(t));
+        const Eigen::Isometry3d T_D_E = hb::pose_D(dev->hand(hb::ArmSide::kRight).at(t));
         Eigen::Isometry3d T_E_P = Eigen::Isometry3d::Identity();
         T_E_P.linear() = tp.R_E_P;
         const Eigen::Isometry3d T_H_P = tp.T_H_D * T_D_E * T_E_P;
@@ -69,7 +62,7 @@ TEST(Tool6Bimanual, RightHandFollowsTheHand6ScriptInDAndTheToolMapsItBackToH) {
       }
     }
     EXPECT_LT(worst, 1e-9) << script;
-    const Eigen::Isometry3d T_D_E_start = pose(dev->hand(hb::ArmSide::kRight).at(ho::kTool6LeadIn_s));
+    const Eigen::Isometry3d T_D_E_start = hb::pose_D(dev->hand(hb::ArmSide::kRight).at(ho::kTool6LeadIn_s));
     EXPECT_LT((T_D_E_start.translation() - (shipped_offset() + path.samples.front().ee[0].position_H)).norm(), 1e-12);
     // The left hand holds still where it rests.
     for (double t : {0.0, 7.0, 30.0})

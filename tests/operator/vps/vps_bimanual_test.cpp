@@ -47,10 +47,7 @@ TEST(VpsBimanualMapping, ScriptTargetsMapBackOntoTheScenePathsExactly) {
         // D -> scene through the task's mapping lands back on the path.
         worst = std::max(worst, max_abs_diff(object_pose_W(e, script.T_D_E(t)), T_W_M));
         // The human's target is that pose.
-        const device::bimanual::HumanTarget g = script.at(t);
-        Eigen::Isometry3d T_D_E = Eigen::Isometry3d::Identity();
-        T_D_E.linear() = g.orientation_D.toRotationMatrix();
-        T_D_E.translation() = g.position_D;
+        const Eigen::Isometry3d T_D_E = device::bimanual::pose_D(script.at(t));
         worst_target = std::max(worst_target, max_abs_diff(object_pose_W(e, T_D_E), T_W_M));
       }
       EXPECT_LT(worst, 1e-9) << scene << " arm " << arm;
