@@ -274,7 +274,9 @@ int run(int argc, char** argv) {
   int session_port = -1, stream_port = -1;
   unsigned test_version = 0;
   double duration_s = 0.0, stats_period_s = 0.0;
-  app.add_option("--config", config_path, "operator config (text protobuf, e.g. deploy/configs/operator.pbtxt)");
+  app.add_option("--config", config_path,
+                 "operator config (text protobuf; default: configs/operator.pbtxt of the data directory, "
+                 "docs/install.md)");
   app.add_option("--key", key_path, "pre-shared key file (64 hex chars); overrides link.key_file");
   app.add_option("--robot", robot, "robot (or relay) IP address (overrides net.robot_address)");
   app.add_option("--session-port", session_port, "robot's TCP session port (overrides net.session_port)")
@@ -424,6 +426,7 @@ int run(int argc, char** argv) {
   }
 
   config::OperatorConfig cfg;
+  if (config_path.empty()) config_path = net::default_station_config("operator", "operator.pbtxt");
   if (!config_path.empty()) {
     if (auto err = config::load_text_config(config_path, &op::validate_operator_config_with_bimanual, &cfg)) {
       std::cerr << "hemm-operator: bad config: " << err->to_string() << "\n";
