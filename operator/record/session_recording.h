@@ -107,12 +107,20 @@ struct Recording {
   std::uint64_t bytes = 0;                 // of the records read
 };
 
-// Reads `path`. A file that is not a recording (unreadable, no valid header)
+// The checks load_recording makes, for another container of the same
+// records (the MCAP export, session_mcap.h): the header's magic, version and
+// fields; one record after the header (sizes, finiteness, tick and version
+// order), appended to *r unless it is refused.
+std::optional<std::string> check_recording_header(const rec::Header& h);
+std::optional<std::string> append_record(const rec::Record& record, Recording* r);
+
+// Reads `path` (a recording, or its MCAP export: session_mcap.h). A file that is not a recording (unreadable, no valid header)
 // gives an error and leaves *out untouched. A recording that breaks later
 // (truncated, corrupt) gives an error "record N at byte B: why" and *out
 // holds the records before it. No error: the whole file was read.
 std::optional<std::string> load_recording(const std::string& path, Recording* out);
-// True if the file starts like a recording (for --replay's format choice).
+// True if the file starts like a recording or an MCAP file (for --replay's
+// format choice; load_recording tells an MCAP file that is not a session's).
 bool looks_like_recording(const std::string& path);
 
 }  // namespace hemm::op

@@ -80,6 +80,7 @@ SessionReplayResult replay_session(const Recording& rec, const SessionReplayOpti
     presses.store(t.view_presses, std::memory_order_relaxed);
     servo::prepare_tick_output(t.in, t.tick, out);
     task.tick(t.in, m, out);
+    if (o.on_tick) o.on_tick(t.tick, out);
     double err = 0.0;
     for (int k = 0; k < ees; ++k) {
       const auto kk = static_cast<std::size_t>(k);

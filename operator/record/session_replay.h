@@ -36,6 +36,8 @@ struct SessionReplayOptions {
   ModelThread::SnapshotObserver on_snapshot;
   NewestMailbox<StationLogRecord>* ticks = nullptr;
   const std::atomic<bool>* stop = nullptr;  // set: ends the replay early
+  // Every replayed tick's output (its forces), right after the tick.
+  std::function<void(std::uint64_t tick, const servo::TickOutput& out)> on_tick;
 };
 
 struct SessionReplayResult {
