@@ -261,6 +261,7 @@ int replay_recording(const std::string& path, double speed, const std::string& j
   }
 #endif
   const op::SessionReplayResult r = op::replay_session(rec, ro);
+  if (!r.warning.empty()) std::cerr << "hemm-operator: --replay: " << r.warning << "\n";
 #ifdef HEMM_WITH_VIEW
   if (live_view) live_view->stop();
 #endif

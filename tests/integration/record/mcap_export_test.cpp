@@ -17,6 +17,7 @@
 #include <map>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include "operator/record/session_recording.h"
 #include "operator/record/session_replay.h"
@@ -72,38 +73,52 @@ Replayed replay(const op::Recording& rec) {
   return r;
 }
 
-TEST(McapExport, IndependentReaderOpensItAndReplayGivesTheSameForces) {
-  const std::string dir = make_temp_dir();
+// A session of `seconds` on loopback recorded to dir/session.rec: the
+// robot with `robot_config`, the operator with `operator_config` and `extra`.
+void record_session(const std::string& dir, const std::string& robot_config, const std::string& operator_config,
+                    double seconds, const std::vector<std::string>& extra) {
   const int tcp = free_port(), udp = free_port();
-  ChildProcess robot({kBin + "hemm-robot", "--config", kConfigs + "robot.pbtxt", "--listen", "127.0.0.1",
+  ChildProcess robot({kBin + "hemm-robot", "--config", kConfigs + robot_config, "--listen", "127.0.0.1",
                       "--session-port", std::to_string(tcp), "--stream-port", std::to_string(udp), "--duration",
-                      std::to_string(kRunS + 20)},
+                      std::to_string(seconds + 20)},
                      dir + "/robot.out", dir + "/robot.err");
   ASSERT_TRUE(wait_for_text(dir + "/robot.err", "event=listening", 15s)) << read_file(dir + "/robot.err");
-  const std::string rec_path = dir + "/session.rec", mcap_path = dir + "/session.mcap";
-  ChildProcess op({kBin + "hemm-operator", "--config", kConfigs + "operator.pbtxt", "--robot", "127.0.0.1",
-                   "--session-port", std::to_string(tcp), "--duration", std::to_string(kRunS), "--script",
-                   "probe-cylinder", "--record", rec_path},
-                  dir + "/op.out", dir + "/op.err");
-  const auto rc = op.wait(std::chrono::milliseconds(static_cast<int>((kRunS + 40) * 1000)));
+  std::vector<std::string> argv = {kBin + "hemm-operator", "--config", kConfigs + operator_config, "--robot",
+                                   "127.0.0.1", "--session-port", std::to_string(tcp), "--duration",
+                                   std::to_string(seconds), "--record", dir + "/session.rec"};
+  argv.insert(argv.end(), extra.begin(), extra.end());
+  ChildProcess op(argv, dir + "/op.out", dir + "/op.err");
+  const auto rc = op.wait(std::chrono::milliseconds(static_cast<int>((seconds + 40) * 1000)));
   robot.signal(SIGTERM);
   robot.wait(20s);
   ASSERT_TRUE(rc && *rc == 0) << read_file(dir + "/op.err");
+}
 
-  // Export with the one command.
-  const ProcessResult ex = run_to_completion({kBin + "hemm-operator", "--export-mcap", rec_path, mcap_path}, dir, 60s);
-  ASSERT_EQ(ex.rc, 0) << ex.err << ex.out;
+// dir/session.rec exported to dir/session.mcap with the one command; the
+// channels and counts it must have, from the recording.
+std::map<std::string, double> export_session(const std::string& dir, op::Recording* native) {
+  const ProcessResult ex = run_to_completion(
+      {kBin + "hemm-operator", "--export-mcap", dir + "/session.rec", dir + "/session.mcap"}, dir, 60s);
+  EXPECT_EQ(ex.rc, 0) << ex.err << ex.out;
   std::printf("%s", ex.out.c_str());
-
-  op::Recording native;
-  ASSERT_FALSE(op::load_recording(rec_path, &native));
-  ASSERT_GT(native.ticks.size(), static_cast<std::size_t>(0.8 * kRunS * 1000));
+  EXPECT_FALSE(op::load_recording(dir + "/session.rec", native));
   std::map<std::string, double> expected{{"/hemm/recording", 1},
-                                         {"/operator/servo", static_cast<double>(native.ticks.size())},
-                                         {"/operator/device", static_cast<double>(native.ticks.size())},
-                                         {"/operator/model_step", static_cast<double>(native.steps.size())}};
-  for (const rec::StreamEvent& e : native.streams) ++expected[topic_of(e)];
-  if (!native.sessions.empty()) expected["/link/session"] = static_cast<double>(native.sessions.size());
+                                         {"/operator/servo", static_cast<double>(native->ticks.size())},
+                                         {"/operator/device", static_cast<double>(native->ticks.size())},
+                                         {"/operator/model_step", static_cast<double>(native->steps.size())}};
+  for (const rec::StreamEvent& e : native->streams) ++expected[topic_of(e)];
+  if (!native->sessions.empty()) expected["/link/session"] = static_cast<double>(native->sessions.size());
+  return expected;
+}
+
+TEST(McapExport, IndependentReaderOpensItAndReplayGivesTheSameForces) {
+  const std::string dir = make_temp_dir();
+  record_session(dir, "robot.pbtxt", "operator.pbtxt", kRunS, {"--script", "probe-cylinder"});
+  if (HasFatalFailure()) return;
+  const std::string rec_path = dir + "/session.rec", mcap_path = dir + "/session.mcap";
+  op::Recording native;
+  std::map<std::string, double> expected = export_session(dir, &native);
+  ASSERT_GT(native.ticks.size(), static_cast<std::size_t>(0.8 * kRunS * 1000));
   EXPECT_GT(expected["/robot/state"], 100);
   EXPECT_GT(expected["/robot/scan"], 10);
   EXPECT_GT(expected["/operator/command"], 100);
@@ -149,6 +164,7 @@ TEST(McapExport, IndependentReaderOpensItAndReplayGivesTheSameForces) {
   // Replay from both: the same forces, tick for tick, each equal to the recorded one.
   const Replayed a = replay(native), b = replay(exported);
   EXPECT_TRUE(a.result.stopped.empty()) << a.result.stopped;
+  EXPECT_TRUE(a.result.warning.empty()) << a.result.warning;
   EXPECT_EQ(a.result.ticks, native.ticks.size());
   EXPECT_EQ(a.result.force_mismatches, 0u);
   EXPECT_EQ(b.result.force_mismatches, 0u);
@@ -176,6 +192,34 @@ TEST(McapExport, IndependentReaderOpensItAndReplayGivesTheSameForces) {
   EXPECT_NE(pybad.err.find("INVALID"), std::string::npos) << pybad.err;
   op::Recording partial;
   EXPECT_TRUE(op::load_recording(bad, &partial).has_value());
+  std::filesystem::remove_all(dir);
+}
+
+// A 3D session (robot with the SIMULATED depth camera, operator with the
+// live voxmap and the 3D probe): its depth chunks are in the recording and on
+// /robot/depth, read by the independent reader; the replay says it does not
+// rebuild the voxmap.
+TEST(McapExport, ThreeDSessionRecordsItsDepthChunks) {
+  const std::string dir = make_temp_dir();
+  record_session(dir, "robot_depth.pbtxt", "operator_probe3d.pbtxt", 4.0, {});
+  if (HasFatalFailure()) return;
+  op::Recording native;
+  const std::map<std::string, double> expected = export_session(dir, &native);
+  ASSERT_TRUE(expected.count("/robot/depth")) << "no depth chunk recorded";
+  EXPECT_GT(expected.at("/robot/depth"), 50);  // ~130 chunks a second
+  const ProcessResult py = run_to_completion({"/usr/bin/python3", kReader, dir + "/session.mcap"}, dir, 120s);
+  ASSERT_EQ(py.rc, 0) << py.err << py.out;
+  std::printf("%s", py.out.c_str());
+  EXPECT_EQ(reader_counts(py.out), expected) << py.out;
+  op::Recording exported;
+  ASSERT_FALSE(op::load_recording(dir + "/session.mcap", &exported));
+  ASSERT_EQ(exported.streams.size(), native.streams.size());
+  for (std::size_t i = 0; i < native.streams.size(); ++i)
+    ASSERT_EQ(exported.streams[i].SerializeAsString(), native.streams[i].SerializeAsString()) << "stream " << i;
+  const ProcessResult rp =
+      run_to_completion({kBin + "hemm-operator", "--replay", dir + "/session.mcap", "--replay-speed", "0"}, dir, 120s);
+  EXPECT_EQ(rp.rc, 0) << rp.err;
+  EXPECT_NE(rp.err.find("does not rebuild the live voxmap"), std::string::npos) << rp.err;
   std::filesystem::remove_all(dir);
 }
 
