@@ -167,7 +167,10 @@ class Mcap:
             for f in fds.file:
                 pool.Add(f)
             desc = pool.FindMessageTypeByName(s["name"])
-            cls = message_factory.MessageFactory(pool).GetPrototype(desc)
+            if hasattr(message_factory, "GetMessageClass"):  # protobuf >= 4.22
+                cls = message_factory.GetMessageClass(desc)
+            else:  # Debian 12's 3.21 (python 4.21)
+                cls = message_factory.MessageFactory(pool).GetPrototype(desc)
             self.decoders[ch["schema_id"]] = cls
         msg = cls()
         msg.ParseFromString(m["data"])  # raises DecodeError on bytes that are not the type

@@ -20,8 +20,8 @@
 //   /link/session        hemm.rec.SessionEvent  session frames, both ways
 // log_time and publish_time: the recording's time of each (operator steady
 // clock, ns; a tick's wake time, a step's time, a message's arrival or
-// sending). The Header and sequence numbers: the tick number on the servo
-// and device channels, the order of arrival on the others.
+// sending). Sequence numbers: the tick number on the servo and device
+// channels, the order of arrival on the others.
 //
 // Reading it back gives the Recording load_recording gives for REC (every
 // record's checks are the same ones, session_recording.h), so a replay

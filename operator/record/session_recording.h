@@ -1,12 +1,14 @@
 // Recorded operator sessions (hemm-operator --record FILE; the format is
 // proto/record.proto: length-delimited Record messages, a Header first).
 //
-// Why length-delimited Protocol Buffers rather than MCAP: the project
-// already depends on protobuf and on nothing that writes MCAP (no Debian
-// package); the framing is the one protobuf's own libraries read and write
-// (C++ util::ParseDelimitedFromCodedStream, Java parseDelimitedFrom, Python
-// _DecodeVarint + ParseFromString), so any protobuf user reads a recording
-// with the schema in proto/.
+// Why length-delimited Protocol Buffers, with MCAP as an export
+// (session_mcap.h): the recorder appends one record at a time from a writer
+// thread and a file cut by a crash keeps every record before the cut, with
+// no index or summary to finish; the framing is the one protobuf's own
+// libraries read and write (C++ util::ParseDelimitedFromCodedStream, Java
+// parseDelimitedFrom, Python _DecodeVarint + ParseFromString), so any
+// protobuf user reads a recording with the schema in proto/. Robotics tools
+// (Foxglove Studio, any MCAP reader) open its MCAP export.
 //
 // SessionRecorder writes on its own thread. Producers never wait on the
 // file: the servo thread pushes ServoTickRecords into a preallocated ring
