@@ -165,6 +165,34 @@ TEST(McapFile, CutFileAndForeignFileAreRefused) {
   std::filesystem::remove(cut);
 }
 
+TEST(McapFile, EveryFlippedByteBeforeDataEndIsRefused) {
+  // Hostile input: 300 copies, each with one byte flipped somewhere. Before
+  // the Data End record every byte is under a CRC (a chunk's or the data
+  // section's) or a length, so each copy is refused; after it (the summary,
+  // which this reader does not need) a copy may read. None may crash (the
+  // sanitizer build runs this too).
+  const std::string path = small_file();
+  const std::string b = read_file(path);
+  const std::size_t footer = b.size() - 8 - 29;
+  const std::size_t summary_start = static_cast<std::size_t>(le64(b, footer + 9));
+  const std::size_t data_end = summary_start - 13;
+  const std::string bad = temp_path("flip.mcap");
+  std::uint64_t state = 12345;
+  for (int i = 0; i < 300; ++i) {
+    state = state * 6364136223846793005ull + 1442695040888963407ull;
+    const std::size_t at = static_cast<std::size_t>((state >> 33) % b.size());
+    std::string c = b;
+    c[at] = static_cast<char>(c[at] ^ (1 << ((state >> 20) % 8)));
+    write_bytes(bad, c);
+    const Read r = read(bad);
+    if (at < data_end + 13) {
+      EXPECT_TRUE(r.error.has_value()) << "byte " << at << " flipped, file read";
+    }
+  }
+  std::filesystem::remove(path);
+  std::filesystem::remove(bad);
+}
+
 TEST(McapFile, WriterRefusesUnknownChannelsAndSchemas) {
   const std::string path = temp_path("refuse.mcap");
   hm::Writer w(path);
