@@ -18,7 +18,10 @@
 #include "common/config/config.h"
 #include "config_robot.pb.h"
 #include "robot_side/control/arm_control.h"
-#include "robot_side/control/safety.h"
+#include "robot_side/control/arm_keep_out.h"
+#include "robot_side/control/collision_guard.h"
+#include "robot_side/control/seen_voxels.h"
+#include "robot_side/control/watchdog.h"
 #include "robot_side/sim/mujoco_ray_caster.h"
 
 namespace hemm::robot {
