@@ -19,6 +19,7 @@
 #include "common/config/config.h"
 #include "common/net/session_connection.h"
 #include "common/net/station_control.h"
+#include "common/terminal/terminal_keys.h"
 #include "operator/client/operator_client.h"
 #include "operator/record/session_recording.h"
 #include "operator/runners/runners.h"
@@ -210,7 +211,7 @@ int run_station(const config::OperatorConfig& cfg, const OperatorArgs& a) {
       return net::kExitUsage;
     }
   }
-  net::TerminalKeys keys(io, STDIN_FILENO, [&](char k) {
+  terminal::TerminalKeys keys(io, STDIN_FILENO, [&](char k) {
     if (k == ' ' || k == 'e' || k == 'E') estop(true, "terminal key", nullptr);
     if (k == 'R') estop(false, "terminal key", nullptr);
   });
