@@ -22,6 +22,35 @@ root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 builds="${HEMM_BUILD_DIR:-$root/build}"
 jobs="${HEMM_JOBS:-$(nproc)}"
 
+# Phase times: each phase prints its time when it ends, and the whole table is
+# printed again when the script exits (also after a failure, up to that phase).
+t_start=$SECONDS
+phase_names=(); phase_secs=()
+phase_t0=$SECONDS
+phase_begin() { phase_t0=$SECONDS; }
+# phase_end NAME [START]: records SECONDS - START (default: the last phase_begin).
+phase_end() {
+  local dt=$((SECONDS - ${2:-$phase_t0}))
+  phase_names+=("$1"); phase_secs+=("$dt")
+  echo "== phase: $1: ${dt} s"
+}
+phase_table() {
+  ((${#phase_names[@]})) || return 0
+  echo "== phase times (wall-clock seconds)"
+  local i
+  for i in "${!phase_names[@]}"; do
+    printf '   %-62s %6d s\n' "${phase_names[$i]}" "${phase_secs[$i]}"
+  done
+  printf '   %-62s %6d s\n' "total" "$((SECONDS - t_start))"
+}
+on_exit() {
+  local rc=$?
+  [[ -n "${asan_pid:-}" ]] && kill "$asan_pid" 2>/dev/null  # an interrupted run leaves no compiler behind
+  phase_table
+  return $rc
+}
+trap on_exit EXIT
+
 # ------------------------------------------------------------------ install
 packages=(
   build-essential cmake ninja-build pkg-config ccache clang libclang-rt-14-dev lld
@@ -31,6 +60,7 @@ packages=(
   libzstd-dev zlib1g-dev python3-zstandard python3-protobuf dpkg-dev
   libglfw3-dev libpng-dev xvfb
 )
+phase_begin
 missing=()
 for p in "${packages[@]}"; do
   if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
@@ -48,6 +78,7 @@ if ((${#missing[@]})); then
   "${sudo_cmd[@]}" apt-get update -q
   "${sudo_cmd[@]}" apt-get install -y -q --no-install-recommends "${missing[@]}"
 fi
+phase_end "install (Debian packages)"
 
 launcher=()
 command -v ccache >/dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_C_COMPILER_LAUNCHER=ccache)
@@ -65,25 +96,29 @@ if [[ "${HEMM_UNITY:-1}" == 0 ]]; then unity=(-DCMAKE_UNITY_BUILD=OFF); fi
 # perf, gdb by line) but not full variable info, which took about a quarter of
 # a typical file's compile time on a 2-core VM.
 configure_release() {
+  phase_begin
   cmake -S "$root" -B "$builds/release" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DHEMM_WERROR=ON \
     -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O2 -g1 -DNDEBUG" -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O2 -g1 -DNDEBUG" \
     "${launcher[@]}" "${unity[@]}" "$@" >/dev/null
+  phase_end "configure release"
 }
 configure_asan() {
   # Line tables are all a sanitizer report needs; full debug info only adds
   # compile and link time. The fuzz targets (coverage instrumentation on every
   # edge of the tree) are built by deploy/fuzz.sh, not here.
+  phase_begin
   CC=clang CXX=clang++ cmake -S "$root" -B "$builds/asan" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo \
     -DCMAKE_C_FLAGS_RELWITHDEBINFO="-O2 -gline-tables-only -DNDEBUG" \
     -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O2 -gline-tables-only -DNDEBUG" \
     -DHEMM_WERROR=ON -DHEMM_SANITIZE=ON -DHEMM_FUZZ=OFF -DHEMM_BENCH=OFF "${launcher[@]}" "${unity[@]}" "$@" >/dev/null
+  phase_end "configure asan"
 }
 build() {
   local dir="$1"
   echo "== building $dir ($jobs jobs)"
-  local t0=$SECONDS
+  phase_begin
   cmake --build "$dir" -j "$jobs"
-  echo "== built $dir in $((SECONDS - t0)) s"
+  phase_end "build $(basename "$dir")"
 }
 
 # Runs ctest in a build dir and appends "<passed> <failed>" to $counts.
@@ -119,8 +154,12 @@ run_tests() {
   local dir="$1" serial="loopback|timing|realtime"
   [[ -n "${2:-}" ]] && serial="loopback|timing"
   echo "== testing $dir${2:+ (without the realtime runs)}"
+  phase_begin
   ctest_pass "$dir" -j "$jobs" -LE "loopback|timing|realtime"
+  phase_end "$(basename "$dir") unit tests (parallel)"
+  phase_begin
   ctest_pass "$dir" -j 1 -L "$serial"
+  phase_end "$(basename "$dir") wall-clock tests (one at a time: $serial)"
 }
 
 case "$mode" in
@@ -139,11 +178,12 @@ case "$mode" in
     exec "$root/deploy/bench.sh" "$builds/release" "$@"
     ;;
   test)
-    t0=$SECONDS
     configure_release
     build "$builds/release"
     echo "== testing $builds/release"
+    phase_begin
     ctest_pass "$builds/release" -j "$jobs" -LE "loopback|timing|realtime"
+    phase_end "release unit tests (parallel)"
     # The sanitizer build compiles at the lowest priority while the release
     # build's wall-clock tests run one at a time: those mostly wait on the
     # clock (the stations at 1 kHz use about one core), the compiler takes
@@ -157,16 +197,20 @@ case "$mode" in
     t_asan=$SECONDS
     (nice -n 19 cmake --build "$builds/asan" -j "$jobs" >"$asan_log" 2>&1) &
     asan_pid=$!
-    trap 'kill "$asan_pid" 2>/dev/null || true' EXIT  # an interrupted run leaves no compiler behind
+    phase_begin
     ctest_pass "$builds/release" -j 1 -L "loopback|timing|realtime"
+    phase_end "release wall-clock tests (one at a time; asan build beside)"
     echo "== waiting for the $builds/asan build"
+    phase_begin
     if ! wait "$asan_pid"; then
+      asan_pid=""
       tail -n 60 "$asan_log" >&2
       echo "error: the sanitizer build failed (log: $asan_log)" >&2
       exit 1
     fi
-    trap - EXIT
-    echo "== built $builds/asan in $((SECONDS - t_asan)) s (beside the tests)"
+    asan_pid=""
+    phase_end "asan build, rest after the release tests"
+    phase_end "asan build, all (overlaps the two rows above)" "$t_asan"
     # Wall-clock tests run here too, their timing-only assertions skipped by
     # the tests themselves; the long end-to-end runs labelled `realtime` (a
     # robot that must arrive in time, a view beside the 1 kHz servo) run in
@@ -178,7 +222,7 @@ case "$mode" in
     for c in "${counts[@]}"; do
       read -r p f <<<"$c"; passed=$((passed + p)); failed=$((failed + f))
     done
-    echo "== release + sanitizer test runs finished in $((SECONDS - t0)) s"
+    echo "== release + sanitizer test runs finished in $((SECONDS - t_start)) s"
     echo "$passed passed, $failed failed"
     ((failed == 0))
     ;;
