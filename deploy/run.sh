@@ -4,7 +4,7 @@
 #   test   build release + sanitizer (ASan/UBSan, clang, with libFuzzer
 #          targets) configurations and run every test in both
 #   bench  build release and run the benchmarks
-#   build  build release only
+#   build  build release only (with the benchmarks)
 # Environment: HEMM_JOBS (default: nproc), HEMM_BUILD_DIR (default: build),
 #   HEMM_UNITY (default: 1, unity builds; 0 builds file by file, quicker to
 #   rebuild after editing one file).
@@ -45,7 +45,9 @@ phase_table() {
 }
 on_exit() {
   local rc=$?
-  [[ -n "${asan_pid:-}" ]] && kill "$asan_pid" 2>/dev/null  # an interrupted run leaves no compiler behind
+  # An interrupted run leaves no compiler or test run behind.
+  [[ -n "${asan_pid:-}" ]] && kill "$asan_pid" 2>/dev/null
+  [[ -n "${unit_pid:-}" ]] && kill "$unit_pid" 2>/dev/null
   phase_table
   return $rc
 }
@@ -132,13 +134,18 @@ ctest_pass() {
   (cd "$dir" && ctest --output-on-failure --no-tests=ignore "$@") 2>&1 | tee "$log"
   local rc=${PIPESTATUS[0]}
   set -e
+  ctest_count "$log" "$rc"
+  rm -f "$log"
+}
+# ctest_count LOG RC: appends the counts of the ctest output in LOG (exit code RC).
+ctest_count() {
+  local log="$1" rc="$2"
   local line total failed
   line="$(grep -E 'tests passed, [0-9]+ tests? failed out of [0-9]+' "$log" | tail -1)"
-  rm -f "$log"
   if [[ -z "$line" ]]; then
     # --no-tests=ignore: a label selection that matches nothing is fine.
     ((rc == 0)) && return
-    echo "error: no test summary from ctest in $dir" >&2
+    echo "error: no test summary from ctest in $log" >&2
     counts+=("0 1")
     return
   fi
@@ -147,24 +154,10 @@ ctest_pass() {
   counts+=("$((total - failed)) $failed")
   if ((rc != 0 && failed == 0)); then counts+=("0 1"); fi
 }
-# run_tests DIR [skip-realtime]: the unit tests in parallel, then the
-# wall-clock ones (labels loopback, timing, realtime) one at a time; with a
-# second argument the `realtime` ones are left out.
-run_tests() {
-  local dir="$1" serial="loopback|timing|realtime"
-  [[ -n "${2:-}" ]] && serial="loopback|timing"
-  echo "== testing $dir${2:+ (without the realtime runs)}"
-  phase_begin
-  ctest_pass "$dir" -j "$jobs" -LE "loopback|timing|realtime"
-  phase_end "$(basename "$dir") unit tests (parallel)"
-  phase_begin
-  ctest_pass "$dir" -j 1 -L "$serial"
-  phase_end "$(basename "$dir") wall-clock tests (one at a time: $serial)"
-}
 
 case "$mode" in
   build)
-    configure_release
+    configure_release -DHEMM_BENCH=ON
     build "$builds/release"
     ;;
   demo)
@@ -178,7 +171,9 @@ case "$mode" in
     exec "$root/deploy/bench.sh" "$builds/release" "$@"
     ;;
   test)
-    configure_release
+    # The benchmarks are not tests (they print numbers and assert nothing):
+    # `run.sh bench` and `run.sh build` build them, the test mode does not.
+    configure_release -DHEMM_BENCH=OFF
     build "$builds/release"
     echo "== testing $builds/release"
     phase_begin
@@ -216,8 +211,36 @@ case "$mode" in
     # robot that must arrive in time, a view beside the 1 kHz servo) run in
     # the release pass only: CI time, and most of their code paths are covered here
     # by the other loopback tests.
-    ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
-      run_tests "$builds/asan" skip-realtime
+    # The sanitizer build's unit tests run at the lowest priority beside its
+    # wall-clock tests, as its build did beside the release ones: the
+    # wall-clock tests (timing assertions skipped under the sanitizers) mostly
+    # wait on the clock and preempt them; the unit tests assert no timing.
+    # ctest -N first: it brings every executable's test list up to date
+    # (gtest discovery at test time), which the two runs would otherwise
+    # both write at once.
+    export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
+    (cd "$builds/asan" && ctest -N >/dev/null)
+    unit_log="$builds/asan-unit-tests.log"
+    echo "== testing $builds/asan: unit tests ($jobs jobs, nice 19; log $unit_log) beside the wall-clock tests (one at a time, without the realtime runs)"
+    phase_begin
+    t_unit=$SECONDS
+    ( set +e
+      (cd "$builds/asan" && nice -n 19 ctest --output-on-failure --no-tests=ignore -j "$jobs" \
+        -LE "loopback|timing|realtime") >"$unit_log" 2>&1
+      echo "$? $((SECONDS - t_unit))" >"$unit_log.rc" ) &
+    unit_pid=$!
+    ctest_pass "$builds/asan" -j 1 -L "loopback|timing"
+    phase_end "asan wall-clock tests (one at a time; asan unit tests beside)"
+    echo "== waiting for the $builds/asan unit tests"
+    phase_begin
+    wait "$unit_pid" || true
+    unit_pid=""
+    cat "$unit_log"
+    read -r unit_rc unit_secs <"$unit_log.rc" || { unit_rc=1; unit_secs=0; }
+    ctest_count "$unit_log" "$unit_rc"
+    phase_end "asan unit tests, rest after the wall-clock tests"
+    phase_names+=("asan unit tests, all (overlaps the two rows above)"); phase_secs+=("$unit_secs")
+    echo "== phase: asan unit tests, all: ${unit_secs} s"
     passed=0; failed=0
     for c in "${counts[@]}"; do
       read -r p f <<<"$c"; passed=$((passed + p)); failed=$((failed + f))
