@@ -60,7 +60,7 @@ packages=(
   libsodium-dev libassimp-dev libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev
   libspdlog-dev libfcl-dev python3-matplotlib
   libzstd-dev zlib1g-dev python3-zstandard python3-protobuf dpkg-dev
-  libglfw3-dev libpng-dev xvfb
+  libglfw3-dev libpng-dev xvfb time
 )
 phase_begin
 missing=()
@@ -82,8 +82,15 @@ if ((${#missing[@]})); then
 fi
 phase_end "install (Debian packages)"
 
-launcher=()
-command -v ccache >/dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DCMAKE_C_COMPILER_LAUNCHER=ccache)
+# Every compile and link step goes through cmake/cpu_time_launcher.sh, which
+# logs its CPU seconds when HEMM_CPU_LOG is set (build() sets it): each build
+# ends with its CPU by target family, a figure the machine's other load
+# hardly changes (wall time it does).
+cpu_launcher="$root/cmake/cpu_time_launcher.sh"
+compiler_launcher="$cpu_launcher"
+command -v ccache >/dev/null && compiler_launcher="$cpu_launcher;ccache"
+launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER="$compiler_launcher" -DCMAKE_C_COMPILER_LAUNCHER="$compiler_launcher"
+          -DCMAKE_CXX_LINKER_LAUNCHER="$cpu_launcher")
 # Both builds are unity builds (up to 8 files of a target compiled as one):
 # Eigen, protobuf and gtest are parsed once per batch instead of once per
 # file and their templates instantiated (and, under the sanitizers,
@@ -115,13 +122,22 @@ configure_asan() {
     -DHEMM_WERROR=ON -DHEMM_SANITIZE=ON -DHEMM_FUZZ=OFF -DHEMM_BENCH=OFF "${launcher[@]}" "${unity[@]}" "$@" >/dev/null
   phase_end "configure asan"
 }
+# build DIR [nice]: builds DIR (at nice 19 with a second argument), logging
+# each step's CPU seconds to DIR/build-cpu.log (summed by cpu_report DIR).
 build() {
   local dir="$1"
+  rm -f "$dir/build-cpu.log"
+  if [[ -n "${2:-}" ]]; then
+    HEMM_CPU_LOG="$dir/build-cpu.log" nice -n 19 cmake --build "$dir" -j "$jobs"
+    return
+  fi
   echo "== building $dir ($jobs jobs)"
   phase_begin
-  cmake --build "$dir" -j "$jobs"
+  HEMM_CPU_LOG="$dir/build-cpu.log" cmake --build "$dir" -j "$jobs"
   phase_end "build $(basename "$dir")"
+  cpu_report "$dir"
 }
+cpu_report() { "$root/cmake/cpu_time_report.sh" "$1/build-cpu.log" | sed "s|^== build CPU|== $(basename "$1") build CPU|"; }
 
 # Runs ctest in a build dir and appends "<passed> <failed>" to $counts.
 # Tests labelled loopback or timing measure wall-clock behaviour: they run one
@@ -190,7 +206,7 @@ case "$mode" in
     asan_log="$builds/asan-build.log"
     echo "== building $builds/asan ($jobs jobs, nice 19, beside the release wall-clock tests; log $asan_log)"
     t_asan=$SECONDS
-    (nice -n 19 cmake --build "$builds/asan" -j "$jobs" >"$asan_log" 2>&1) &
+    (build "$builds/asan" nice >"$asan_log" 2>&1) &
     asan_pid=$!
     phase_begin
     ctest_pass "$builds/release" -j 1 -L "loopback|timing|realtime"
@@ -206,6 +222,7 @@ case "$mode" in
     asan_pid=""
     phase_end "asan build, rest after the release tests"
     phase_end "asan build, all (overlaps the two rows above)" "$t_asan"
+    cpu_report "$builds/asan"
     # Wall-clock tests run here too, their timing-only assertions skipped by
     # the tests themselves; the long end-to-end runs labelled `realtime` (a
     # robot that must arrive in time, a view beside the 1 kHz servo) run in
