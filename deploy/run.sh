@@ -43,11 +43,17 @@ phase_table() {
   done
   printf '   %-62s %6d s\n' "total" "$((SECONDS - t_start))"
 }
+# kill_tree PID: the background job PID started and everything under it.
+kill_tree() {
+  local child
+  for child in $(pgrep -P "$1" 2>/dev/null); do kill_tree "$child"; done
+  kill "$1" 2>/dev/null || true
+}
 on_exit() {
   local rc=$?
-  # An interrupted run leaves no compiler or test run behind.
-  [[ -n "${asan_pid:-}" ]] && kill "$asan_pid" 2>/dev/null
-  [[ -n "${unit_pid:-}" ]] && kill "$unit_pid" 2>/dev/null
+  # An interrupted or failed run leaves no compiler or test run behind.
+  [[ -n "${asan_pid:-}" ]] && kill_tree "$asan_pid"
+  [[ -n "${unit_pid:-}" ]] && kill_tree "$unit_pid"
   phase_table
   return $rc
 }
@@ -191,24 +197,26 @@ case "$mode" in
     # The benchmarks are not tests (they print numbers and assert nothing):
     # `run.sh bench` and `run.sh build` build them, the test mode does not.
     configure_release -DHEMM_BENCH=OFF
+    configure_asan
+    # The sanitizer build compiles at the lowest priority from the start:
+    # beside the release build it takes only what that leaves (a target
+    # waiting for its library, a lone link at the end), and beside the release
+    # build's wall-clock tests, which run one at a time and mostly wait on the
+    # clock (the stations at 1 kHz use about one core), it takes the other
+    # core; the tests' processes (nice 0; the servo thread SCHED_FIFO when
+    # permitted) preempt it. On a 2-core VM the release wall-clock pass took
+    # 526 s instead of 510 s with it beside, all passing, while it did a third
+    # of its work (a 791 s build alone).
+    asan_log="$builds/asan-build.log"
+    echo "== building $builds/asan ($jobs jobs, nice 19, beside the release build and its tests; log $asan_log)"
+    t_asan=$SECONDS
+    (build "$builds/asan" nice >"$asan_log" 2>&1) &
+    asan_pid=$!
     build "$builds/release"
     echo "== testing $builds/release"
     phase_begin
     ctest_pass "$builds/release" -j "$jobs" -LE "loopback|timing|realtime"
-    phase_end "release unit tests (parallel)"
-    # The sanitizer build compiles at the lowest priority while the release
-    # build's wall-clock tests run one at a time: those mostly wait on the
-    # clock (the stations at 1 kHz use about one core), the compiler takes
-    # what they leave, and the tests' processes (nice 0; the servo thread
-    # SCHED_FIFO when permitted) preempt it. On a 2-core VM the release pass
-    # took 526 s instead of 510 s, all passing, while the build did a third
-    # of its work (a 791 s build alone).
-    configure_asan
-    asan_log="$builds/asan-build.log"
-    echo "== building $builds/asan ($jobs jobs, nice 19, beside the release wall-clock tests; log $asan_log)"
-    t_asan=$SECONDS
-    (build "$builds/asan" nice >"$asan_log" 2>&1) &
-    asan_pid=$!
+    phase_end "release unit tests (parallel; asan build beside)"
     phase_begin
     ctest_pass "$builds/release" -j 1 -L "loopback|timing|realtime"
     phase_end "release wall-clock tests (one at a time; asan build beside)"
@@ -222,7 +230,7 @@ case "$mode" in
     fi
     asan_pid=""
     phase_end "asan build, rest after the release tests"
-    phase_end "asan build, all (overlaps the two rows above)" "$t_asan"
+    phase_end "asan build, all (from the start, beside the rows above)" "$t_asan"
     cpu_report "$builds/asan"
     # Wall-clock tests run here too, their timing-only assertions skipped by
     # the tests themselves; the long end-to-end runs labelled `realtime` (a
