@@ -2,7 +2,8 @@
 # Compiler and linker launcher (deploy/run.sh sets it before ccache): runs the
 # step and appends "<CPU seconds (user+sys)> <wall seconds> <output file>" to
 # $HEMM_CPU_LOG, so the build's cost per target can be read in CPU seconds,
-# which the machine's other load changes far less than wall time.
+# which the machine's other load changes less than wall time (on a loaded
+# shared VM one compile's CPU seconds varied up to 4x, its wall time 13x).
 out=""; prev=""
 for a in "$@"; do
   [[ "$prev" == "-o" ]] && out="$a"

@@ -91,7 +91,8 @@ phase_end "install (Debian packages)"
 # Every compile and link step goes through cmake/cpu_time_launcher.sh, which
 # logs its CPU seconds when HEMM_CPU_LOG is set (build() sets it): each build
 # ends with its CPU by target family, a figure the machine's other load
-# hardly changes (wall time it does).
+# changes less than wall time (on a loaded shared VM one compile's CPU
+# seconds varied up to 4x, its wall time 13x).
 cpu_launcher="$root/cmake/cpu_time_launcher.sh"
 compiler_launcher="$cpu_launcher"
 command -v ccache >/dev/null && compiler_launcher="$cpu_launcher;ccache"
