@@ -138,7 +138,7 @@ def markdown_rows(text):
 def section(name, title, command, date, machine, condition, table=None, missing=None, note=None):
     if not re.fullmatch(r"[a-z0-9-]+", name):
         raise InputError("section name %r: lower-case letters, digits, '-'" % name)
-    out = [BEGIN.format(name), "## " + title, ""]
+    out = [BEGIN.format(name), '<a id="%s"></a>' % name, "", "## " + title, ""]  # measurements.md#NAME
     if missing is not None:
         out += ["*Missing:* " + missing, ""]
     else:
