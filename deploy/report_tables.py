@@ -20,6 +20,7 @@ Only the Python standard library.
 """
 import argparse
 import json
+import math
 import re
 import sys
 
@@ -58,6 +59,14 @@ def md_table(header, rows, align=None):
     return "\n".join(out) + "\n"
 
 
+def num(v):
+    """Three significant figures, without an exponent (1234.5 -> 1235, 0.01234 -> 0.0123)."""
+    if v == 0 or abs(v) >= 100:
+        return "%.0f" % v
+    digits = 2 - int(math.floor(math.log10(abs(v))))
+    return "%.*f" % (digits, v)
+
+
 def link_table(bench):
     """bench: Google Benchmark's JSON output (dict). Aggregates (mean/median/stddev) where the
     case repeated, else the single run. Times in the benchmark's own unit."""
@@ -66,7 +75,7 @@ def link_table(bench):
     cases = {}
     for b in bench["benchmarks"]:
         try:
-            name = b.get("run_name") or b["name"]
+            name = re.sub(r"/repeats:\d+$", "", b.get("run_name") or b["name"])
             t, unit = float(b["real_time"]), b["time_unit"]
         except (KeyError, TypeError, ValueError) as e:
             raise InputError("benchmark entry without name/real_time/time_unit: %s" % e)
@@ -79,7 +88,7 @@ def link_table(bench):
         raise InputError("no benchmarks in the JSON")
     rows = []
     for name, c in cases.items():
-        f = lambda k: "%.3g" % c[k] if k in c else "-"
+        f = lambda k: num(c[k]) if k in c else "-"
         median = f("median") if "median" in c else f("single")
         rate = "%.0f MB/s" % (c["bytes_per_second"] / 1e6) if "bytes_per_second" in c else "-"
         rows.append([name, c["unit"], f("mean"), median, f("stddev"), rate])

@@ -48,7 +48,7 @@ class LatencyTable(unittest.TestCase):
 class LinkTable(unittest.TestCase):
     def test_aggregates_per_case_and_single_runs(self):
         bench = {"benchmarks": [
-            {"name": "BM_Seal/16_mean", "run_name": "BM_Seal/16", "run_type": "aggregate", "aggregate_name": "mean",
+            {"name": "BM_Seal/16/repeats:5_mean", "run_name": "BM_Seal/16/repeats:5", "run_type": "aggregate", "aggregate_name": "mean",
              "real_time": 812.5, "time_unit": "ns"},
             {"name": "BM_Seal/16_median", "run_name": "BM_Seal/16", "run_type": "aggregate",
              "aggregate_name": "median", "real_time": 800.0, "time_unit": "ns", "bytes_per_second": 2.0e7},
@@ -60,7 +60,11 @@ class LinkTable(unittest.TestCase):
         lines = rt.link_table(bench).splitlines()
         self.assertEqual(cells(lines[0]), ["case", "unit", "mean", "median", "stddev", "throughput"])
         self.assertEqual(cells(lines[2]), ["BM_Seal/16", "ns", "812", "800", "12.2", "20 MB/s"])
-        self.assertEqual(cells(lines[3]), ["BM_Replay", "ns", "-", "3.5", "-", "-"])
+        self.assertEqual(cells(lines[3]), ["BM_Replay", "ns", "-", "3.50", "-", "-"])
+
+    def test_numbers_have_three_figures_and_no_exponent(self):
+        self.assertEqual([rt.num(v) for v in (141000.0, 1234.5, 98.76, 3.99, 0.012345, 0)],
+                         ["141000", "1234", "98.8", "3.99", "0.0123", "0"])
 
     def test_not_benchmark_json_is_refused(self):
         for bad in ({}, {"benchmarks": []}, {"benchmarks": [{"name": "x"}]}, []):
