@@ -12,6 +12,7 @@
 #   accuracy   the local model against the scene's truth on every scene (deploy/accuracy.sh; ~12 min)
 #   explore3d  the 6-DoF probe tool on the live voxmap against truth (deploy/explore3d.sh; ~3 min)
 #   vps        the Voxmap-PointShell engine report (hemm-vps report; ~3 min)
+#   bimanual   the SIMULATED bimanual device's cost per tick (bimanual_bench; ~20 s)
 #   link       the link's hot paths: sealing, opening, replay window (bench_net; ~1 min)
 #   rt         real-time servo figures: imported from --rt-table FILE (a Markdown
 #              file deploy/rt_table.sh wrote), never run here
@@ -29,7 +30,7 @@ root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="${1:-}"
 if [[ -z "$build" || "$build" == -h || "$build" == --help ]]; then usage; [[ -n "$build" ]] && exit 0 || exit 2; fi
 shift
-all="latency,accuracy,explore3d,vps,link,rt"
+all="latency,accuracy,explore3d,vps,bimanual,link,rt"
 only="$all" condition="" quick=0 rt_table="" out="" work=""
 while (($#)); do
   case "$1" in
@@ -68,6 +69,7 @@ declare -A titles=(
   [accuracy]="The local model's force against the true scene, every scene"
   [explore3d]="6-DoF probe tool on the live voxmap against the true scene"
   [vps]="Voxmap-PointShell engine: cost per cycle against force error"
+  [bimanual]="The SIMULATED bimanual device: cost per servo tick"
   [link]="Link: sealing and opening datagrams and frames"
   [rt]="Real-time servo"
 )
@@ -90,7 +92,7 @@ missing() {  # NAME REASON
   "$py" "$tables" section "$1" "${titles[$1]}" --missing "$2" >"$f"
   sections+=("$f")
 }
-need() { for b in "$@"; do [[ -x "$bin/$b" ]] || { echo "report: $bin/$b not found (build it first)" >&2; exit 2; }; done; }
+need() { local x; for x in "$@"; do [[ -x "$bin/$x" ]] || { echo "report: $bin/$x not found (build it first)" >&2; exit 2; }; done; }
 rel() { echo "${1#"$root"/}"; }  # a path as the command line shows it, from the repository's root
 
 for s in ${only//,/ }; do
@@ -139,16 +141,22 @@ for s in ${only//,/ }; do
     emit vps "$(rel "$bin")/hemm-vps report ${a[*]}" "$work/vps.md" \
       "CPU µs: thread CPU time per three-pair cycle (median, p99); F/T err: RMS error against the exact references, as a share of the RMS exact force (torque over force times the tool's radius)."
     ;;
-  link)
-    need bench/bench_net
+  bimanual|link)
+    if [[ "$s" == bimanual ]]; then
+      b=bimanual_bench
+      note="Both arms' controllers (kinematics, dynamics, projector, feed-forward, collision pairs), the MuJoCo plant for one 1 ms period, and the operator station's tick with the device (read, task, write); wall-clock and CPU time per iteration."
+    else
+      b=bench_net
+      note="Wall-clock time per operation (Google Benchmark); the datagram cases repeat 5 times. Argument: payload bytes (1156: the largest that fits a datagram)."
+    fi
+    need "bench/$b"
     a=()
     ((quick)) && a=(--benchmark_min_time=0.01)
-    step "link: bench_net ${a[*]}"
-    "$bin/bench/bench_net" "${a[@]}" --benchmark_out="$work/bench_net.json" --benchmark_out_format=json \
-      >"$work/bench_net.txt" 2>&1 || { tail -n 20 "$work/bench_net.txt" >&2; echo "report: bench_net failed" >&2; exit 1; }
-    "$py" "$tables" link "$work/bench_net.json" >"$work/link.md"
-    emit link "$(rel "$bin")/bench/bench_net ${a[*]}" "$work/link.md" \
-      "Wall-clock time per operation (Google Benchmark); the datagram cases repeat 5 times. Argument: payload bytes (1156: the largest that fits a datagram)."
+    step "$s: $b ${a[*]}"
+    "$bin/bench/$b" "${a[@]}" --benchmark_out="$work/$b.json" --benchmark_out_format=json \
+      >"$work/$b.txt" 2>&1 || { tail -n 20 "$work/$b.txt" >&2; echo "report: $b failed" >&2; exit 1; }
+    "$py" "$tables" bench "$work/$b.json" >"$work/$s.md"
+    emit "$s" "$(rel "$bin")/bench/$b ${a[*]}" "$work/$s.md" "$note"
     ;;
   rt)
     if [[ -z "$rt_table" ]]; then missing rt "no --rt-table FILE given (the table deploy/rt_table.sh writes)."; continue; fi

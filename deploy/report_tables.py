@@ -3,8 +3,8 @@
 
 Subcommands (each prints Markdown on stdout; a bad input exits 2 with a message):
 
-  link BENCH_JSON        the link's hot paths: Google Benchmark JSON of bench_net
-                         (--benchmark_out_format=json), mean / median / stddev per case
+  bench BENCH_JSON       a benchmark's Google Benchmark JSON (--benchmark_out_format=json):
+                         mean / median / stddev of the wall-clock time and the CPU time per case
   latency TEST_OUTPUT    the latency suite's table (the text latency_suite_test prints
                          between "[ latency ]" and "per50/per99:") as a Markdown table
   markdown-rows FILE     the Markdown table rows ("|" lines) of a script's output, as they are
@@ -67,7 +67,7 @@ def num(v):
     return "%.*f" % (digits, v)
 
 
-def link_table(bench):
+def bench_table(bench):
     """bench: Google Benchmark's JSON output (dict). Aggregates (mean/median/stddev) where the
     case repeated, else the single run. Times in the benchmark's own unit."""
     if not isinstance(bench, dict) or not isinstance(bench.get("benchmarks"), list):
@@ -75,13 +75,17 @@ def link_table(bench):
     cases = {}
     for b in bench["benchmarks"]:
         try:
-            name = re.sub(r"/repeats:\d+$", "", b.get("run_name") or b["name"])
+            # The run's settings are not the case's name: /repeats:5, /min_time:2.000, /real_time.
+            name = re.sub(r"/(repeats:\d+|min_time:[\d.]+s?|iterations:\d+|real_time|manual_time)", "",
+                          b.get("run_name") or b["name"])
             t, unit = float(b["real_time"]), b["time_unit"]
         except (KeyError, TypeError, ValueError) as e:
             raise InputError("benchmark entry without name/real_time/time_unit: %s" % e)
         c = cases.setdefault(name, {"unit": unit})
         kind = b.get("aggregate_name") if b.get("run_type") == "aggregate" else "single"
         c[kind] = t
+        if kind in ("single", "median") and "cpu_time" in b:
+            c["cpu"] = float(b["cpu_time"])
         if "bytes_per_second" in b and kind in ("single", "median"):
             c["bytes_per_second"] = float(b["bytes_per_second"])
     if not cases:
@@ -91,8 +95,8 @@ def link_table(bench):
         f = lambda k: num(c[k]) if k in c else "-"
         median = f("median") if "median" in c else f("single")
         rate = "%.0f MB/s" % (c["bytes_per_second"] / 1e6) if "bytes_per_second" in c else "-"
-        rows.append([name, c["unit"], f("mean"), median, f("stddev"), rate])
-    return md_table(["case", "unit", "mean", "median", "stddev", "throughput"], rows)
+        rows.append([name, c["unit"], f("mean"), median, f("stddev"), f("cpu"), rate])
+    return md_table(["case", "unit", "mean", "median", "stddev", "CPU time", "throughput"], rows)
 
 
 def latency_table(text):
@@ -188,7 +192,7 @@ def merge(doc, new, order, titles):
 def main(argv):
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = p.add_subparsers(dest="cmd", required=True)
-    sub.add_parser("link").add_argument("file")
+    sub.add_parser("bench").add_argument("file")
     sub.add_parser("latency").add_argument("file")
     sub.add_parser("markdown-rows").add_argument("file")
     s = sub.add_parser("section")
@@ -202,14 +206,14 @@ def main(argv):
     m.add_argument("--order", required=True, action="append", help="NAME=TITLE, once per section, in order")
     a = p.parse_args(argv)
     try:
-        if a.cmd in ("link", "latency", "markdown-rows"):
+        if a.cmd in ("bench", "latency", "markdown-rows"):
             text = open(a.file, encoding="utf-8").read()
-            if a.cmd == "link":
+            if a.cmd == "bench":
                 try:
                     text = json.loads(text)
                 except ValueError as e:
                     raise InputError("%s: not JSON: %s" % (a.file, e))
-            sys.stdout.write({"link": link_table, "latency": latency_table, "markdown-rows": markdown_rows}[a.cmd](text))
+            sys.stdout.write({"bench": bench_table, "latency": latency_table, "markdown-rows": markdown_rows}[a.cmd](text))
         elif a.cmd == "section":
             if a.missing is None and (a.table is None or None in (a.command, a.date, a.machine, a.condition)):
                 raise InputError("section: --table with --command, --date, --machine, --condition, or --missing")

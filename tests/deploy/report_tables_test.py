@@ -45,22 +45,23 @@ class LatencyTable(unittest.TestCase):
             rt.latency_table(broken)
 
 
-class LinkTable(unittest.TestCase):
+class BenchTable(unittest.TestCase):
     def test_aggregates_per_case_and_single_runs(self):
         bench = {"benchmarks": [
             {"name": "BM_Seal/16/repeats:5_mean", "run_name": "BM_Seal/16/repeats:5", "run_type": "aggregate", "aggregate_name": "mean",
              "real_time": 812.5, "time_unit": "ns"},
             {"name": "BM_Seal/16_median", "run_name": "BM_Seal/16", "run_type": "aggregate",
-             "aggregate_name": "median", "real_time": 800.0, "time_unit": "ns", "bytes_per_second": 2.0e7},
+             "aggregate_name": "median", "real_time": 800.0, "cpu_time": 790.0, "time_unit": "ns",
+             "bytes_per_second": 2.0e7},
             {"name": "BM_Seal/16_stddev", "run_name": "BM_Seal/16", "run_type": "aggregate",
              "aggregate_name": "stddev", "real_time": 12.25, "time_unit": "ns"},
-            {"name": "BM_Replay", "run_name": "BM_Replay", "run_type": "iteration", "real_time": 3.5,
-             "time_unit": "ns"},
+            {"name": "BM_Replay/min_time:2.000/real_time", "run_name": "BM_Replay/min_time:2.000/real_time", "run_type": "iteration", "real_time": 3.5,
+             "cpu_time": 3.4, "time_unit": "ns"},
         ]}
-        lines = rt.link_table(bench).splitlines()
-        self.assertEqual(cells(lines[0]), ["case", "unit", "mean", "median", "stddev", "throughput"])
-        self.assertEqual(cells(lines[2]), ["BM_Seal/16", "ns", "812", "800", "12.2", "20 MB/s"])
-        self.assertEqual(cells(lines[3]), ["BM_Replay", "ns", "-", "3.50", "-", "-"])
+        lines = rt.bench_table(bench).splitlines()
+        self.assertEqual(cells(lines[0]), ["case", "unit", "mean", "median", "stddev", "CPU time", "throughput"])
+        self.assertEqual(cells(lines[2]), ["BM_Seal/16", "ns", "812", "800", "12.2", "790", "20 MB/s"])
+        self.assertEqual(cells(lines[3]), ["BM_Replay", "ns", "-", "3.50", "-", "3.40", "-"])
 
     def test_numbers_have_three_figures_and_no_exponent(self):
         self.assertEqual([rt.num(v) for v in (141000.0, 1234.5, 98.76, 3.99, 0.012345, 0)],
@@ -69,7 +70,7 @@ class LinkTable(unittest.TestCase):
     def test_not_benchmark_json_is_refused(self):
         for bad in ({}, {"benchmarks": []}, {"benchmarks": [{"name": "x"}]}, []):
             with self.assertRaises(rt.InputError):
-                rt.link_table(bad)
+                rt.bench_table(bad)
 
 
 class Document(unittest.TestCase):
