@@ -8,7 +8,7 @@
 # Usage: deploy/report.sh BUILD_DIR --condition TEXT [--only S1,S2,...] [--quick]
 #                         [--rt-table FILE] [--out FILE] [--work DIR]
 # Sections (in the document's order):
-#   latency    the loopback latency suite through hemm-relay at 0-1000 ms (latency_suite_test; ~4 min)
+#   latency    the loopback latency suite through hemm-relay at 0-1000 ms (latency_suite_test; ~2.5 min)
 #   accuracy   the local model against the scene's truth on every scene (deploy/accuracy.sh; ~12 min)
 #   explore3d  the 6-DoF probe tool on the live voxmap against truth (deploy/explore3d.sh; ~3 min)
 #   vps        the Voxmap-PointShell engine report (hemm-vps report; ~3 min)
@@ -98,9 +98,9 @@ rel() { echo "${1#"$root"/}"; }  # a path as the command line shows it, from the
 for s in ${only//,/ }; do
   case "$s" in
   latency)
-    if ((quick)); then missing latency "not run by --quick (the whole suite takes about 4 minutes)."; continue; fi
+    if ((quick)); then missing latency "not run by --quick (the whole suite takes about 2.5 minutes)."; continue; fi
     need latency_suite_test hemm-robot hemm-operator hemm-relay hemm-truth
-    step "latency: latency_suite_test (about 4 minutes)"
+    step "latency: latency_suite_test (about 2.5 minutes)"
     cmd="$(rel "$bin")/latency_suite_test --gtest_filter=LatencySuite.NavigationToAGoal*"
     (cd "$work" && "$bin/latency_suite_test" --gtest_filter='LatencySuite.NavigationToAGoal*') >"$work/latency.txt" 2>&1 \
       || echo "report: latency_suite_test failed (its table is kept; see $work/latency.txt)" >&2
