@@ -10,7 +10,7 @@
 # Sections (in the document's order):
 #   latency    the loopback latency suite through hemm-relay at 0-1000 ms (latency_suite_test; ~2.5 min)
 #   accuracy   the local model against the scene's truth on every scene (deploy/accuracy.sh; ~12 min)
-#   explore3d  the 6-DoF probe tool on the live voxmap against truth (deploy/explore3d.sh; ~3 min)
+#   explore3d  the 6-DoF probe tool on the live voxmap against truth (deploy/explore3d.sh; ~2.5 min a round trip, 0 and 300 ms)
 #   vps        the Voxmap-PointShell engine report (hemm-vps report; ~3 min)
 #   bimanual   the SIMULATED bimanual device's cost per tick (bimanual_bench; ~20 s)
 #   link       the link's hot paths: sealing, opening, replay window (bench_net; ~1 min)
@@ -124,7 +124,7 @@ for s in ${only//,/ }; do
     need hemm-robot hemm-operator hemm-relay hemm-truth
     a=()
     ((quick)) && a=(--rtts 0)
-    step "explore3d: deploy/explore3d.sh ${a[*]} (about 75 s a round trip)"
+    step "explore3d: deploy/explore3d.sh ${a[*]} (about 2.5 min a round trip: a 60 s run, then the truth replay)"
     "$root/deploy/explore3d.sh" "$build" "${a[@]}" --out "$work/explore3d" --doc "$work/explore3d" \
       >"$work/explore3d.txt" 2>"$work/explore3d.log" || { tail -n 20 "$work/explore3d.log" >&2; echo "report: explore3d.sh failed" >&2; exit 1; }
     "$py" "$tables" markdown-rows "$work/explore3d.txt" >"$work/explore3d.md"
