@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # hemm: install what is missing (Debian 12), build, and run one of
-#   demo   build (release) and run the loopback demo
+#   demo   build (release) and run the loopback demo (HEMM); `demo bimanual`,
+#          `demo vps`, `demo explore3d` run the other parts (`demo --help`)
 #   test   build release + sanitizer (ASan/UBSan, clang, with libFuzzer
 #          targets) configurations and run every test in both
 #   bench  build release and run the benchmarks
@@ -10,10 +11,21 @@
 #   rebuild after editing one file).
 set -euo pipefail
 
-usage() { sed -n '2,10p' "$0" | sed 's/^# \{0,1\}//'; }
+usage() { sed -n '2,11p' "$0" | sed 's/^# \{0,1\}//'; }
 mode="${1:-}"
 case "$mode" in
-  demo|test|bench|build) shift ;;
+  demo|test|bench|build) shift ;;&
+  demo)
+    case "${1:-}" in
+      -h|--help)
+        echo "bash deploy/run.sh demo [SECONDS]   the HEMM loopback demo (deploy/demo.sh; out/demo/)"
+        echo "bash deploy/run.sh demo PART [--out DIR]   another part, a few minutes each (deploy/demo_parts.sh):"
+        sed -n '2,13p' "$(dirname "$0")/demo_parts.sh" | sed 's/^#/ /'
+        exit 0 ;;
+      ""|bimanual|vps|explore3d) ;;
+      *) [[ "$1" =~ ^[0-9]+$ ]] || { echo "error: demo '$1': a part (bimanual, vps, explore3d) or seconds per phase (see demo --help)" >&2; exit 2; } ;;
+    esac ;;
+  test|bench|build) ;;
   -h|--help) usage; exit 0 ;;
   *) usage >&2; echo "error: unknown mode '${mode}'" >&2; exit 2 ;;
 esac
@@ -187,6 +199,9 @@ case "$mode" in
   demo)
     configure_release
     build "$builds/release"
+    case "${1:-}" in
+      bimanual|vps|explore3d) exec "$root/deploy/demo_parts.sh" "$1" "$builds/release" "${@:2}" ;;
+    esac
     exec "$root/deploy/demo.sh" "$builds/release" "$@"
     ;;
   bench)
