@@ -3,18 +3,12 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
-#include <cinttypes>
 
 #include "common/net/log_guard.h"
+#include "common/net/session_id.h"
 
 namespace hemm::op {
 namespace {
-
-std::string hex_id(uint64_t v) {
-  char b[17];
-  std::snprintf(b, sizeof b, "%016" PRIx64, v);
-  return b;
-}
 
 constexpr int64_t kFirstRetryDelayMs = 200;
 constexpr int64_t kMaxRetryDelayMs = 5000;
@@ -225,7 +219,7 @@ void OperatorClient::on_open() {
   streams_.update_stats([](net::LinkStatistics& s) { ++s.sessions_opened; });
   spdlog::info("event=session_open session={} has_control={} stream_endpoint={}:{} robot_heartbeat_ms={} "
                "robot_link_timeout_ms={}",
-               hex_id(sid), w.has_control(), o_.robot_address, port, w.heartbeat_period_ms(), w.link_timeout_ms());
+               net::hex_id(sid), w.has_control(), o_.robot_address, port, w.heartbeat_period_ms(), w.link_timeout_ms());
   streams_.open_session(sid, tx, rx, asio::ip::udp::endpoint(robot_addr_, static_cast<uint16_t>(port)));
 }
 

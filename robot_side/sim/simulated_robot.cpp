@@ -16,9 +16,13 @@
 #include <mujoco/mujoco.h>
 
 #include "common/config/config.h"
+#include "common/sim/mujoco_owner.h"
 #include "config_robot.pb.h"
 #include "robot_side/control/arm_control.h"
-#include "robot_side/control/safety.h"
+#include "robot_side/control/arm_keep_out.h"
+#include "robot_side/control/collision_guard.h"
+#include "robot_side/control/seen_voxels.h"
+#include "robot_side/control/watchdog.h"
 #include "robot_side/sim/mujoco_ray_caster.h"
 
 namespace hemm::robot {
@@ -32,13 +36,6 @@ constexpr double kArmClearanceRange = 0.10;
 static_assert(static_cast<int>(ArmRefusal::kFloor) == wire::ARM_REFUSAL_FLOOR &&
               static_cast<int>(ArmRefusal::kBase) == wire::ARM_REFUSAL_BASE &&
               static_cast<int>(ArmRefusal::kScene) == wire::ARM_REFUSAL_SCENE);
-
-struct ModelDeleter {
-  void operator()(mjModel* m) const { mj_deleteModel(m); }
-};
-struct DataDeleter {
-  void operator()(mjData* d) const { mj_deleteData(d); }
-};
 
 Eigen::Isometry3d pose_from(const mjtNum* pos, const mjtNum* quat) {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
@@ -122,7 +119,7 @@ std::shared_ptr<const std::vector<Eigen::Vector3f>> integrate_seen(SeenVoxels& s
 // never waited for.
 struct DepthWorker {
   const mjModel* m = nullptr;
-  std::unique_ptr<mjData, DataDeleter> d;
+  sim::MjDataPtr d;
   SimDepthCameraParams params;
   std::mt19937_64 rng;
   std::mutex mu;
@@ -210,8 +207,8 @@ struct DepthWorker {
 };
 
 struct SimulatedRobot::Impl {
-  std::unique_ptr<mjModel, ModelDeleter> m;
-  std::unique_ptr<mjData, DataDeleter> d;
+  sim::MjModelPtr m;
+  sim::MjDataPtr d;
 
   // Model indices.
   int base_body = -1, arm_base_body = -1, floor_geom = -1, ee_site = -1;
@@ -559,9 +556,11 @@ std::optional<std::string> SimulatedRobot::load(const config::RobotConfig& cfg, 
   if (const auto issues = config::validate_robot_config(cfg); !issues.empty())
     return "config: " + issues.front().field + ": " + issues.front().message;
   auto impl = std::make_unique<Impl>();
-  char err[1024] = "";
-  impl->m.reset(mj_loadXML(scene_path.c_str(), nullptr, err, sizeof err));
-  if (!impl->m) return "MuJoCo could not load " + scene_path + ": " + err;
+  try {
+    impl->m = sim::load_model_file(scene_path);
+  } catch (const std::runtime_error& e) {
+    return std::string("MuJoCo could not load ") + e.what();  // "PATH: MuJoCo's message"
+  }
   mjModel* m = impl->m.get();
   m->opt.timestep = cfg.sim().timestep_s();
   impl->d.reset(mj_makeData(m));

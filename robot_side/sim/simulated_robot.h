@@ -13,7 +13,7 @@
 //     to a stop within its acceleration limits, the arm holds;
 //   * collision guard: the base's forward/backward speed and its yaw rate are
 //     limited so that it stops short of what its own laser and sonar see, in
-//     space they saw free (CollisionGuardParams in robot_side/control/safety.h).
+//     space they saw free (CollisionGuardParams in robot_side/control/collision_guard.h).
 //
 // Time is the simulation's: time_ns() = origin + steps * timestep. In real-time
 // mode the station sets the origin to its steady clock and steps to it (see
@@ -28,7 +28,9 @@
 #include <vector>
 
 #include "robot_side/control/base_control.h"
-#include "robot_side/control/safety.h"
+#include "robot_side/control/arm_keep_out.h"
+#include "robot_side/control/collision_guard.h"
+#include "robot_side/control/seen_voxels.h"
 #include "robot_side/sim/depth_camera.h"
 #include "robot_side/sim/range_sensors.h"
 #include "robot_side/sim/sim_types.h"
@@ -82,7 +84,7 @@ class SimulatedRobot {
   // A manipulation target whose arm pose would reach into the floor, the
   // base or what the robot's own sensors have seen (recent scans; with the
   // depth camera its seen voxels) is refused too (ArmKeepOut in
-  // robot_side/control/safety.h), counted by reason; when the IK's solution
+  // robot_side/control/arm_keep_out.h), counted by reason; when the IK's solution
   // is refused for the base or the scene, the elbow-up solution of the same
   // target is tried first. A manipulation command without the deadman moves
   // nothing: its target is not solved (nor refused).

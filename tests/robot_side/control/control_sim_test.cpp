@@ -10,7 +10,9 @@
 #include <gtest/gtest.h>
 
 #include "config_robot.pb.h"
-#include "robot_side/control/safety.h"
+#include "robot_side/control/arm_keep_out.h"
+#include "robot_side/control/collision_guard.h"
+#include "robot_side/control/watchdog.h"
 #include "robot_side/sim/simulated_robot.h"
 
 namespace hr = hemm::robot;
