@@ -5,6 +5,7 @@
 #include <numbers>
 
 #include <cmath>
+#include <limits>
 #include <vector>
 
 #include "common/haptics/vps/voxmap.h"
@@ -318,6 +319,41 @@ TEST(EStop, BothButtonsTogetherAreAnEStopAndSwitchNoMode) {
   r.tick(*free_space, H(0.020, 0, 0), hd::kButton2);
   EXPECT_EQ(r.task.estop_presses(), 2u);
   EXPECT_EQ(r.task.mode(), hm::Mode::kExploration);
+}
+
+// Issue 23 item 2: a stylus pose that is not finite (a sensor fault, a
+// broken replay) holds all motion; it does not become the device origin
+// (which in manipulation would send the arm to the workspace centre, and in
+// navigation through the dead band would count as neutral). When the pose is
+// finite again the robot stays held until the hand moves.
+TEST(NonFinitePose, HoldsAllMotionAndDoesNotBecomeTheDeviceOrigin) {
+  ho::OperatorTaskParams p;
+  p.initial_mode = hm::Mode::kManipulation;
+  Runner r(p);
+  const auto free_space = wall_snapshot({20, -1}, {20, 1}, {-1, 0}, {0, 0, 0});
+  const Eigen::Vector3d there = H(0.010, 0.004, 0.008);
+  r.move(*free_space, H(0, 0, 0), there, 200, 50);
+  ASSERT_TRUE(r.task.last_setpoint().moves_robot);
+  ASSERT_TRUE(r.task.last_setpoint().arm_valid);
+  const Eigen::Vector3d target = r.task.last_setpoint().arm_target_R;
+  for (const double bad : {std::nan(""), std::numeric_limits<double>::infinity()}) {
+    for (int i = 0; i < 20; ++i) {
+      r.tick(*free_space, Eigen::Vector3d(bad, 0.0, 0.0));
+      EXPECT_FALSE(r.task.last_setpoint().moves_robot) << "tick " << i;
+      EXPECT_FALSE(r.task.last_setpoint().arm_valid) << "tick " << i;
+      EXPECT_TRUE(r.task.last_setpoint().arm_target_R.allFinite());
+    }
+  }
+  // Counted (the command sender logs and reports the count off the servo thread).
+  EXPECT_EQ(r.task.nonfinite_poses(), 40u);
+  EXPECT_EQ(r.task.last_setpoint().nonfinite_poses, 40u);
+  // Finite again, where it was: still held (the hand has not moved).
+  for (int i = 0; i < 100; ++i) r.tick(*free_space, there);
+  EXPECT_FALSE(r.task.last_setpoint().moves_robot);
+  // The hand moves on: the target continues from where it was, not from the origin.
+  r.move(*free_space, there, there + H(0, 0, 0.004), 50, 10);
+  EXPECT_TRUE(r.task.last_setpoint().moves_robot);
+  EXPECT_LT((r.task.last_setpoint().arm_target_R - target).norm(), 0.05);
 }
 
 // Issue 9 item 8: a model going stale (no robot data: the robot died, the
