@@ -510,6 +510,43 @@ TEST(Manipulation, WithTheVoxmapTheArmTargetIsTheToolProbesProxyOnTheSurface) {
   EXPECT_NEAR(r.task.last_setpoint().arm_target_R.z(), 0.46 + p.tool_probe_radius, 0.002);
 }
 
+// Issue 23 item 7: the 6-DoF tool's contact state belongs to one voxmap
+// build. A new build published at the address of the old one (freed, and
+// its memory reused) is a new voxmap: the pair state starts again.
+TEST(Tool6, ContactStateIsKeyedOnTheVoxmapBuildNotOnItsAddress) {
+  ho::OperatorTaskParams p;
+  p.tool6.enabled = true;
+  Runner r(p);
+  ASSERT_NE(r.task.tool6(), nullptr);
+  hemm::vps::VoxmapParams vp;
+  vp.voxel_size = 0.01;
+  auto build = [&](double top) {
+    hemm::mesh::TriangleMesh m = hemm::mesh::make_box({0.1, 0.1, 0.05}, 2);
+    for (auto& v : m.vertices) v += Eigen::Vector3d(0.85, 0.0, top - 0.05);
+    auto vm = std::make_shared<hemm::vps::Voxmap>();
+    EXPECT_FALSE(hemm::vps::build_voxmap(m, vp, vm.get(), nullptr));
+    return vm;
+  };
+  auto vm = build(0.93);  // the tool's tip (radius 2 cm at z 0.95) rests on its top
+  auto snap = std::make_unique<ho::OperatorModelSnapshot>();
+  snap->map = hmap::build_snapshot(hmap::MapParams{}, hmap::LocalMap{});
+  snap->have_state = true;
+  snap->version = 1;
+  snap->voxmap = vm;
+  snap->voxmap_builds = 1;
+  for (int i = 0; i < 50; ++i) r.tick(*snap, Eigen::Vector3d::Zero());
+  const std::uint64_t changes = r.task.tool6()->state().voxmap_changes;
+  // Build 2 (the box 5 mm higher) lands where build 1 was.
+  *vm = *build(0.935);
+  snap->version = 2;
+  snap->voxmap_builds = 2;
+  r.tick(*snap, Eigen::Vector3d::Zero());
+  EXPECT_EQ(r.task.tool6()->state().voxmap_changes, changes + 1) << "the old build's contact state was kept";
+  // Later ticks of the same build keep it.
+  for (int i = 0; i < 10; ++i) r.tick(*snap, Eigen::Vector3d::Zero());
+  EXPECT_EQ(r.task.tool6()->state().voxmap_changes, changes + 1);
+}
+
 TEST(Tick, NeverAllocatesOrFrees) {
   ho::OperatorTaskParams p;
   auto log = ho::make_station_logger(256);  // not started: pushes fill the ring, then count drops
