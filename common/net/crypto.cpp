@@ -9,8 +9,6 @@
 #include <cerrno>
 #include <cctype>
 #include <cstdio>
-#include <fstream>
-#include <sstream>
 
 #include "common/net/bytes.h"
 
