@@ -15,6 +15,7 @@
 #include "robot_side/sim/realtime.h"
 #include "robot_side/control/arm_control.h"
 #include "robot_side/sim/simulated_robot.h"
+#include "tests/temp_dir.h"
 
 namespace hr = hemm::robot;
 namespace hk = hemm::kinematics;
@@ -100,7 +101,7 @@ TEST(SimulatedRobot, LoadErrorsLeaveTheRobotUnloaded) {
   hr::SimulatedRobot r;
   EXPECT_TRUE(r.load(hemm::config::RobotConfig(), "/nonexistent/scene.xml"));
   EXPECT_FALSE(r.loaded());
-  const std::string bad = std::string(HEMM_BINARY_DIR) + "/no_robot_scene.xml";
+  const std::string bad = hemm::test::make_temp_dir() + "/no_robot_scene.xml";
   std::ofstream(bad) << "<mujoco><worldbody><geom type='plane' size='1 1 0.1'/></worldbody></mujoco>";
   const auto err = r.load(hemm::config::RobotConfig(), bad);
   ASSERT_TRUE(err);
