@@ -147,13 +147,16 @@ void OperatorClient::connect() {
   });
 }
 
-void OperatorClient::retry_or_fail(int code, const std::string& reason, bool timed_out) {
+void OperatorClient::retry_or_fail(int code, const std::string& reason, bool timed_out, bool authenticated) {
   if (stopped_) return;
   const int64_t now = net::steady_now_ns();
   // First contact: try for connect_for_ms. After a session: for reconnect_for_ms.
   const int64_t budget_ms = ever_open_ ? o_.reconnect_for_ms : o_.connect_for_ms;
-  const bool refusal = code == net::kExitAuth || code == net::kExitVersion ||
-                       (code == net::kExitRefused && !ever_open_);
+  const bool refusal_code = code == net::kExitAuth || code == net::kExitVersion || code == net::kExitRefused;
+  if (refusal_code) last_refusal_code_ = code;
+  // Only the robot's authenticated word ends the attempts now; control taken
+  // after a session was open may be our own old session, not yet dropped.
+  const bool refusal = authenticated && refusal_code && !(code == net::kExitRefused && ever_open_);
   if (refusal || now - trying_since_ns_ >= budget_ms * int64_t{1000000}) {
     fatal(code, reason);
     return;
@@ -188,10 +191,10 @@ void OperatorClient::on_handshake_frame(uint64_t attempt, std::span<const uint8_
       conn_->close_after_send();
       conn_.reset();
       const int code = exit_code_for(step.error);
-      spdlog::error("event=handshake_failed code={} reason=\"{}\"", wire::ErrorCode_Name(step.error),
-                    net::log_safe(step.reason));
+      spdlog::error("event=handshake_failed code={} authenticated={} reason=\"{}\"", wire::ErrorCode_Name(step.error),
+                    step.authenticated, net::log_safe(step.reason));
       streams_.update_stats([](net::LinkStatistics& s) { ++s.handshakes_failed; });
-      retry_or_fail(code, step.reason);
+      retry_or_fail(code, step.reason, false, step.authenticated);
       return;
     }
   }

@@ -148,8 +148,9 @@ int run_station(const config::OperatorConfig& cfg, const OperatorArgs& a) {
     stopping = true;
     spdlog::info("event=shutdown reason=\"{}\"", why);
     if (!client.ever_opened()) {
-      // The run ended without ever reaching the robot: that is a failure.
-      exit_code = net::kExitPeerLost;
+      // The run ended without ever reaching the robot: that is a failure (a
+      // refusal's code if the robot, or something in its place, refused).
+      exit_code = client.give_up_code();
       std::cerr << "hemm-operator: " << why << " before a session was opened (exit code " << exit_code << ")\n";
     }
     client.stop(why);

@@ -24,8 +24,10 @@
 // "explore-block" the block's top (pressed, slid, tilted) and front side.
 //
 // Real time: tick() allocates nothing and takes no lock; the VPS work per
-// tick is bounded by `budget` (time-critical mode); the pair state is reset
-// when the snapshot's voxmap pointer changes; no voxmap -> zero wrench.
+// tick is bounded by `budget` (time-critical mode); the pair state belongs to
+// one voxmap build (the snapshot's voxmap_builds) and is reset when another
+// build comes, even one published at the address of the old (freed) one;
+// no voxmap -> zero wrench.
 #pragma once
 
 #include <cstdint>
@@ -68,8 +70,9 @@ class Tool6Explorer {
   explicit Tool6Explorer(const Tool6Params& p);
 
   // Servo thread: one tick for the end-effector sample s (H), the robot pose
-  // (W) and the snapshot's voxmap (null: none yet).
-  void tick(const device::EndEffectorSample& s, const math::Pose2& T_W_R, const vps::Voxmap* vm) noexcept;
+  // (W) and the snapshot's voxmap (null: none yet) with its build number.
+  void tick(const device::EndEffectorSample& s, const math::Pose2& T_W_R, const vps::Voxmap* vm,
+            std::uint64_t voxmap_build) noexcept;
   // The wrench to display, scaled by gain (the stale-model fade), into c.
   void write(double gain, device::EndEffectorCommand& c) const noexcept;
   // The tick's goal pose, tool pose, displayed wrench (W) into the log record.
@@ -88,6 +91,7 @@ class Tool6Explorer {
   vps::ToolState state_;
   Eigen::Isometry3d goal_W_ = Eigen::Isometry3d::Identity();
   Eigen::Matrix3d R_W_D_ = Eigen::Matrix3d::Identity();
+  std::uint64_t voxmap_build_ = 0;  // the build the pair state belongs to
   bool valid_ = false;
 };
 

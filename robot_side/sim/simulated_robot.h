@@ -15,6 +15,15 @@
 //     limited so that it stops short of what its own laser and sonar see, in
 //     space they saw free (CollisionGuardParams in robot_side/control/collision_guard.h).
 //
+// Re-arm: a stop is not undone by its cause going away. After the e-stop
+// (engaged from anywhere), a lost link, an expired watchdog, or a time
+// without an operator in control (start-up included), the robot follows
+// nothing (SAFETY_REARM) until it has received, after the cause cleared, a
+// neutral command (the dead-man released, or a command that asks for no
+// motion: idle or exploration, navigation with v = omega = 0) and then a
+// command with the dead-man pressed. So releasing an e-stop, or a link
+// coming back, never resumes what the operator happened to be streaming.
+//
 // Time is the simulation's: time_ns() = origin + steps * timestep. In real-time
 // mode the station sets the origin to its steady clock and steps to it (see
 // realtime.h), so sim time and station time agree; tests just step.
@@ -89,6 +98,12 @@ class SimulatedRobot {
   // target is tried first. A manipulation command without the deadman moves
   // nothing: its target is not solved (nor refused).
   std::optional<std::string> set_command(const BaseArmCommand& command, int64_t now_ns);
+  // The robot's own neutral command (an IDLE command: e.g. when the session
+  // changes mode). It stops what the old command was doing; it is not the
+  // operator's, so it does not count towards the re-arm and feeds no watchdog.
+  void stop_commanded_motion(uint64_t seq);
+  // False while motion is held until re-armed (see "Re-arm" above).
+  bool armed() const;
   uint64_t rejected_commands() const;
   struct ArmRefusals {
     uint64_t floor = 0, base = 0, scene = 0;

@@ -20,6 +20,7 @@
 #include "operator/device/simulated_omni.h"
 #include "operator/vps/vps_session.h"
 #include "tests/operator/servo/alloc_counter.h"
+#include "tests/temp_dir.h"
 
 namespace hemm::op {
 namespace {
@@ -138,7 +139,7 @@ TEST(VpsServoTask, OmniExploresASceneWithASmallTool) {
       {1.8, {0.03, -0.008, 0}}});
   device::SimulatedOmni omni(device::SimulatedOmniModel{}, script);
   VpsLogger log = make_vps_logger(4096);
-  const std::string log_path = ::testing::TempDir() + "vps_omni_log.csv";
+  const std::string log_path = hemm::test::make_temp_dir() + "/vps_omni_log.csv";
   ASSERT_FALSE(log.start(log_path));
   VpsServoTask task(model, omni.limits(), tp, &log);
   EXPECT_LE(task.coupling(0).params.k_lin, omni.limits().ee[0].max_stiffness);
@@ -222,7 +223,7 @@ TEST(VpsServoTask, RefusesAMismatchedDeviceAndIgnoresNonFiniteSamples) {
 
 TEST(VpsModel, LoadsMeshFilesThroughTheCache) {
   namespace fs = std::filesystem;
-  const fs::path dir = fs::path(::testing::TempDir()) / "vps_model_cache";
+  const fs::path dir = fs::path(hemm::test::make_temp_dir()) / "vps_model_cache";
   fs::remove_all(dir);
   fs::create_directories(dir);
   const std::string scene = (dir / "table.stl").string(), tool = (dir / "ball.stl").string();
