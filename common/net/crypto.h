@@ -54,7 +54,7 @@ std::optional<Key> parse_key_hex(std::string_view text, std::string* error);
 //   * a period of at most 16 bytes (a short pattern repeated).
 // A key drawn uniformly at random fails with probability below 1e-14 (the
 // first rule below 3e-16, the second below 5e-15, the third below 3e-39;
-// README, "Keys").
+// docs/protocol.md, "Keys").
 std::optional<std::string> weak_key_reason(const Key& k);
 
 // The committed demonstration key (deploy/configs/demo.key). It is public:

@@ -245,7 +245,7 @@ TEST(AeadKnownAnswer, AeadOpenAndSealReproduceRfc8439AppendixA5) {
   EXPECT_FALSE(aead_open(k, kA5Counter + 1, ad, sealed, out.data()));
 }
 
-// The nonce as crypto.h and the README's protocol section define it: bytes
+// The nonce as crypto.h and docs/protocol.md define it: bytes
 // 0-3 zero, bytes 4-11 the counter big-endian.
 std::array<uint8_t, 12> link_nonce(uint64_t counter) {
   std::array<uint8_t, 12> n{};
