@@ -235,7 +235,7 @@ struct OperatorTaskParams {
   // feels the proxy's force before the real arm touches anything. Its
   // radius is the tool's keep-out: above the robot's own scene keep-out
   // around its seen points (link radius 0.02 + clearance 0.01 + pad 0.01 =
-  // 0.04 m, robot_side/control/safety.h ArmKeepOut), by 1 cm for the two
+  // 0.04 m, robot_side/control/arm_keep_out.h), by 1 cm for the two
   // models' differences (noise, voxels), so a target on the model's surface
   // is not refused by the robot.
   double tool_probe_radius = 0.05;
