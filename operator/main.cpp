@@ -37,6 +37,7 @@
 #include "common/net/station_cli.h"
 #include "common/net/session_connection.h"
 #include "common/net/station_control.h"
+#include "common/realtime/realtime_setup.h"
 #include "config_operator.pb.h"
 #include "operator/bimanual/bimanual_config.h"
 #include "operator/bimanual/bimanual_scripts.h"
@@ -49,6 +50,7 @@
 #ifdef HEMM_OPERATOR_HAVE_VPS
 #include "operator/vps/vps_config.h"
 #include "operator/vps/vps_session.h"
+#include "report.pb.h"
 #endif
 #ifdef HEMM_WITH_VIEW
 #include "common/view/view_options.h"
@@ -87,6 +89,9 @@ servo::ServoConfig servo_config(const config::OperatorConfig& cfg) {
   c.period_ns = 1'000'000'000LL / cfg.servo().rate_hz();
   c.realtime = cfg.servo().realtime_priority();
   c.lock_memory = cfg.servo().realtime_priority();
+  c.cpu = cfg.servo().cpu();
+  c.simulated_hardware = cfg.servo().simulated_hardware() == "lock-step" ? device::HardwareMode::kLockStep
+                                                                         : device::HardwareMode::kThreaded;
   return c;
 }
 
@@ -110,12 +115,13 @@ std::unique_ptr<op::DeviceLiveView> attach_device_view(const view::ViewOptions& 
 std::atomic<bool> g_local_stop{false};
 extern "C" void on_local_signal(int) { g_local_stop.store(true); }
 
-// A local run's end: its summary on stdout and, if asked, as JSON.
+// A local run's end: its summary on stdout and, if asked, as JSON (the
+// summary's own, or `json` when given).
 template <typename Summary>
-int finish_local_run(const Summary& s, const std::string& station_json) {
+int finish_local_run(const Summary& s, const std::string& station_json, const std::string& json = {}) {
   std::cout << op::to_string(s) << std::flush;
   std::string error;
-  if (!station_json.empty() && !net::write_text_file(station_json, op::to_json(s), &error)) {
+  if (!station_json.empty() && !net::write_text_file(station_json, json.empty() ? op::to_json(s) : json, &error)) {
     std::cerr << "hemm-operator: --station-json: " << error << "\n";
     return net::kExitInternal;
   }
@@ -176,7 +182,12 @@ int run_vps(const config::OperatorConfig& cfg, const std::string& config_path, c
     std::cerr << "hemm-operator: " << e.what() << "\n";
     return net::kExitUsage;
   }
-  return finish_local_run(s, station_json);
+  // The report with the servo loop's histograms, worst ticks and simulated
+  // hardware (ServoTiming, as the other runs report it).
+  report::VpsSession r = op::to_report(s);
+  servo::fill(r.mutable_timing(), s.timing);
+  std::cout << "servo worst ticks: " << rt::worst_ticks_text(s.timing.worst) << "\n";
+  return finish_local_run(s, station_json, config::to_json(r));
 }
 #endif
 
@@ -338,6 +349,15 @@ int run(int argc, char** argv) {
                  "with --replay of a recording: write the replay's result (ticks, force error, times) as JSON here");
   net::StationControlOptions control_options;
   net::add_station_control_options(app, "hemm-operator", &control_options);
+  int servo_cpu = -1;
+  app.add_option("--servo-cpu", servo_cpu,
+                 "pin the 1 kHz servo thread to this CPU (overrides servo.cpu; -1: not pinned). Best an isolated one "
+                 "(isolcpus=): docs/realtime.md; a CPU this process may not run on is refused");
+  std::string simulated_hardware;
+  app.add_option("--simulated-hardware", simulated_hardware,
+                 "where a SIMULATED device's hardware runs (overrides servo.simulated_hardware): threaded (its own "
+                 "thread, as on its own board) or lock-step (inside the servo tick, deterministic)")
+      ->check(CLI::IsMember({"threaded", "lock-step"}));
   std::string device_type, bimanual_hands;
   app.add_option("--device", device_type,
                  "device (overrides device.type): sim-omni, replay, sim-hand6 (a SIMULATED rigid 6-DoF scripted hand for "
@@ -432,6 +452,13 @@ int run(int argc, char** argv) {
     }
   }
   if (!device_type.empty()) cfg.mutable_device()->set_type(device_type);
+  if (app.count("--servo-cpu") > 0) cfg.mutable_servo()->set_cpu(servo_cpu);
+  if (!simulated_hardware.empty()) cfg.mutable_servo()->set_simulated_hardware(simulated_hardware);
+  if (auto why = rt::check_cpu(cfg.servo().cpu())) {
+    std::cerr << "hemm-operator: " << (app.count("--servo-cpu") > 0 ? "--servo-cpu" : "servo.cpu") << " "
+              << cfg.servo().cpu() << ": " << *why << "\n";
+    return net::kExitUsage;
+  }
   if (cfg.has_vps()) {
     if (!bimanual_hands.empty()) {
       std::cerr << "hemm-operator: --hands: a VPS scene's SIMULATED hands follow its vps.hands paths\n";

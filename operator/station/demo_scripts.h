@@ -92,9 +92,11 @@ NavHandTarget hand_target_for_goal(const OperatorView& view, const Eigen::Vector
 // view is invalid, e.g. the model is stale) and rate-limits the stylus
 // target to hand_speed. When the robot restarted (view.resyncs changed) the
 // route starts again from its first goal. at() keeps its state in mutable members: it is
-// called only on the servo thread (SimulatedOmni::write), right after the tick
-// that wrote the view (and once by SimulatedOmni's constructor before the
-// servo thread starts). The accessors are for that thread or after it
+// called only on the thread the SIMULATED Omni's hardware runs on (the servo
+// thread in lock-step, right after the tick that wrote the view; its own
+// thread when threaded, where the station hands it the newest view through a
+// mailbox: operator_station.cpp), and once by SimulatedOmni's constructor
+// before either starts. The accessors are for that thread or after it
 // stopped. Throws std::invalid_argument on an empty route, a non-finite goal,
 // bad params or a null view.
 class NavGoalHand final : public device::HandScript {

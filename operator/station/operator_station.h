@@ -167,9 +167,11 @@ class OperatorStation {
   std::unique_ptr<ModelThread> model_;
   std::unique_ptr<servo::ServoLogger> servo_log_;
   std::unique_ptr<StationLogger> world_log_;
-  std::shared_ptr<OperatorView> view_;                 // closed-loop hands: written by the task
+  std::shared_ptr<OperatorView> view_;                 // written by the task
+  std::shared_ptr<NewestMailbox<OperatorView>> view_box_;  // closed-loop hands: view_ -> the hand's copy
   std::shared_ptr<const NavGoalHand> nav_goal_;       // script nav-to-goal
   std::unique_ptr<OperatorServoTask> task_;
+  std::unique_ptr<servo::ServoTask> view_task_;       // closed-loop hands: task_, then publishes view_
   std::unique_ptr<servo::ServoLoop> loop_;
   std::unique_ptr<CommandSender> sender_;
   asio::steady_timer link_timer_;
