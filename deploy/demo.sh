@@ -8,7 +8,9 @@
 # round trip; each compared with the scene's ground truth (hemm-truth) and
 # plotted to PNG in out/demo/<run>/ (with the deadline histograms of the
 # operator's servo loop and the robot's control loop: timing.png,
-# robot_timing.png), with pictures of both stations' live views.
+# robot_timing.png), with pictures of both stations' live views; each run's
+# recording exported as MCAP (<run>/session.mcap) and listed by
+# deploy/mcap_reader.py.
 # Usage: deploy/demo.sh BUILD_DIR [seconds-per-phase]
 set -euo pipefail
 build="${1:?usage: deploy/demo.sh BUILD_DIR [seconds]}"
@@ -141,6 +143,13 @@ haptic_run() {
   # The whole session replayed from its recording as fast as it goes: the
   # forces tick for tick against the recorded ones.
   "$bin/hemm-operator" --replay "$dir/session.rec" --replay-speed 0 --replay-json "$dir/replay.json" --log-level warn
+  # The session as MCAP (Foxglove Studio or any MCAP reader opens it;
+  # docs/recording.md), checked and listed by a reader written from the MCAP
+  # specification, and replayed from it: the same forces.
+  "$bin/hemm-operator" --export-mcap "$dir/session.rec" "$dir/session.mcap" >"$dir/mcap.txt"
+  /usr/bin/python3 "$root/deploy/mcap_reader.py" "$dir/session.mcap"
+  "$bin/hemm-operator" --replay "$dir/session.mcap" --replay-speed 0 --replay-json "$dir/replay-mcap.json" \
+    --log-level warn
   "$bin/hemm-truth" --scene "$root/deploy/scenes/home.xml" --log "$dir/servo.csv.world.csv" \
     --csv "$dir/truth.csv" --json "$dir/truth.json"
   /usr/bin/python3 "$root/deploy/plots/plot_run.py" "$dir/servo.csv" --out "$dir" --title "$name" \
@@ -158,4 +167,5 @@ haptic_run nav-to-goal-300ms nav-to-goal 30 300    # closed-loop navigation at 3
 echo
 echo "demo: outputs in $out (PNG plots in $out/nav-to-wall, $out/probe-cylinder, $out/nav-to-goal-300ms;"
 echo "      the live views' pictures in <run>/operator_view/ and <run>/robot_view/, each session's recording"
-echo "      in <run>/session.rec and its replay's result in <run>/replay.json)"
+echo "      in <run>/session.rec, as MCAP in <run>/session.mcap, its replays' results in <run>/replay.json and"
+echo "      <run>/replay-mcap.json)"

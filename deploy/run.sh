@@ -28,6 +28,7 @@ packages=(
   libasio-dev libprotobuf-dev protobuf-compiler libeigen3-dev libpcl-dev libmujoco-dev
   libsodium-dev libassimp-dev libgtest-dev libgmock-dev libbenchmark-dev libcli11-dev
   libspdlog-dev libfcl-dev python3-matplotlib
+  libzstd-dev zlib1g-dev python3-zstandard python3-protobuf dpkg-dev
   libglfw3-dev libpng-dev xvfb
 )
 missing=()

@@ -43,6 +43,7 @@
 #include "operator/bimanual/bimanual_scripts.h"
 #include "operator/bimanual/bimanual_session.h"
 #include "operator/client/operator_client.h"
+#include "operator/record/session_mcap.h"
 #include "operator/record/session_recording.h"
 #include "operator/record/session_replay.h"
 #include "operator/station/demo_scripts.h"
@@ -232,6 +233,20 @@ int run_bimanual(const config::OperatorConfig& cfg, const std::string& hands, do
   return finish_local_run(s, station_json);
 }
 
+// Loads a recording (or its MCAP export) for --replay or --export-mcap:
+// false if nothing of it is readable (said on stderr); a broken file's
+// readable part is used, *broke set and said.
+bool load_session(const std::string& path, const char* using_it, op::Recording* rec, bool* broke) {
+  const std::optional<std::string> e = op::load_recording(path, rec);
+  *broke = e.has_value();
+  if (e && rec->records == 0) {
+    std::cerr << "hemm-operator: " << *e << "\n";
+    return false;
+  }
+  if (e) std::cerr << "hemm-operator: " << *e << "; " << using_it << " the readable part\n";
+  return true;
+}
+
 // --replay of a session recording: no link; the model and the servo task
 // rebuilt from the file (operator/record/session_replay.h), optionally seen
 // in the live view.
@@ -242,12 +257,8 @@ int replay_recording(const std::string& path, double speed, const std::string& j
 #endif
 ) {
   op::Recording rec;
-  const std::optional<std::string> broke = op::load_recording(path, &rec);
-  if (broke && rec.records == 0) {
-    std::cerr << "hemm-operator: " << *broke << "\n";
-    return net::kExitUsage;
-  }
-  if (broke) std::cerr << "hemm-operator: " << *broke << "; replaying the readable part\n";
+  bool broke = false;
+  if (!load_session(path, "replaying", &rec, &broke)) return net::kExitUsage;
   op::SessionReplayOptions ro;
   ro.speed = speed;
 #ifdef HEMM_WITH_VIEW
@@ -261,6 +272,7 @@ int replay_recording(const std::string& path, double speed, const std::string& j
   }
 #endif
   const op::SessionReplayResult r = op::replay_session(rec, ro);
+  if (!r.warning.empty()) std::cerr << "hemm-operator: --replay: " << r.warning << "\n";
 #ifdef HEMM_WITH_VIEW
   if (live_view) live_view->stop();
 #endif
@@ -276,6 +288,21 @@ int replay_recording(const std::string& path, double speed, const std::string& j
   return broke ? net::kExitUsage : net::kExitOk;
 }
 
+// --export-mcap REC OUT: the recording (or the readable part of a broken
+// one, exit 2) as MCAP (operator/record/session_mcap.h).
+int export_recording_as_mcap(const std::string& in, const std::string& out) {
+  op::Recording rec;
+  bool broke = false;
+  if (!load_session(in, "exporting", &rec, &broke)) return net::kExitUsage;
+  try {
+    std::cout << op::to_string(op::export_mcap(rec, out)) << std::flush;
+  } catch (const std::exception& e) {
+    std::cerr << "hemm-operator: --export-mcap: " << e.what() << "\n";
+    return net::kExitUsage;
+  }
+  return broke ? net::kExitUsage : net::kExitOk;
+}
+
 int run(int argc, char** argv) {
   CLI::App app{"hemm-operator: the operator station of hemm (authenticated session, 1 kHz haptic servo loop with "
                "the virtual proxy on the local model, commands to the robot, link statistics). A config with a vps block "
@@ -285,7 +312,9 @@ int run(int argc, char** argv) {
   int session_port = -1, stream_port = -1;
   unsigned test_version = 0;
   double duration_s = 0.0, stats_period_s = 0.0;
-  app.add_option("--config", config_path, "operator config (text protobuf, e.g. deploy/configs/operator.pbtxt)");
+  app.add_option("--config", config_path,
+                 "operator config (text protobuf; default: configs/operator.pbtxt of the data directory, "
+                 "docs/install.md)");
   app.add_option("--key", key_path, "pre-shared key file (64 hex chars); overrides link.key_file");
   app.add_option("--robot", robot, "robot (or relay) IP address (overrides net.robot_address)");
   app.add_option("--session-port", session_port, "robot's TCP session port (overrides net.session_port)")
@@ -341,7 +370,13 @@ int run(int argc, char** argv) {
   double replay_speed = 1.0;
   app.add_option("--record", record_path,
                  "record the session to this file (length-delimited protobuf, proto/record.proto): every servo "
-                 "tick, model step, stream message received and sent, session frame sent");
+                 "tick, model step, stream message received (robot state, scans, depth chunks) and sent, session "
+                 "frame sent");
+  std::vector<std::string> export_mcap;
+  app.add_option("--export-mcap", export_mcap,
+                 "REC OUT.mcap: write the session recording REC as MCAP (protobuf schemas, zstd chunks; Foxglove "
+                 "Studio or any MCAP reader opens it; --replay replays it as REC) and exit (docs/recording.md)")
+      ->expected(2);
   app.add_option("--replay-speed", replay_speed,
                  "with --replay of a recording: recorded seconds per second (1 real time; 0 as fast as possible)")
       ->check(CLI::NonNegativeNumber);
@@ -384,6 +419,7 @@ int run(int argc, char** argv) {
     return rc == 0 ? net::kExitOk : net::kExitUsage;
   }
   if (!control_options.command.empty()) return net::run_control_command("hemm-operator", control_options);
+  if (!export_mcap.empty()) return export_recording_as_mcap(export_mcap[0], export_mcap[1]);
 #ifdef HEMM_WITH_VIEW
   if (auto e = view::finish_view_options(view_strs, &view_opts)) {
     std::cerr << "hemm-operator: " << *e << "\n";
@@ -444,6 +480,7 @@ int run(int argc, char** argv) {
   }
 
   config::OperatorConfig cfg;
+  if (config_path.empty()) config_path = net::default_station_config("operator", "operator.pbtxt");
   if (!config_path.empty()) {
     if (auto err = config::load_text_config(config_path, &op::validate_operator_config_with_bimanual, &cfg)) {
       std::cerr << "hemm-operator: bad config: " << err->to_string() << "\n";

@@ -45,7 +45,8 @@ int run(int argc, char** argv) {
   std::string config_path, key_path, listen, log_level = "info", stats_json;
   int session_port = -1, stream_port = -1;
   double duration_s = 0.0, stats_period_s = 0.0;
-  app.add_option("--config", config_path, "robot config (text protobuf, e.g. deploy/configs/robot.pbtxt)");
+  app.add_option("--config", config_path,
+                 "robot config (text protobuf; default: configs/robot.pbtxt of the data directory, docs/install.md)");
   app.add_option("--key", key_path, "pre-shared key file (64 hex chars); overrides link.key_file");
   app.add_option("--listen", listen, "address to listen on (overrides net.listen_address)");
   app.add_option("--session-port", session_port, "TCP session port (overrides net.session_port; 0: any)")
@@ -98,6 +99,7 @@ int run(int argc, char** argv) {
   }
 
   config::RobotConfig cfg;
+  if (config_path.empty()) config_path = net::default_station_config("robot", "robot.pbtxt");
   if (!config_path.empty()) {
     if (auto err = config::load_robot_config(config_path, &cfg)) {
       std::cerr << "hemm-robot: bad config: " << err->to_string() << "\n";

@@ -10,8 +10,10 @@
 #include <cstdio>
 #include <fstream>
 #include <iostream>
+#include <vector>
 
 #include "common/config/config.h"
+#include "common/config/data_dir.h"
 #include "common/net/exit_codes.h"
 #include "common/net/handshake.h"
 #include "common/net/station_control.h"
@@ -33,6 +35,21 @@ bool setup_station_logging(const std::string& station, const std::string& level)
     spdlog::debug("event=protobuf_log message=\"{}\"", msg);
   });
   return true;
+}
+
+std::string default_station_config(const std::string& station, const std::string& file_name) {
+  std::vector<std::string> searched;
+  const std::string path = config::default_config_path(file_name, &searched);
+  if (!path.empty()) {
+    spdlog::info("event=default_config station={} file=\"{}\"", station, path);
+    return path;
+  }
+  std::string dirs;
+  for (const std::string& d : searched) dirs += (dirs.empty() ? "" : ", ") + d;
+  spdlog::warn("event=no_default_config station={} file=configs/{} searched=\"{}\" (built-in defaults; --config "
+               "FILE or HEMM_DATA_DIR)",
+               station, file_name, dirs);
+  return {};
 }
 
 std::string printable_text(const std::string& s) {

@@ -39,6 +39,12 @@ std::optional<Key> load_station_key(const std::string& program, const std::strin
                                     const std::string& config_path, const std::string& config_key_file,
                                     const std::string& network_address);
 
+// A station's config when none was given on the command line: `file_name`
+// in configs/ of the data directory (common/config/data_dir.h), logged as
+// event=default_config; "" (built-in defaults, with a warning naming the
+// directories searched) if there is none.
+std::string default_station_config(const std::string& station, const std::string& file_name);
+
 // True for 127.0.0.0/8 and ::1 (false for anything else, also names and 0.0.0.0).
 bool is_loopback_address(const std::string& address);
 

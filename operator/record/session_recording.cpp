@@ -8,6 +8,9 @@
 #include <iterator>
 #include <stdexcept>
 
+#include "operator/record/mcap_file.h"
+#include "operator/record/session_mcap.h"
+
 namespace hemm::op {
 
 std::uint32_t record_checksum(const char* data, std::size_t n) noexcept {
@@ -311,7 +314,9 @@ std::size_t read_varint(const std::string& data, std::size_t pos, std::uint64_t*
   return 0;
 }
 
-std::optional<std::string> check_header(const rec::Header& h) {
+}  // namespace
+
+std::optional<std::string> check_recording_header(const rec::Header& h) {
   if (h.magic() != kRecordingMagic) return std::string("not a hemm recording (no '") + kRecordingMagic + "' header)";
   if (h.format_version() < 1 || h.format_version() > kRecordingFormatVersion)
     return "recording format version " + std::to_string(h.format_version()) + ", this build reads versions 1 to " +
@@ -326,9 +331,32 @@ std::optional<std::string> check_header(const rec::Header& h) {
   return std::nullopt;
 }
 
-}  // namespace
+std::optional<std::string> append_record(const rec::Record& record, Recording* r) {
+  ServoTickRecord scratch;
+  switch (record.body_case()) {
+    case rec::Record::kHeader: return "a second header";
+    case rec::Record::kTick:
+      if (auto e = from_proto(record.tick(), r->header.end_effectors(), &scratch)) return e;
+      if (!r->ticks.empty() && record.tick().tick() <= r->ticks.back().tick())
+        return "tick " + std::to_string(record.tick().tick()) + " does not follow tick " +
+               std::to_string(r->ticks.back().tick());
+      r->ticks.push_back(record.tick());
+      return std::nullopt;
+    case rec::Record::kModelStep:
+      if (!r->steps.empty() && record.model_step().version() <= r->steps.back().version())
+        return "model step version " + std::to_string(record.model_step().version()) + " does not follow version " +
+               std::to_string(r->steps.back().version());
+      r->steps.push_back(record.model_step());
+      return std::nullopt;
+    case rec::Record::kStream: r->streams.push_back(record.stream()); return std::nullopt;
+    case rec::Record::kSession: r->sessions.push_back(record.session()); return std::nullopt;
+    case rec::Record::BODY_NOT_SET: break;
+  }
+  return "an empty record (unknown kind: corrupt or from a newer build)";
+}
 
 std::optional<std::string> load_recording(const std::string& path, Recording* out) {
+  if (mcap::looks_like_mcap(path)) return load_mcap_recording(path, out);
   std::ifstream f(path, std::ios::binary);
   if (!f) return "cannot open " + path;
   const std::string data((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
@@ -337,7 +365,6 @@ std::optional<std::string> load_recording(const std::string& path, Recording* ou
   std::size_t pos = 0;
   std::uint64_t index = 0;
   rec::Record record;
-  ServoTickRecord scratch;
   auto broke = [&](const std::string& why) -> std::optional<std::string> {
     const std::string e = path + ": record " + std::to_string(index) + " at byte " + std::to_string(pos) + ": " + why;
     if (index == 0) return e;  // no header: not a recording, nothing changes
@@ -361,30 +388,12 @@ std::optional<std::string> load_recording(const std::string& path, Recording* ou
       return broke("does not parse as a hemm.rec.Record (corrupt)");
     if (index == 0) {
       if (!record.has_header()) return broke("not a hemm recording (the first record is not a header)");
-      if (auto e = check_header(record.header())) return broke(*e);
+      if (auto e = check_recording_header(record.header())) return broke(*e);
       if (record.header().format_version() >= 2)
         if (auto e = check_checksum(body, static_cast<std::size_t>(len))) return broke(*e);
       r.header = record.header();
-    } else {
-      switch (record.body_case()) {
-        case rec::Record::kHeader: return broke("a second header");
-        case rec::Record::kTick:
-          if (auto e = from_proto(record.tick(), r.header.end_effectors(), &scratch)) return broke(*e);
-          if (!r.ticks.empty() && record.tick().tick() <= r.ticks.back().tick())
-            return broke("tick " + std::to_string(record.tick().tick()) + " does not follow tick " +
-                         std::to_string(r.ticks.back().tick()));
-          r.ticks.push_back(record.tick());
-          break;
-        case rec::Record::kModelStep:
-          if (!r.steps.empty() && record.model_step().version() <= r.steps.back().version())
-            return broke("model step version " + std::to_string(record.model_step().version()) +
-                         " does not follow version " + std::to_string(r.steps.back().version()));
-          r.steps.push_back(record.model_step());
-          break;
-        case rec::Record::kStream: r.streams.push_back(record.stream()); break;
-        case rec::Record::kSession: r.sessions.push_back(record.session()); break;
-        case rec::Record::BODY_NOT_SET: return broke("an empty record (unknown kind: corrupt or from a newer build)");
-      }
+    } else if (auto e = append_record(record, &r)) {
+      return broke(*e);
     }
     pos += n + static_cast<std::size_t>(len);
     ++index;
@@ -401,7 +410,7 @@ bool looks_like_recording(const std::string& path) {
   std::string head(64, '\0');
   f.read(head.data(), static_cast<std::streamsize>(head.size()));
   head.resize(static_cast<std::size_t>(f.gcount()));
-  return head.find(kRecordingMagic) != std::string::npos;
+  return head.find(kRecordingMagic) != std::string::npos || mcap::looks_like_mcap(path);
 }
 
 }  // namespace hemm::op

@@ -1,12 +1,14 @@
 // Recorded operator sessions (hemm-operator --record FILE; the format is
 // proto/record.proto: length-delimited Record messages, a Header first).
 //
-// Why length-delimited Protocol Buffers rather than MCAP: the project
-// already depends on protobuf and on nothing that writes MCAP (no Debian
-// package); the framing is the one protobuf's own libraries read and write
-// (C++ util::ParseDelimitedFromCodedStream, Java parseDelimitedFrom, Python
-// _DecodeVarint + ParseFromString), so any protobuf user reads a recording
-// with the schema in proto/.
+// Why length-delimited Protocol Buffers, with MCAP as an export
+// (session_mcap.h): the recorder appends one record at a time from a writer
+// thread and a file cut by a crash keeps every record before the cut, with
+// no index or summary to finish; the framing is the one protobuf's own
+// libraries read and write (C++ util::ParseDelimitedFromCodedStream, Java
+// parseDelimitedFrom, Python _DecodeVarint + ParseFromString), so any
+// protobuf user reads a recording with the schema in proto/. Robotics tools
+// (Foxglove Studio, any MCAP reader) open its MCAP export.
 //
 // SessionRecorder writes on its own thread. Producers never wait on the
 // file: the servo thread pushes ServoTickRecords into a preallocated ring
@@ -107,12 +109,20 @@ struct Recording {
   std::uint64_t bytes = 0;                 // of the records read
 };
 
-// Reads `path`. A file that is not a recording (unreadable, no valid header)
+// The checks load_recording makes, for another container of the same
+// records (the MCAP export, session_mcap.h): the header's magic, version and
+// fields; one record after the header (sizes, finiteness, tick and version
+// order), appended to *r unless it is refused.
+std::optional<std::string> check_recording_header(const rec::Header& h);
+std::optional<std::string> append_record(const rec::Record& record, Recording* r);
+
+// Reads `path` (a recording, or its MCAP export: session_mcap.h). A file that is not a recording (unreadable, no valid header)
 // gives an error and leaves *out untouched. A recording that breaks later
 // (truncated, corrupt) gives an error "record N at byte B: why" and *out
 // holds the records before it. No error: the whole file was read.
 std::optional<std::string> load_recording(const std::string& path, Recording* out);
-// True if the file starts like a recording (for --replay's format choice).
+// True if the file starts like a recording or an MCAP file (for --replay's
+// format choice; load_recording tells an MCAP file that is not a session's).
 bool looks_like_recording(const std::string& path);
 
 }  // namespace hemm::op

@@ -6,8 +6,11 @@
 #include <stdexcept>
 #include <thread>
 
+#include <google/protobuf/text_format.h>
+
 #include "common/clock/steady_clock.h"
 #include "common/config/config.h"
+#include "config_operator.pb.h"
 #include "report.pb.h"
 
 namespace hemm::op {
@@ -29,6 +32,11 @@ void apply_step(const rec::ModelStep& s, ModelThread& model) {
 SessionReplayResult replay_session(const Recording& rec, const SessionReplayOptions& o) {
   if (!(o.speed >= 0.0) || !std::isfinite(o.speed)) throw std::invalid_argument("replay speed must be >= 0");
   SessionReplayResult r;
+  config::OperatorConfig recorded_config;
+  if (google::protobuf::TextFormat::ParseFromString(rec.header.config_text(), &recorded_config) &&
+      recorded_config.probe_3d().enabled())
+    r.warning = "a 3D session (probe_3d): the replay does not rebuild the live voxmap from the recorded depth "
+                "chunks, so its 3D forces are not reproduced";
   const int ees = rec.header.end_effectors();
   servo::ModelChannel channel;
   ModelThreadParams mp;
@@ -80,6 +88,7 @@ SessionReplayResult replay_session(const Recording& rec, const SessionReplayOpti
     presses.store(t.view_presses, std::memory_order_relaxed);
     servo::prepare_tick_output(t.in, t.tick, out);
     task.tick(t.in, m, out);
+    if (o.on_tick) o.on_tick(t.tick, out);
     double err = 0.0;
     for (int k = 0; k < ees; ++k) {
       const auto kk = static_cast<std::size_t>(k);

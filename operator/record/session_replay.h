@@ -36,6 +36,8 @@ struct SessionReplayOptions {
   ModelThread::SnapshotObserver on_snapshot;
   NewestMailbox<StationLogRecord>* ticks = nullptr;
   const std::atomic<bool>* stop = nullptr;  // set: ends the replay early
+  // Every replayed tick's output (its forces), right after the tick.
+  std::function<void(std::uint64_t tick, const servo::TickOutput& out)> on_tick;
 };
 
 struct SessionReplayResult {
@@ -49,6 +51,10 @@ struct SessionReplayResult {
   double recorded_s = 0.0;           // recorded time spanned by the replayed ticks
   double wall_s = 0.0;               // the replay's own time
   std::string stopped;               // why it stopped before the last tick, if it did
+  // What the replay does not rebuild, when the recording needs it: a 3D
+  // session's live voxmap (its depth chunks are recorded, the voxmap's build
+  // times are not), so its 3D forces differ from the recorded ones.
+  std::string warning;
 };
 
 // Throws std::invalid_argument on bad options. A recording whose ticks

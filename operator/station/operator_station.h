@@ -135,7 +135,7 @@ class OperatorStation {
                    std::atomic<std::uint32_t>* presses);
   // The session recorder's taps (operator/record), before start(): every
   // model step's inputs, every servo tick, every stream message received
-  // (robot state, scans) and sent (commands), every session frame sent; the
+  // (robot state, scans, depth chunks) and sent (commands), every session frame sent; the
   // stream and session taps are called on the network thread with the local
   // time.
   struct SessionTaps {

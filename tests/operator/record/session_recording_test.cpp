@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "operator/record/session_mcap.h"
 #include "operator/record/session_recording.h"
 #include "operator/record/session_replay.h"
 
@@ -424,6 +425,42 @@ TEST(SessionReplay, ReproducesTheRecordedForcesBitForBitAndCatchesAChange) {
   EXPECT_EQ(r.force_mismatches, 0u);
   EXPECT_EQ(r.mode_mismatches, 0u);
   EXPECT_NEAR(r.recorded_s, 2.999, 1e-9);
+  EXPECT_TRUE(r.warning.empty()) << r.warning;
+
+  // The same session through its MCAP export (session_mcap.h): read back
+  // record for record, replayed to the same forces tick for tick.
+  {
+    const std::string mcap = temp_path("session.mcap");
+    const ho::McapExport x = ho::export_mcap(rec, mcap);
+    EXPECT_EQ(x.topics.at("/operator/servo"), 3000u);
+    EXPECT_EQ(x.topics.at("/operator/device"), 3000u);
+    EXPECT_EQ(x.topics.at("/operator/model_step"), 150u);
+    ho::Recording back;
+    ASSERT_EQ(ho::load_recording(mcap, &back), std::nullopt);
+    EXPECT_EQ(back.header.SerializeAsString(), rec.header.SerializeAsString());
+    ASSERT_EQ(back.ticks.size(), rec.ticks.size());
+    for (std::size_t i = 0; i < rec.ticks.size(); ++i)
+      ASSERT_EQ(back.ticks[i].SerializeAsString(), rec.ticks[i].SerializeAsString()) << i;
+    ASSERT_EQ(back.steps.size(), rec.steps.size());
+    for (std::size_t i = 0; i < rec.steps.size(); ++i)
+      ASSERT_EQ(back.steps[i].SerializeAsString(), rec.steps[i].SerializeAsString()) << i;
+    std::vector<Eigen::Vector3d> fa, fb;
+    ho::SessionReplayOptions oa = o, ob = o;
+    oa.on_tick = [&](std::uint64_t, const hemm::servo::TickOutput& t) { fa.push_back(t.command.ee[0].force_H); };
+    ob.on_tick = [&](std::uint64_t, const hemm::servo::TickOutput& t) { fb.push_back(t.command.ee[0].force_H); };
+    ho::replay_session(rec, oa);
+    const ho::SessionReplayResult rb = ho::replay_session(back, ob);
+    EXPECT_EQ(rb.force_mismatches, 0u);
+    ASSERT_EQ(fa.size(), 3000u);
+    ASSERT_EQ(fa.size(), fb.size());
+    for (std::size_t i = 0; i < fa.size(); ++i) ASSERT_EQ(fa[i], fb[i]) << "tick " << i;
+    std::remove(mcap.c_str());
+  }
+
+  // A 3D session's replay says what it does not rebuild.
+  ho::Recording three_d = rec;
+  three_d.header.set_config_text("probe_3d { enabled: true }");
+  EXPECT_NE(ho::replay_session(three_d, o).warning.find("3D session"), std::string::npos);
 
   // A recorded force changed by 1 uN on one tick is found on that tick.
   ho::Recording changed = rec;
