@@ -68,6 +68,13 @@ struct TickOutput {
   bool publish_setpoint = true;
   std::array<RenderPoints, device::kMaxEndEffectors> points{};  // logged
   std::uint32_t mode = 0;                                       // logged
+  // What ran this tick, for the worst-ticks report: a static name of the
+  // renderer ("proxy2d", "point_probe", "tool6", "vps", ...; "" none) and
+  // the work units it spent (0: not measured).
+  const char* renderer = "";
+  std::int64_t work = 0;
+  // The next deadline (steady-clock ns): the tick's work must end before it.
+  std::int64_t deadline_ns = 0;
 };
 
 // The TickOutput the loop hands the task each tick, reset as described above

@@ -80,6 +80,8 @@ class Tool6Explorer {
   const vps::ToolState& state() const noexcept { return state_; }
   const Eigen::Isometry3d& goal_W() const noexcept { return goal_W_; }
   const Tool6Params& params() const noexcept { return p_; }
+  // The work of the last tick (0 without a voxmap).
+  std::int64_t work() const noexcept { return state_.contact.nodes_visited + state_.contact.points_tested; }
 
  private:
   Tool6Params p_;
