@@ -214,7 +214,7 @@ void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelS
   const bool tool6 = tool6_ != nullptr && mode_ == math::Mode::kExploration;
   if (tool6) {
     const bool live = snap != nullptr && snap->have_state && !snap->resyncing;
-    tool6_->tick(in.ee[0], T_W_R_, live ? snap->voxmap.get() : nullptr);
+    tool6_->tick(in.ee[0], T_W_R_, live ? snap->voxmap.get() : nullptr, out.deadline_ns);
   }
 
   // Manipulation through the model (issue 13): the point probe at the tool

@@ -487,6 +487,58 @@ TEST(Manipulation, WithTheVoxmapTheArmTargetIsTheToolProbesProxyOnTheSurface) {
   EXPECT_GT(last.work, 0);
 }
 
+// The 6-DoF tool on a voxmap: its VPS work in the tick is bounded by the
+// time budget (the cost per unit measured at start), reported as the tick's
+// renderer and work; with the deadline already gone it does an eighth of
+// the budget's work, not none; no allocation.
+TEST(Tool6, TheTimeBudgetBoundsTheToolsWorkAndTheTickNamesIt) {
+  ho::OperatorTaskParams p;
+  p.tool6.enabled = true;
+  p.tool6.tick_budget_ns = 100'000;
+  ho::OperatorServoTask task(p);
+  const ho::Tool6Explorer& tool = *task.tool6();
+  ASSERT_GT(tool.calibration().samples, 0);
+  ASSERT_GT(tool.budget().stats().calibrated_ns_per_unit, 0.0);
+  // A block whose top is at z 0.85 under H's origin (R x 0.85, z 0.95).
+  const auto snap = box_voxmap_snapshot(Eigen::Vector3d(0.85, 0.0, 0.75), 4);
+  ASSERT_TRUE(snap);
+  hd::DeviceSample s;
+  s.end_effectors = 1;
+  s.ee[0].enabled = true;
+  s.ee[0].position_H = Eigen::Vector3d(0, 0, 0.87 - 0.95);  // the tip (radius 20 mm) 2 cm above the top
+  hs::TickOutput out;
+  for (int i = 0; i < 50; ++i) {  // warm up, the tool lowered 25 mm: 5 mm into the top
+    s.t_ns += 1'000'000;
+    s.ee[0].position_H.z() -= 0.0005;
+    out = hs::TickOutput{};
+    task.tick(s, *snap, out);
+  }
+  hemm::test::count_allocations_on_this_thread(true);
+  const std::uint64_t before = hemm::test::counted_allocations();
+  for (int i = 0; i < 200; ++i) {
+    s.t_ns += 1'000'000;
+    out = hs::TickOutput{};
+    task.tick(s, *snap, out);
+  }
+  const std::uint64_t allocs = hemm::test::counted_allocations() - before;
+  hemm::test::count_allocations_on_this_thread(false);
+  EXPECT_EQ(allocs, 0u);
+  EXPECT_STREQ(out.renderer, "tool6");
+  EXPECT_EQ(out.work, tool.work());
+  EXPECT_GT(tool.state().contact.contacts, 0);
+  EXPECT_GT(out.work, 0);
+  const double c = tool.budget().stats().ns_per_unit;
+  // No tick had more than its time at the lowest cost per unit the run saw.
+  EXPECT_LE(out.work, std::min<std::int64_t>(p.tool6.budget,
+                                             static_cast<std::int64_t>(100'000 / tool.budget().stats().min_ns_per_unit) + 1));
+  EXPECT_EQ(tool.budget().stats().ticks, 250u);
+  out = hs::TickOutput{};
+  out.deadline_ns = 1;  // long gone
+  task.tick(s, *snap, out);
+  EXPECT_GT(out.work, 0);
+  EXPECT_LE(out.work, static_cast<std::int64_t>(12'500 / c) + 1);
+}
+
 TEST(Tick, NeverAllocatesOrFrees) {
   ho::OperatorTaskParams p;
   auto log = ho::make_station_logger(256);  // not started: pushes fill the ring, then count drops
