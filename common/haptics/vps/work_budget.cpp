@@ -8,7 +8,7 @@
 namespace hemm::vps {
 
 void update_work_rate(const WorkRateParams& p, std::int64_t elapsed_ns, std::int64_t work, WorkRate* r) noexcept {
-  if (work < std::max<std::int64_t>(p.min_work, 1) || elapsed_ns < 0) return;
+  if (work < 1 || elapsed_ns < 0) return;
   double x = static_cast<double>(elapsed_ns) / static_cast<double>(work);
   if (r->samples == 0) {  // nothing measured yet: this is the mean, half of it the spread
     r->mean_ns = x;
@@ -149,7 +149,7 @@ void TickWorkBudget::end(std::int64_t now_ns, std::int64_t work, int levels_comp
   // run of light ticks (free space: culled nodes, cheap units) must not talk
   // it down before the next contact, whose units cost more. Without a time
   // budget every tick counts (the report says what a unit costs).
-  if (timed() && complete) return;
+  if (timed() ? complete : work < p_.rate.min_work) return;
   update_work_rate(p_.rate, elapsed, work, &rate_);
   if (rate_.samples == 0) return;
   const double c = budgeted_ns_per_unit(p_.rate, rate_);

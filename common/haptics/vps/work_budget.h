@@ -40,12 +40,19 @@ struct WorkRateParams {
   double mean_gain = 1.0 / 64;       // the mean follows over ~64 samples
   double deviation_gain = 1.0 / 16;  // the deviation over ~16 (a new spread counts fast)
   double deviations = 4.0;           // budgeted cost = mean + deviations * deviation
-  // Ticks with less work do not update the estimate: their fixed cost (three
-  // pairs set up, the result summed) would read as a cost per unit.
+  // Evaluations with less work do not count when nothing bound them (the
+  // calibration; ticks without a time budget): their fixed cost (the pairs
+  // set up, the result summed) would read as a cost per unit. A tick the
+  // budget bound always counts, however small its budget: otherwise an
+  // estimate high enough to buy fewer units would never come down.
   std::int64_t min_work = 256;
-  // A sample above this many times the mean is taken at that: the thread was
-  // preempted (not the work's cost; the deviation still widens).
-  double outlier = 8.0;
+  // A sample above this many times the mean is taken at that: a tick that
+  // took more than twice what its units cost on average was disturbed (a
+  // preemption, the hypervisor, another core's cache traffic), which no
+  // estimate predicts; counting it whole would shrink every later budget
+  // for a spike that does not come back on schedule. A real rise still
+  // doubles the mean within ~45 ticks.
+  double outlier = 2.0;
 };
 
 // Cost of a work unit (ns). samples == 0: not measured (no time budget).

@@ -18,10 +18,11 @@
 namespace hemm::vps {
 namespace {
 
-TEST(WorkRate, FollowsAConstantCostAndIgnoresLightTicksAndPreemptions) {
+TEST(WorkRate, FollowsAConstantCostAndClampsDisturbedTicks) {
   WorkRateParams p;
   WorkRate r;
-  update_work_rate(p, 1000, 10, &r);  // below min_work: fixed costs, not per unit
+  update_work_rate(p, 1000, 0, &r);  // no work: nothing to learn
+  update_work_rate(p, -5, 100, &r);  // a clock that went back
   EXPECT_EQ(r.samples, 0u);
   update_work_rate(p, 30'000, 1000, &r);  // the first sample: mean 30, spread 15
   EXPECT_DOUBLE_EQ(r.mean_ns, 30.0);
@@ -32,11 +33,17 @@ TEST(WorkRate, FollowsAConstantCostAndIgnoresLightTicksAndPreemptions) {
   for (int i = 0; i < 1000; ++i) update_work_rate(p, 20'000, 1000, &r);
   EXPECT_NEAR(r.mean_ns, 20.0, 1e-5);
   EXPECT_NEAR(r.deviation_ns, 0.0, 1e-5);
-  // A preempted tick (1 ms for 1000 units) counts as at most 8 x the mean.
+  // A preempted tick (1 ms for 1000 units) counts as twice the mean.
   const double before = r.mean_ns;
   update_work_rate(p, 1'000'000, 1000, &r);
-  EXPECT_NEAR(r.mean_ns, before + p.mean_gain * (7 * before), 1e-9);
-  EXPECT_NEAR(r.deviation_ns, p.deviation_gain * 7 * before, 1e-4);
+  EXPECT_NEAR(r.mean_ns, before + p.mean_gain * before, 1e-9);
+  EXPECT_NEAR(r.deviation_ns, p.deviation_gain * before, 1e-4);
+  // A real rise (every unit now 3 x dearer) is followed all the same: the
+  // clamp lets the mean double in ~45 ticks, the gain closes the rest.
+  for (int i = 0; i < 45; ++i) update_work_rate(p, 60'000, 1000, &r);
+  EXPECT_GT(r.mean_ns, 2 * before * 0.95);
+  for (int i = 0; i < 400; ++i) update_work_rate(p, 60'000, 1000, &r);
+  EXPECT_NEAR(r.mean_ns, 60.0, 1.0);
 }
 
 TEST(WorkRate, SpreadWidensTheBudgetedCostAtOnce) {
@@ -70,6 +77,22 @@ TEST(TickWorkBudget, BuysTheTimeLeftAtTheBudgetedCost) {
   // The work-unit budget caps it.
   p.max_work = 1000;
   EXPECT_EQ(TickWorkBudget(p, r).begin(1'000'000, 0), 1000);
+  // An estimate so high that the budget buys a handful of units still comes
+  // down: the ticks it binds count, however little work they did.
+  WorkRate high;
+  high.mean_ns = 5000.0;
+  high.samples = 1;
+  TimeBudgetParams q;
+  q.tick_ns = 200'000;
+  TickWorkBudget h(q, high);
+  std::int64_t now = 0;
+  for (int i = 0; i < 2000; ++i) {
+    const std::int64_t u = h.begin(now, 0);
+    h.end(now + 1000 + 20 * u, u, 0, false);  // 1 us fixed + 20 ns a unit
+    now += 1'000'000;
+  }
+  EXPECT_LT(h.rate().mean_ns, 25.0);
+  EXPECT_GT(h.begin(now, 0), 2000);
   // No time budget, or nothing measured: the work-unit budget.
   p.tick_ns = 0;
   EXPECT_FALSE(TickWorkBudget(p, r).timed());
