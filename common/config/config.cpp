@@ -270,6 +270,10 @@ std::vector<FieldIssue> validate_operator_config(const pb::Message& m) {
                                   "\"pointshell\""});
   if (!(p3.tool_work_budget() >= 100 && p3.tool_work_budget() <= 1000000))
     out.push_back({"probe_3d.tool_work_budget", "must be within [100, 1000000]"});
+  if (!(p3.tool_tick_budget_us() >= 0 && p3.tool_tick_budget_us() <= 100000))
+    out.push_back({"probe_3d.tool_tick_budget_us", "must be within [0, 100000] (0: the work budget alone)"});
+  if (!(p3.tool_tick_margin_us() >= 0 && p3.tool_tick_margin_us() <= 100000))
+    out.push_back({"probe_3d.tool_tick_margin_us", "must be within [0, 100000]"});
   if (!(p3.tool_contact_stiffness() > 0 && p3.tool_contact_stiffness() <= 1e10))
     out.push_back({"probe_3d.tool_contact_stiffness", "must be within (0, 1e10] N/m^3"});
   if (p3.tool_hand_script() != "explore-table" && p3.tool_hand_script() != "explore-block")

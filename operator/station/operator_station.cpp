@@ -44,6 +44,10 @@ void apply_probe3d_config(const config::Probe3dConfig& c, OperatorStationOptions
   if (c.tool() == "pointshell") {  // the 6-DoF tool in place of the point probe
     o->task.tool6.enabled = true;
     o->task.tool6.budget = c.tool_work_budget();
+    o->task.tool6.tick_budget_ns = std::llround(c.tool_tick_budget_us() * 1e3);
+    o->task.tool6.tick_margin_ns = std::llround(c.tool_tick_margin_us() * 1e3);
+    o->task.tool6.calibration_voxel = c.voxel_size_m();
+    o->task.tool6.calibration_layers = o->model.voxmap.layers;
     o->task.tool6.contact_stiffness = c.tool_contact_stiffness();
     o->task.tool6.origin_R = Eigen::Vector3d(c.origin_x_m(), 0.0, c.origin_z_m());
     o->hand6_script = c.tool_hand_script();
@@ -144,6 +148,7 @@ std::string to_string(const OperatorStationSummary& s) {
     o << "nav-to-goal: goal=(" << s.goal_W.x() << ", " << s.goal_W.y() << ") arrived=" << (s.arrived ? "yes" : "no")
       << " distance_m=" << s.goal_distance_m << " first_arrival_s=" << s.first_arrival_s
       << " arrivals=" << s.arrivals << " goal " << s.goal_index + 1 << "/" << s.route_size << "\n";
+  if (s.has_tool6) o << "tool6 budget: " << to_string(s.tool6_budget) << "\n";
   return o.str();
 }
 
@@ -227,6 +232,7 @@ report::OperatorStation to_report(const OperatorStationSummary& s) {
   ar.set_last_reason(short_name(s.arm_refusals.last_reason));
   ar.set_last_seq(s.arm_refusals.last_seq);
   ar.set_bad_reports(s.arm_refusals.errors);
+  if (s.has_tool6) to_report(s.tool6_budget, r.mutable_tool6_budget());
   report::Logs& l = *r.mutable_logs();
   l.set_servo_written(s.servo_log_written);
   l.set_servo_dropped(s.servo_log_dropped);
@@ -558,6 +564,12 @@ OperatorStationSummary OperatorStation::summary() const {
     s.route_size = nav_goal_->route().size();
     if (s.robot_pose_valid)
       s.goal_distance_m = (s.goal_W - Eigen::Vector2d(s.robot_pose.x, s.robot_pose.y)).norm();
+  }
+  if (const Tool6Explorer* t = task_->tool6(); t != nullptr) {
+    s.has_tool6 = true;
+    s.tool6_budget.params = t->budget().params();
+    s.tool6_budget.calibration = t->calibration();
+    s.tool6_budget.stats = t->budget().stats();
   }
   return s;
 }

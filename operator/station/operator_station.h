@@ -20,6 +20,7 @@
 #include <string>
 #include <vector>
 
+#include "operator/budget/work_budget_report.h"
 #include "operator/client/operator_client.h"
 #include "operator/device/hand_script.h"
 #include "operator/device/haptic_device.h"
@@ -93,6 +94,9 @@ struct OperatorStationSummary {
   std::uint64_t arrivals = 0;
   std::size_t goal_index = 0, route_size = 0;
   double goal_distance_m = -1.0;
+  // The 6-DoF tool's time-critical budget (probe_3d tool "pointshell").
+  bool has_tool6 = false;
+  WorkBudgetSummary tool6_budget;
 };
 std::string to_string(const OperatorStationSummary& s);
 // The summary as a report message (proto/report.proto: units in the keys;

@@ -11,6 +11,7 @@
 #include <fstream>
 #include <thread>
 
+#include "common/clock/steady_clock.h"
 #include "common/haptics/vps/closed_forms.h"
 #include "common/haptics/vps/scenes.h"
 #include "common/mesh/mesh_io.h"
@@ -54,10 +55,9 @@ servo::TimingSummary run_loop(device::HapticDevice& device, servo::ServoTask& ta
   return loop.summary();
 }
 
-TEST(VpsServoTask, PegInHoleWithScriptedHandsThroughTheDeviceApi) {
-  // The scene's own geometry is the reference: the pins plate rests on the
-  // holes block when the pins frame is 15 mm above the holes frame, and the
-  // holes allow 1 mm of play per side.
+// The paper's peg-in-hole as the shipped config builds it: table at 2 mm,
+// steel pins and holes at 1 mm with 1.5 mm pointshells.
+std::shared_ptr<VpsLocalModel> peg_in_hole_model() {
   const vps::BimanualScene sc = vps::make_peg_in_hole_scene();
   VpsMeshSpec table, pins, holes;
   table.voxel_size = 2 * mm;
@@ -66,7 +66,14 @@ TEST(VpsServoTask, PegInHoleWithScriptedHandsThroughTheDeviceApi) {
   pins.density = holes.density = 7800;
   vps::ContactParams cp;
   cp.stiffness = 1e7;
-  const auto model = make_vps_model(sc.scene, table, {{sc.right, pins}, {sc.left, holes}}, cp);
+  return make_vps_model(sc.scene, table, {{sc.right, pins}, {sc.left, holes}}, cp);
+}
+
+TEST(VpsServoTask, PegInHoleWithScriptedHandsThroughTheDeviceApi) {
+  // The scene's own geometry is the reference: the pins plate rests on the
+  // holes block when the pins frame is 15 mm above the holes frame, and the
+  // holes allow 1 mm of play per side.
+  const auto model = peg_in_hole_model();
   device::ReplayDevice dev(scene_hands_trajectory("peg-in-hole"), scripted_hands_limits(2));
   VpsTaskParams tp;
   VpsServoTask task(model, dev.limits(), tp);
@@ -218,6 +225,86 @@ TEST(VpsServoTask, RefusesAMismatchedDeviceAndIgnoresNonFiniteSamples) {
   EXPECT_EQ(out.command.ee[0].force_H, Eigen::Vector3d::Zero());
   EXPECT_EQ(task.object_pose(0).translation(), before);
   EXPECT_TRUE(task.object_pose(0).matrix().allFinite());
+}
+
+TEST(VpsServoTask, TimeBudgetBuysTheTimeLeftBeforeTheDeadline) {
+  // A 30 mm ball (1 mm pointshell) sunk to its centre in a table: its full
+  // cycle is thousands of work units, far more than 40 us buys.
+  mesh::TriangleMesh table = mesh::make_box({0.1, 0.1, 0.01}, 2);  // top at z = 0.01
+  VpsMeshSpec tspec, ball;
+  tspec.voxel_size = 2 * mm;
+  ball.voxel_size = ball.shell_voxel = 1 * mm;
+  const auto model = make_vps_model(table, tspec, {{mesh::make_icosphere(0.03, 4), ball}}, {});
+  device::DeviceSample in;
+  in.end_effectors = 1;
+  in.ee[0].position_H = Eigen::Vector3d(0, 0, 0.01);
+  servo::ModelSnapshot none;
+  VpsTaskParams full;
+  full.tick_budget_ns = 0;  // no time budget, no work budget: the full cycle
+  VpsServoTask ref(model, scripted_hands_limits(1), full);
+  servo::TickOutput out_full;
+  ref.tick(in, none, out_full);
+  EXPECT_STREQ(out_full.renderer, "vps");
+  EXPECT_EQ(ref.calibration().samples, 0);  // nothing to calibrate without a time budget
+  EXPECT_EQ(ref.budget_stats().stopped_early, 0u);
+  VpsTaskParams tp;
+  tp.tick_budget_ns = 40'000;
+  VpsServoTask task(model, scripted_hands_limits(1), tp);
+  ASSERT_GT(task.calibration().samples, 0);
+  const double c0 = task.budget_stats().calibrated_ns_per_unit;
+  ASSERT_GT(c0, 0.0);
+  // No deadline given: the tick budget over the budgeted cost per unit.
+  servo::TickOutput out;
+  task.tick(in, none, out);
+  EXPECT_STREQ(out.renderer, "vps");
+  EXPECT_GT(out.work, 0);
+  EXPECT_LE(out.work, static_cast<std::int64_t>(40'000 / c0));
+  std::printf("full cycle %lld units; 40 us at %.1f ns/unit (calibrated): %lld units\n",
+              static_cast<long long>(out_full.work), c0, static_cast<long long>(out.work));
+  // The deadline already passed: an eighth of the tick budget, a coarse force.
+  const double c1 = task.budget_stats().ns_per_unit;
+  out = servo::TickOutput{};
+  out.deadline_ns = steady_now_ns() - 1;
+  task.tick(in, none, out);
+  EXPECT_GT(out.work, 0);
+  EXPECT_LE(out.work, static_cast<std::int64_t>(5'000 / c1));
+  EXPECT_LT(out.work, out_full.work);
+  const vps::WorkBudgetStats& st = task.budget_stats();
+  EXPECT_EQ(st.ticks, 2u);
+  EXPECT_EQ(st.stopped_early, 2u);
+  std::uint64_t by_levels = 0;
+  for (std::uint64_t n : st.levels) by_levels += n;
+  EXPECT_EQ(by_levels, 2u);
+  // A bad budget is refused.
+  VpsTaskParams bad;
+  bad.tick_budget_ns = -1;
+  EXPECT_THROW(VpsServoTask(model, scripted_hands_limits(1), bad), std::invalid_argument);
+}
+
+TEST(VpsServoTask, TimeBudgetHoldsThePegInHolesPairsToTheirTimeWithoutAllocating) {
+  // The peg-in-hole's deep contact with a 60 us budget (the full cycle takes
+  // longer there): the ticks stop early, few take longer than they were
+  // given, and the servo thread allocates nothing.
+  const auto model = peg_in_hole_model();
+  device::ReplayDevice dev(scene_hands_trajectory("peg-in-hole"), scripted_hands_limits(2));
+  VpsTaskParams tp;
+  tp.tick_budget_ns = 60'000;
+  VpsServoTask task(model, dev.limits(), tp);
+  const std::uint64_t allocs = test::counted_allocations();
+  run_loop(dev, task, static_cast<std::uint64_t>(vps::kPegInHoleDuration * 1000) + 400);
+  EXPECT_EQ(test::counted_allocations() - allocs, 0u) << "allocations on the servo thread";
+  const vps::WorkBudgetStats& st = task.budget_stats();
+  std::printf("peg-in-hole at 60 us: %llu ticks, %llu stopped early, %llu over time; ns/unit %.1f at start, %.1f at "
+              "the end (%.1f-%.1f), smallest budget %lld units\n",
+              static_cast<unsigned long long>(st.ticks), static_cast<unsigned long long>(st.stopped_early),
+              static_cast<unsigned long long>(st.over_time), st.calibrated_ns_per_unit, st.ns_per_unit,
+              st.min_ns_per_unit, st.max_ns_per_unit, static_cast<long long>(st.min_work_budget));
+  EXPECT_EQ(st.ticks, task.stats().ticks);
+  EXPECT_GT(st.stopped_early, 0u);
+  // Over their time: a preempted tick counts too (this test runs beside
+  // other work, without SCHED_FIFO); a cost estimate off by even 2 x would
+  // put most of the early-stopped ticks over.
+  EXPECT_LT(st.over_time, st.stopped_early / 4 + 10);
 }
 
 TEST(VpsModel, LoadsMeshFilesThroughTheCache) {
