@@ -106,7 +106,8 @@ PY
   sleep 3
 fi
 
-condition="$( ((compile)) && echo "beside a compile ($jobs loops of g++ on operator/vps/vps_task.cpp at nice 0)" || echo "idle (nothing else started by this script)")"
+condition="$( ((compile)) && echo "beside a compile ($jobs loops of g++ on operator/vps/vps_task.cpp at nice 0)" || echo "no compile started by this script")"
+condition+="; load average at start $(cut -d' ' -f1 /proc/loadavg)"
 {
   echo "# hemm real-time table"
   echo
