@@ -130,8 +130,9 @@ class TickWorkBudget {
   // The work units this tick may spend, at `now_ns`, with its deadline
   // (steady ns; 0: unknown, the tick budget alone). Without a time budget
   // (tick_ns 0, or nothing measured) the work-unit budget. With one: the
-  // time left, and at least tick_ns / 8 (when the tick is already late, a
-  // coarse force rather than none), over the budgeted cost per unit.
+  // time left, and at least tick_ns / 8, over the budgeted cost per unit.
+  // However few units that is, the evaluation completes the coarsest level
+  // (contact.h): a tick already late renders a coarse but complete force.
   std::int64_t begin(std::int64_t now_ns, std::int64_t deadline_ns) noexcept;
   // After the evaluation (`now_ns` its end): its work, the levels all its
   // pairs completed, whether every pair reached its finest level.
