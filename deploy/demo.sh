@@ -69,21 +69,13 @@ echo "-- relay counters:"
 grep -v "^stats " "$out/relay.txt" || true
 
 # The live views: both stations write PNGs of their view every 2 s (and a
-# last one at exit) into out/demo/<run>/{operator,robot}_view/. They render
-# with OpenGL on an X display: without one, an Xvfb of our own; software
-# OpenGL (llvmpipe) with one thread, so the views do not starve the 1 kHz
-# servo and simulation on 2 cores.
+# last one at exit) into out/demo/<run>/{operator,robot}_view/ (an Xvfb of
+# our own without a display: deploy/lib/display.sh).
 op_view=() robot_view=()
 if "$bin/hemm-operator" --help 2>/dev/null | grep -q -- --view-png; then
-  if [[ -z "${DISPLAY:-}" ]] && command -v Xvfb >/dev/null; then
-    rm -f "$out/xvfb.display"
-    Xvfb -displayfd 3 -screen 0 1024x768x24 -nolisten tcp 3>"$out/xvfb.display" 2>"$out/xvfb.log" &
-    pids+=("$!")
-    for _ in $(seq 50); do [[ -s "$out/xvfb.display" ]] && break; sleep 0.1; done
-    [[ -s "$out/xvfb.display" ]] && export DISPLAY=":$(head -n1 "$out/xvfb.display")"
-  fi
-  if [[ -n "${DISPLAY:-}" ]]; then
-    export LIBGL_ALWAYS_SOFTWARE=1 LP_NUM_THREADS=1
+  # shellcheck source=deploy/lib/display.sh
+  source "$root/deploy/lib/display.sh"
+  if hemm_display "$out"; then
     op_view=(--view-png VIEW_DIR/operator_view --view-interval 2)
     robot_view=(--view-png VIEW_DIR/robot_view --view-interval 2)
   else

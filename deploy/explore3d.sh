@@ -16,8 +16,10 @@
 # hand's actual path); output under out/explore3d_bimanual, plot
 # DOC/explore3d_bimanual_wrench.png.
 #
-# Usage: deploy/explore3d.sh BUILD_DIR [--device sim-hand6|sim-bimanual] [--rtts 0,300] [--out DIR] [--doc DIR] [--port-base P]
-# (ports P, P+1 for the robot and P+100, P+101 for the relay; P default 47300).
+# Usage: deploy/explore3d.sh BUILD_DIR [--device sim-hand6|sim-bimanual] [--rtts 0,300] [--out DIR] [--doc DIR] [--port-base P] [--views]
+# (ports P, P+1 for the robot and P+100, P+101 for the relay; P default 47300;
+# --views: both stations write PNGs of their live view every 2 s into
+# DIR/<rtt>ms/{operator,robot}_view/, on the caller's X display.)
 # Takes about 75 s per round trip.
 set -euo pipefail
 
@@ -35,10 +37,12 @@ out=""
 doc="$root/deploy/doc"
 device="sim-hand6"
 base=47300
+views=0
 while (($#)); do
   case "$1" in
     --port-base) base="${2:?--port-base needs a port}"; shift 2 ;;
     --device) device="${2:?--device needs sim-hand6 or sim-bimanual}"; shift 2 ;;
+    --views) views=1; shift ;;
     --rtts) rtts="${2:?--rtts needs a list}"; shift 2 ;;
     --out) out="${2:?--out needs a directory}"; shift 2 ;;
     --doc) doc="${2:?--doc needs a directory}"; shift 2 ;;
@@ -72,9 +76,14 @@ trap cleanup EXIT
 run() {  # RTT_MS
   local rtt="$1" dir="$out/${1}ms"
   mkdir -p "$dir"
+  local op_view=() robot_view=()
+  if ((views)); then
+    op_view=(--view-png "$dir/operator_view" --view-interval 2)
+    robot_view=(--view-png "$dir/robot_view" --view-interval 2)
+  fi
   echo "explore3d: ${rtt} ms round trip$( ((rtt > 0)) && echo ", 5 % loss each way") ($secs s) -> $dir" >&2
   "$bin/hemm-robot" --config "$cfg/robot_depth.pbtxt" --session-port "$base" --stream-port $((base + 1)) \
-    --duration $((secs + 10)) --log-level warn --station-json "$dir/robot_station.json" \
+    --duration $((secs + 10)) --log-level warn --station-json "$dir/robot_station.json" "${robot_view[@]}" \
     >"$dir/robot.txt" 2>"$dir/robot.log" &
   local robot=$! relay="" port="$base" stream=$((base + 1))
   pids+=("$robot")
@@ -93,7 +102,7 @@ run() {  # RTT_MS
   sleep 1
   local rc=0
   "$bin/hemm-operator" --config "$cfg/$opcfg" --session-port "$port" --stream-port "$stream" \
-    --log "$dir/servo.csv" --duration "$secs" --log-level warn --station-json "$dir/station.json" \
+    --log "$dir/servo.csv" --duration "$secs" --log-level warn --station-json "$dir/station.json" "${op_view[@]}" \
     >"$dir/operator.txt" 2>"$dir/operator.log" || rc=$?
   kill -INT "$robot" 2>/dev/null || true
   wait "$robot" 2>/dev/null || true

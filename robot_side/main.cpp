@@ -18,6 +18,7 @@
 #include "common/net/exit_codes.h"
 #include "common/net/station_cli.h"
 #include "common/net/station_control.h"
+#include "common/terminal/terminal_keys.h"
 #include "config_robot.pb.h"
 #include "report.pb.h"
 #include "robot_side/server/robot_server.h"
@@ -210,7 +211,7 @@ int run(int argc, char** argv) {
       return net::kExitUsage;
     }
   }
-  net::TerminalKeys keys(io, STDIN_FILENO, [&](char k) {
+  terminal::TerminalKeys keys(io, STDIN_FILENO, [&](char k) {
     if (k == ' ' || k == 'e' || k == 'E') station.local_estop(true, "terminal key");
     if (k == 'R') station.local_estop(false, "terminal key");
   });

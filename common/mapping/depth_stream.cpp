@@ -3,9 +3,10 @@
 #include <algorithm>
 #include <cmath>
 
+#include "common/math/finite.h"
+
 namespace hemm::mapping {
 namespace {
-bool finite3(const proto::Vec3& v) { return std::isfinite(v.x()) && std::isfinite(v.y()) && std::isfinite(v.z()); }
 bool finite_pos(double x) { return std::isfinite(x) && x > 0.0; }
 }  // namespace
 
@@ -22,7 +23,7 @@ void pose3_to_wire(const Eigen::Isometry3d& T, proto::Pose3* out) {
 }
 
 std::optional<std::string> pose3_from_wire(const proto::Pose3& p, Eigen::Isometry3d* out) {
-  if (!finite3(p.position())) return "pose3 position not finite";
+  if (!math::finite3(p.position())) return "pose3 position not finite";
   const auto& o = p.orientation();
   const Eigen::Quaterniond q(o.w(), o.x(), o.y(), o.z());
   if (!q.coeffs().allFinite() || std::abs(q.norm() - 1.0) > 1e-6) return "pose3 quaternion not unit";

@@ -3,11 +3,9 @@
 #include <algorithm>
 #include <cmath>
 
-namespace hemm::math {
+#include "common/math/finite.h"
 
-namespace {
-bool finite3(const Eigen::Vector3d& v) { return v.allFinite(); }
-}  // namespace
+namespace hemm::math {
 
 std::string validate(const ScaledMap& m) {
   if (!std::isfinite(m.scale) || m.scale <= 0.0) return "scale must be finite and > 0";

@@ -51,6 +51,12 @@ bool ClockOffsetEstimator::add(int64_t t1, int64_t t2, int64_t t3, int64_t t4) {
   return true;
 }
 
+void ClockOffsetEstimator::reset() {
+  window_.clear();
+  filtered_ = 0.0;
+  est_ = ClockEstimate{};
+}
+
 MessageAge judge_message_age(const ClockEstimate& e, int64_t peer_stamp_ns, int64_t local_arrival_ns,
                              int64_t margin_ns) {
   MessageAge a;

@@ -53,6 +53,8 @@ class ClockOffsetEstimator {
   explicit ClockOffsetEstimator(ClockEstimatorParams p = {}) : p_(p) {}
   // Adds one sample; returns false (no state change) if it is inconsistent.
   bool add(int64_t t1, int64_t t2, int64_t t3, int64_t t4);
+  // Forgets every sample: a new peer (a new session) has its own clock and path.
+  void reset();
   const ClockEstimate& estimate() const { return est_; }
   // Maps a peer time stamp to our clock.
   int64_t peer_to_local(int64_t peer_ns) const { return peer_ns - est_.offset_ns; }

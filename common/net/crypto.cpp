@@ -1,13 +1,14 @@
 #include "common/net/crypto.h"
 
+#include <fcntl.h>
 #include <sodium.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <bitset>
+#include <cerrno>
 #include <cctype>
 #include <cstdio>
-#include <fstream>
-#include <sstream>
 
 #include "common/net/bytes.h"
 
@@ -18,7 +19,7 @@ bool crypto_init() {
   return ok;
 }
 
-std::optional<Key> parse_key_hex(const std::string& text, std::string* error) {
+std::optional<Key> parse_key_hex(std::string_view text, std::string* error) {
   crypto_init();
   const auto fail = [&](std::string why) -> std::optional<Key> {
     if (error) *error = std::move(why);
@@ -83,25 +84,57 @@ bool is_demo_key(const Key& k) {
 }
 
 std::optional<Key> load_key_file(const std::string& path, std::string* error, KeyFileInfo* info) {
-  std::ifstream in(path);
-  if (!in) {
-    if (error) *error = path + ": cannot open key file";
+  const auto fail = [&](const std::string& why) -> std::optional<Key> {
+    if (error) *error = path + ": " + why;
     return std::nullopt;
-  }
+  };
+  // The size is checked on the file that was opened (not on the name, which
+  // may meanwhile be another file), before anything is read.
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK | O_NOCTTY);
+  if (fd < 0) return fail("cannot open key file");
   struct stat st {};
-  if (::stat(path.c_str(), &st) == 0 && info) {
+  if (::fstat(fd, &st) != 0) {
+    ::close(fd);
+    return fail("cannot stat key file");
+  }
+  if (!S_ISREG(st.st_mode)) {
+    ::close(fd);
+    return fail("not a regular file");
+  }
+  if (st.st_size > static_cast<off_t>(kMaxKeyFileBytes)) {
+    ::close(fd);
+    return fail("key file too large (" + std::to_string(st.st_size) + " bytes, at most " +
+                std::to_string(kMaxKeyFileBytes) + ")");
+  }
+  if (info) {
     info->mode = static_cast<unsigned>(st.st_mode & 07777);
     info->readable_by_others = (st.st_mode & 077) != 0;
   }
-  std::stringstream ss;
-  ss << in.rdbuf();
-  std::string text = ss.str();
-  if (text.size() > 4096) {
-    if (error) *error = path + ": key file too large";
-    return std::nullopt;
+  // One buffer on the stack, a byte more than allowed (a file that grew
+  // since the check is refused, not cut), wiped before it goes.
+  std::array<char, kMaxKeyFileBytes + 1> text;
+  size_t n = 0;
+  bool read_error = false;
+  while (n < text.size()) {
+    const ssize_t r = ::read(fd, text.data() + n, text.size() - n);
+    if (r == 0) break;
+    if (r < 0) {
+      if (errno == EINTR) continue;
+      read_error = true;
+      break;
+    }
+    n += static_cast<size_t>(r);
   }
+  ::close(fd);
   std::string why;
-  auto k = parse_key_hex(text, &why);
+  std::optional<Key> k;
+  if (read_error) {
+    why = "cannot read key file";
+  } else if (n > kMaxKeyFileBytes) {
+    why = "key file too large (it grew while being read)";
+  } else {
+    k = parse_key_hex(std::string_view(text.data(), n), &why);
+  }
   sodium_memzero(text.data(), text.size());
   if (k) {
     if (auto weak = weak_key_reason(*k)) {
@@ -110,7 +143,7 @@ std::optional<Key> load_key_file(const std::string& path, std::string* error, Ke
       k.reset();
     }
   }
-  if (!k && error) *error = path + ": " + why;
+  if (!k) return fail(why);
   return k;
 }
 

@@ -44,7 +44,7 @@ bool crypto_init();
 // Parses 64 hex characters (libsodium's sodium_hex2bin; whitespace around and
 // between bytes allowed). On failure returns nullopt and sets *error. Does
 // not judge the key's strength (see weak_key_reason).
-std::optional<Key> parse_key_hex(const std::string& text, std::string* error);
+std::optional<Key> parse_key_hex(std::string_view text, std::string* error);
 
 // Why a key must not be used, or nullopt. A key is weak when it has
 //   * fewer than 16 distinct byte values (all zero, one repeated byte, short
@@ -54,7 +54,7 @@ std::optional<Key> parse_key_hex(const std::string& text, std::string* error);
 //   * a period of at most 16 bytes (a short pattern repeated).
 // A key drawn uniformly at random fails with probability below 1e-14 (the
 // first rule below 3e-16, the second below 5e-15, the third below 3e-39;
-// README, "Keys").
+// docs/protocol.md, "Keys").
 std::optional<std::string> weak_key_reason(const Key& k);
 
 // The committed demonstration key (deploy/configs/demo.key). It is public:
@@ -68,7 +68,11 @@ struct KeyFileInfo {
 };
 
 // Reads and parses a key file and refuses weak keys; errors name the file
-// and fit on one line.
+// and fit on one line. The file must be a regular file of at most
+// kMaxKeyFileBytes, checked on the opened file before anything is read; its
+// text is read into one local buffer (never the heap), which is wiped
+// (sodium_memzero) whatever happens, as is a refused key.
+inline constexpr size_t kMaxKeyFileBytes = 4096;
 std::optional<Key> load_key_file(const std::string& path, std::string* error, KeyFileInfo* info = nullptr);
 
 void random_bytes(uint8_t* out, size_t n);

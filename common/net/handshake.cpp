@@ -45,6 +45,34 @@ std::vector<uint8_t> make_error_frame(wire::ErrorCode code, const std::string& r
   return serialize(f);
 }
 
+namespace {
+Proof refusal_tag(const Key& psk, std::span<const uint8_t> hello, wire::ErrorCode code, const std::string& reason) {
+  std::vector<uint8_t> d(4 + hello.size() + 4 + reason.size());
+  put_u32(d.data(), static_cast<uint32_t>(hello.size()));
+  std::copy(hello.begin(), hello.end(), d.begin() + 4);
+  put_u32(d.data() + 4 + hello.size(), static_cast<uint32_t>(code));
+  std::copy(reason.begin(), reason.end(), d.begin() + static_cast<std::ptrdiff_t>(8 + hello.size()));
+  return hmac_sha256(psk, "hemm-v1 refusal", d);
+}
+}  // namespace
+
+std::vector<uint8_t> make_tagged_error_frame(const Key& psk, std::span<const uint8_t> hello, wire::ErrorCode code,
+                                             const std::string& reason) {
+  wire::SessionFrame f;
+  const std::string r = truncate_text(reason, kMaxReasonBytes);
+  f.mutable_error()->set_code(code);
+  f.mutable_error()->set_reason(r);
+  f.mutable_error()->set_refusal_tag(as_string(refusal_tag(psk, hello, code, r)));
+  return serialize(f);
+}
+
+bool refusal_tag_matches(const Key& psk, std::span<const uint8_t> hello, const wire::Error& e) {
+  const std::string& t = e.refusal_tag();
+  if (t.size() != kProofBytes || hello.empty()) return false;
+  const Proof expect = refusal_tag(psk, hello, e.code(), e.reason());
+  return equal_constant_time(expect, std::span<const uint8_t>(reinterpret_cast<const uint8_t*>(t.data()), t.size()));
+}
+
 bool parse_session_frame(std::span<const uint8_t> payload, wire::SessionFrame* out) {
   wire::SessionFrame f;
   if (payload.size() > static_cast<size_t>(INT32_MAX)) return false;
@@ -76,20 +104,23 @@ ClientHandshake::ClientHandshake(Params p) : p_(std::move(p)) {
 
 namespace {
 // The step both handshake sides return when they give up.
-HandshakeStep failed_step(wire::ErrorCode code, std::string reason, bool send_error, bool by_peer) {
+HandshakeStep failed_step(wire::ErrorCode code, std::string reason, bool send_error, bool by_peer,
+                          bool authenticated) {
   HandshakeStep s;
   s.kind = HandshakeStep::Kind::kFailed;
   s.error = code;
   s.reason = std::move(reason);
   s.reported_by_peer = by_peer;
+  s.authenticated = authenticated;
   if (send_error) s.reply = make_error_frame(code, s.reason);
   return s;
 }
 }  // namespace
 
-HandshakeStep ClientHandshake::fail(wire::ErrorCode code, std::string reason, bool send_error, bool by_peer) {
+HandshakeStep ClientHandshake::fail(wire::ErrorCode code, std::string reason, bool send_error, bool by_peer,
+                                    bool authenticated) {
   state_ = State::kFailed;
-  return failed_step(code, std::move(reason), send_error, by_peer);
+  return failed_step(code, std::move(reason), send_error, by_peer, authenticated);
 }
 
 std::vector<uint8_t> ClientHandshake::start() {
@@ -116,25 +147,30 @@ HandshakeStep ClientHandshake::on_frame(std::span<const uint8_t> payload) {
       wire::SessionFrame f;
       if (!parse_session_frame(payload, &f)) return fail(wire::ERROR_MALFORMED, "malformed frame, expected Challenge", true);
       if (f.has_error()) {
-        return fail(f.error().code(), "robot refused: " + log_safe(f.error().reason(), kMaxReasonBytes), false, true);
+        const bool tagged = refusal_tag_matches(p_.psk, hello_bytes_, f.error());
+        return fail(f.error().code(),
+                    std::string(tagged ? "robot refused: " : "robot refused (unauthenticated): ") +
+                        log_safe(f.error().reason(), kMaxReasonBytes),
+                    false, true, tagged);
       }
       if (!f.has_challenge()) return fail(wire::ERROR_MALFORMED, "expected Challenge", true);
       const auto& c = f.challenge();
-      if (c.protocol_version() != p_.protocol_version) {
-        return fail(wire::ERROR_VERSION_MISMATCH,
-                    "protocol version mismatch: robot " + std::to_string(c.protocol_version()) + ", operator " +
-                        std::to_string(p_.protocol_version),
-                    true);
-      }
       Nonce sn{};
       Proof sp{};
       if (!to_array(c.server_nonce(), &sn) || !to_array(c.server_proof(), &sp) || c.session_id() == 0) {
         return fail(wire::ERROR_MALFORMED, "malformed Challenge", true);
       }
+      // The proof covers the version: a matching proof makes a mismatch the robot's own word.
       const auto transcript = make_transcript(hello_bytes_, sn, c.session_id(), c.protocol_version());
       const Proof expect = hmac_sha256(p_.psk, "hemm-v1 server", transcript);
       if (!equal_constant_time(expect, sp)) {
         return fail(wire::ERROR_AUTH_FAILED, "authentication failed: the robot's proof does not match our key", true);
+      }
+      if (c.protocol_version() != p_.protocol_version) {
+        return fail(wire::ERROR_VERSION_MISMATCH,
+                    "protocol version mismatch: robot " + std::to_string(c.protocol_version()) + ", operator " +
+                        std::to_string(p_.protocol_version),
+                    true, false, true);
       }
       secrets_.session_id = c.session_id();
       secrets_.keys = derive_session_keys(p_.psk, client_nonce_, sn, c.session_id());
@@ -153,7 +189,7 @@ HandshakeStep ClientHandshake::on_frame(std::span<const uint8_t> payload) {
       if (open_session_frame(*secrets_.rx, payload, &f)) {
         if (f.has_error()) {
           return fail(f.error().code(), "robot refused: " + log_safe(f.error().reason(), kMaxReasonBytes), false,
-                      true);
+                      true, true);
         }
         if (!f.has_welcome() || f.welcome().session_id() != secrets_.session_id) {
           return fail(wire::ERROR_MALFORMED, "expected Welcome for our session", false);
@@ -164,11 +200,14 @@ HandshakeStep ClientHandshake::on_frame(std::span<const uint8_t> payload) {
         s.kind = HandshakeStep::Kind::kOpen;
         return s;
       }
-      // A robot that rejected our proof answers in clear (it has no keys).
+      // A robot that rejected our proof answers in clear (it has no session
+      // keys), tagged with the pre-shared key when it has ours.
       if (parse_session_frame(payload, &f) && f.has_error()) {
+        const bool tagged = refusal_tag_matches(p_.psk, hello_bytes_, f.error());
         return fail(f.error().code(),
-                    "robot refused (unauthenticated): " + log_safe(f.error().reason(), kMaxReasonBytes), false,
-                    true);
+                    std::string(tagged ? "robot refused: " : "robot refused (unauthenticated): ") +
+                        log_safe(f.error().reason(), kMaxReasonBytes),
+                    false, true, tagged);
       }
       return fail(wire::ERROR_AUTH_FAILED, "Welcome failed authentication", false);
     }
@@ -182,7 +221,10 @@ ServerHandshake::ServerHandshake(Params p) : p_(std::move(p)) {}
 
 HandshakeStep ServerHandshake::fail(wire::ErrorCode code, std::string reason, bool send_error, bool by_peer) {
   state_ = State::kFailed;
-  return failed_step(code, std::move(reason), send_error, by_peer);
+  HandshakeStep s = failed_step(code, std::move(reason), send_error, by_peer, false);
+  // Once the Hello is known, the refusal is tagged for that operator.
+  if (send_error && !hello_bytes_.empty()) s.reply = make_tagged_error_frame(p_.psk, hello_bytes_, code, s.reason);
+  return s;
 }
 
 HandshakeStep ServerHandshake::on_frame(std::span<const uint8_t> payload) {
@@ -198,6 +240,7 @@ HandshakeStep ServerHandshake::on_frame(std::span<const uint8_t> payload) {
                     false, true);
       }
       if (!f.has_hello()) return fail(wire::ERROR_MALFORMED, "expected Hello", true);
+      hello_bytes_.assign(payload.begin(), payload.end());
       const auto& h = f.hello();
       if (h.protocol_version() != p_.protocol_version) {
         return fail(wire::ERROR_VERSION_MISMATCH,

@@ -15,6 +15,19 @@
 // (framing.h). Hello, Challenge, Proof and the refusals of a failed handshake
 // (version mismatch, bad proof, malformed frame) are the only frames in clear.
 //
+// Refusals and who may make them final (issue 23): anyone between the
+// stations, or anyone answering on the robot's port, can send a clear Error.
+// So the client marks a refusal `authenticated` only when it is sealed with
+// the session keys (after the Proof), or when it is a clear Error whose
+// refusal_tag = HMAC-SHA256(psk, "hemm-v1 refusal" || len(hello)(4, BE) ||
+// hello || code(4, BE) || reason) matches this client's own Hello (the robot
+// tags every refusal it sends once it has the Hello; a version mismatch of a
+// robot with the same key is therefore authenticated). A Challenge whose
+// proof matches but whose version differs is an authenticated version
+// mismatch too. Everything else (an untagged clear Error, a Challenge whose
+// proof does not match our key, a malformed frame) fails this attempt only:
+// the operator tries again (operator/client).
+//
 // Every method validates its input completely; a bad frame fails the
 // handshake with an ErrorCode and a reason and never throws.
 #pragma once
@@ -57,10 +70,18 @@ struct HandshakeStep {
   wire::ErrorCode error = wire::ERROR_UNSPECIFIED;
   std::string reason;             // peer-supplied parts made log-safe (log_guard.h)
   bool reported_by_peer = false;  // the failure came in an Error frame from the peer
+  // The peer's refusal is authenticated (see the file comment): only such a
+  // refusal may end the operator's attempts for good.
+  bool authenticated = false;
 };
 
 // Serialises a SessionFrame (clear) with an Error body, reason truncated to kMaxReasonBytes.
 std::vector<uint8_t> make_error_frame(wire::ErrorCode code, const std::string& reason);
+// The same, tagged for the client whose Hello bytes are `hello` (file comment).
+std::vector<uint8_t> make_tagged_error_frame(const Key& psk, std::span<const uint8_t> hello, wire::ErrorCode code,
+                                             const std::string& reason);
+// True if `e` carries a refusal tag that matches (psk, hello) (constant time).
+bool refusal_tag_matches(const Key& psk, std::span<const uint8_t> hello, const wire::Error& e);
 // Parses a clear frame payload; false if not a valid SessionFrame with a body.
 bool parse_session_frame(std::span<const uint8_t> payload, wire::SessionFrame* out);
 // Truncates to at most n bytes on a UTF-8 boundary-agnostic basis (logs only).
@@ -89,7 +110,8 @@ class ClientHandshake {
 
  private:
   enum class State { kStart, kAwaitChallenge, kAwaitWelcome, kOpen, kFailed };
-  HandshakeStep fail(wire::ErrorCode code, std::string reason, bool send_error, bool by_peer = false);
+  HandshakeStep fail(wire::ErrorCode code, std::string reason, bool send_error, bool by_peer = false,
+                     bool authenticated = false);
 
   Params p_;
   State state_ = State::kStart;
@@ -122,6 +144,7 @@ class ServerHandshake {
 
   Params p_;
   State state_ = State::kAwaitHello;
+  std::vector<uint8_t> hello_bytes_;  // as received: what refusals are tagged over
   wire::Hello hello_;
   Nonce server_nonce_{};
   uint64_t session_id_ = 0;

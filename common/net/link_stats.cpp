@@ -62,6 +62,7 @@ report::Link to_report(const LinkStatistics& s) {
   r.set_path_copies_ignored(pc.ignored);
   r.set_path_challenges_rate_limited(pc.rate_limited);
   r.set_path_responses_unmatched(pc.responses_unmatched);
+  r.set_path_responses_refused(pc.responses_refused);
   return r;
 }
 
@@ -117,7 +118,8 @@ std::string to_summary(const LinkStatistics& s) {
   const PathCounters& pc = s.path;
   os << "  paths: " << pc.validated << " validated, " << pc.challenges_sent << " challenges ("
      << pc.rate_limited << " rate-limited), " << pc.ignored << " datagrams from other addresses ignored, "
-     << pc.responses_unmatched << " unmatched responses\n";
+     << pc.responses_unmatched << " unmatched responses, " << pc.responses_refused
+     << " refused (the current path was not silent)\n";
   return os.str();
 }
 

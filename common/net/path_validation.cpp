@@ -6,7 +6,15 @@
 
 namespace hemm::net {
 
+int64_t PathValidator::token_lifetime_ns() const {
+  const int64_t rtt = p_.rtt_ns > 0 ? p_.rtt_ns : path_rtt_ns_;
+  if (rtt <= 0) return p_.token_max_ns;
+  const int64_t lo = std::min(p_.token_min_ns, p_.token_max_ns);
+  return std::clamp(rtt > p_.token_max_ns / 4 ? p_.token_max_ns : 4 * rtt, lo, p_.token_max_ns);
+}
+
 void PathValidator::reset() {
+  path_rtt_ns_ = 0;
   peer_.reset();
   peer_seen_ns_ = 0;
   challenged_any_ = false;
@@ -44,7 +52,8 @@ std::optional<PathToken> PathValidator::on_datagram(const PathAddress& from, int
   Outstanding o;
   random_bytes(o.token.data(), o.token.size());
   o.addr = from;
-  o.expires_ns = now + p_.token_lifetime_ns;
+  o.issued_ns = now;
+  o.expires_ns = now + token_lifetime_ns();
   if (tokens_.size() >= std::max<size_t>(1, p_.max_tokens)) tokens_.erase(tokens_.begin());  // oldest first
   tokens_.push_back(o);
   it->next_challenge_ns = now + it->retry_ns;
@@ -62,14 +71,21 @@ std::optional<PathAddress> PathValidator::on_response(std::span<const uint8_t> t
   }
   // Compare against every live token (constant time each): no early exit
   // that would tell which one came close.
-  const Outstanding* match = nullptr;
-  for (const Outstanding& o : tokens_) {
-    if (equal_constant_time(o.token, token) && now <= o.expires_ns) match = &o;
+  auto match = tokens_.end();
+  for (auto it = tokens_.begin(); it != tokens_.end(); ++it) {
+    if (equal_constant_time(it->token, token) && now <= it->expires_ns) match = it;
   }
-  if (!match) {
+  if (match == tokens_.end()) {
     ++c_.responses_unmatched;
     return std::nullopt;
   }
+  if (peer_ && now - peer_seen_ns_ < p_.quiet_ns) {
+    // The path it would replace is alive: this answer was held for later.
+    ++c_.responses_refused;
+    tokens_.erase(match);
+    return std::nullopt;
+  }
+  path_rtt_ns_ = std::max<int64_t>(1, now - match->issued_ns);
   peer_ = match->addr;
   peer_seen_ns_ = now;
   candidates_.clear();

@@ -25,10 +25,23 @@
 // original a duplicate, and the genuine path must still win; nominating costs
 // only a rate-limited challenge that no one but the key holder can answer.
 //
+// When a response switches the path: only while the validated path is still
+// silent (quiet_ns) when the response arrives. Someone on the path (a
+// forwarder that copies datagrams) can earn a token in a short gap of the
+// operator's traffic, by sending a copy from a second address, and get the
+// operator to answer it later by passing the challenge on; a response that
+// comes while the genuine path carries traffic again is refused (counted,
+// and its token is used up), so a token is worth something only during the
+// silence it was earned in. Tokens also live only 4 round trips, within
+// [token_min_ns, token_max_ns]: the link's measured round trip (rtt_ns, set
+// by the stream link), else the one the session's first validation took
+// (challenge to response), else, before any, token_max_ns; not the seconds
+// an attacker would like to hold them for.
+//
 // Limits: per candidate address one challenge per retry interval (doubling up
 // to max_retry_ns), at most one challenge per min_interval_ns in all, at most
 // max_candidates candidates (least recently seen evicted) and max_tokens
-// outstanding tokens (oldest evicted), tokens expire after token_lifetime_ns.
+// outstanding tokens (oldest evicted), tokens expire (above).
 #pragma once
 
 #include <array>
@@ -56,7 +69,9 @@ struct PathValidatorParams {
   // (a lost challenge or response costs little), ~2 round trips once known.
   int64_t first_retry_ns = 250'000'000;
   int64_t max_retry_ns = 8'000'000'000;
-  int64_t token_lifetime_ns = 20'000'000'000;
+  int64_t rtt_ns = 0;  // the link's round trip (StreamLink sets it; 0: not measured)
+  int64_t token_min_ns = 250'000'000;
+  int64_t token_max_ns = 8'000'000'000;
   int64_t min_interval_ns = 20'000'000;
   size_t max_candidates = 8;
   size_t max_tokens = 16;
@@ -70,6 +85,7 @@ struct PathCounters {
   uint64_t ignored = 0;
   uint64_t rate_limited = 0;          // challenges due but held back by min_interval_ns
   uint64_t responses_unmatched = 0;   // responses with an unknown, expired or malformed token
+  uint64_t responses_refused = 0;     // live token, but the current path was not silent: nothing validated
 };
 
 class PathValidator {
@@ -85,10 +101,13 @@ class PathValidator {
   // PathChallenge when one is due.
   std::optional<PathToken> on_datagram(const PathAddress& from, int64_t now_ns);
   // An authenticated PathResponse: the address its token was sent to becomes
-  // the peer (returned); nullopt if the token matches no live challenge.
+  // the peer (returned); nullopt if the token matches no live challenge, or
+  // the current peer is not silent (quiet_ns) at now_ns (the token is used up).
   std::optional<PathAddress> on_response(std::span<const uint8_t> token, int64_t now_ns);
 
   const std::optional<PathAddress>& peer() const { return peer_; }
+  // How long a token issued now lives (see the file comment).
+  int64_t token_lifetime_ns() const;
   const PathCounters& counters() const { return c_; }
 
  private:
@@ -101,12 +120,14 @@ class PathValidator {
   struct Outstanding {
     PathToken token{};
     PathAddress addr;
+    int64_t issued_ns = 0;
     int64_t expires_ns = 0;
   };
 
   PathValidatorParams p_;
   std::optional<PathAddress> peer_;
   int64_t peer_seen_ns_ = 0;
+  int64_t path_rtt_ns_ = 0;  // challenge to response of the latest validation (0: none yet)
   bool challenged_any_ = false;
   int64_t last_challenge_ns_ = 0;
   std::vector<Candidate> candidates_;

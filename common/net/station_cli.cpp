@@ -17,6 +17,7 @@
 #include "common/net/exit_codes.h"
 #include "common/net/handshake.h"
 #include "common/net/station_control.h"
+#include "common/terminal/terminal_keys.h"
 #include "config_link.pb.h"
 
 namespace hemm::net {
@@ -151,7 +152,7 @@ void add_station_control_options(CLI::App& app, const std::string& station, Stat
   }
 }
 
-void start_estop_keys(TerminalKeys& keys, const StationControlOptions& o) {
+void start_estop_keys(terminal::TerminalKeys& keys, const StationControlOptions& o) {
   if (o.no_keys || !::isatty(STDIN_FILENO)) return;
   std::string error;
   if (keys.start(&error)) {

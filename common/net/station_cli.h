@@ -15,6 +15,10 @@ namespace CLI {
 class App;
 }
 
+namespace hemm::terminal {
+class TerminalKeys;
+}
+
 namespace hemm::net {
 
 // Logs go to stderr, one line per event: "<time> level=<l> station=<name> event=... key=value ...".
@@ -66,8 +70,7 @@ struct StationControlOptions {
 void add_station_control_options(CLI::App& app, const std::string& station, StationControlOptions* out);
 // Starts the e-stop keys (space or e: engage, R: release) when stdin is a
 // terminal and --no-keys was not given; logs which.
-class TerminalKeys;
-void start_estop_keys(TerminalKeys& keys, const StationControlOptions& o);
+void start_estop_keys(terminal::TerminalKeys& keys, const StationControlOptions& o);
 int run_control_command(const std::string& program, const StationControlOptions& o);
 
 }  // namespace hemm::net

@@ -9,9 +9,7 @@
 //    station is replaced; a live one, or any other kind of file, is an error.
 //  * control_request(): the client side, for `hemm-robot estop ...` and
 //    `hemm-operator estop ...`.
-//  * TerminalKeys: single key presses from a terminal (the station's stdin
-//    when it is a TTY): the terminal is switched to non-canonical, no-echo
-//    input while it runs (Ctrl-C still signals) and restored afterwards.
+// (The e-stop keys on the station's terminal: common/terminal/terminal_keys.h.)
 // All run on the caller's io_context (the station's network thread).
 #pragma once
 
@@ -65,22 +63,5 @@ class ControlServer {
 // reply within timeout).
 std::optional<std::string> control_request(const std::string& path, const std::string& command,
                                            std::chrono::milliseconds timeout, std::string* error);
-
-class TerminalKeys {
- public:
-  TerminalKeys(asio::io_context& io, int fd, std::function<void(char key)> on_key);
-  ~TerminalKeys();  // stop()
-  TerminalKeys(const TerminalKeys&) = delete;
-  TerminalKeys& operator=(const TerminalKeys&) = delete;
-
-  // False with *error if fd is not a terminal.
-  bool start(std::string* error);
-  // Stops reading and restores the terminal's settings (idempotent).
-  void stop();
-
- private:
-  struct Impl;
-  std::unique_ptr<Impl> impl_;
-};
 
 }  // namespace hemm::net

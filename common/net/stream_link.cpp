@@ -2,6 +2,8 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
+
 #include "common/net/session_connection.h"
 
 namespace hemm::net {
@@ -32,8 +34,24 @@ StreamLink::StreamLink(asio::io_context& io, StreamLinkParams p)
   // few heartbeats) may have moved: only then is another address challenged.
   paths_.params().quiet_ns =
       int64_t{std::max<uint32_t>(p_.link_timeout_ms / 2, 2 * p_.heartbeat_period_ms)} * 1'000'000;
-  if (p_.expected_rtt_ms > 0) paths_.params().first_retry_ns = int64_t{2 * p_.expected_rtt_ms} * 1'000'000;
+  update_path_timing();
   txbuf_.reserve(kMaxDatagramBytes);
+}
+
+// Path challenges follow the round trip: the measured median once there is
+// one, else the expected one (config rtt_ms), else guesses. A re-challenge
+// waits 2 round trips (at least 200 ms once measured; 250 ms while unknown);
+// a token lives 4 round trips (path_validation.h).
+void StreamLink::update_path_timing() {
+  const ClockEstimate& ce = clock_.estimate();
+  const int64_t expected = int64_t{p_.expected_rtt_ms} * 1'000'000;
+  PathValidatorParams& pp = paths_.params();
+  if (ce.valid) {
+    pp.first_retry_ns = std::max<int64_t>(2 * ce.rtt_median_ns, 200'000'000);
+  } else {
+    pp.first_retry_ns = expected > 0 ? 2 * expected : 250'000'000;
+  }
+  pp.rtt_ns = ce.valid ? ce.rtt_median_ns : expected;
 }
 
 StreamLink::~StreamLink() { stop(); }
@@ -66,6 +84,8 @@ void StreamLink::open_session(uint64_t session_id, const Key& tx_key, const Key&
   next_seq_ = 1;
   peer_ = peer;
   paths_.reset();
+  clock_.reset();
+  update_path_timing();
   rx_.open(session_id, rx_key);
   last_rx_ns_ = steady_now_ns();
   ever_up_ = false;
@@ -75,6 +95,7 @@ void StreamLink::open_session(uint64_t session_id, const Key& tx_key, const Key&
   {
     std::lock_guard<std::mutex> lk(mu_);
     stats_.session_open = true;
+    stats_.clock = clock_.estimate();
   }
   // Announce ourselves at once (the robot learns our endpoint from this).
   if (peer_) {
@@ -280,11 +301,7 @@ void StreamLink::tick() {
         ++stats_.pings_sent;
       }
     }
-    // Re-challenge a path no sooner than two round trips once one is measured.
-    const ClockEstimate& ce = clock_.estimate();
-    if (ce.valid) {
-      paths_.params().first_retry_ns = std::max<int64_t>(2 * ce.rtt_median_ns, 200'000'000);
-    }
+    update_path_timing();
   }
   sync_stats();
   const uint32_t step = std::max<uint32_t>(1, std::min({p_.heartbeat_period_ms, p_.ping_period_ms > 0 ? p_.ping_period_ms : 1000u,

@@ -55,6 +55,10 @@ class StreamLink {
 
   // Starts a session: datagrams are sealed with tx_key, accepted with rx_key.
   // peer: where to send (empty: learn from the first authenticated datagram).
+  // Everything of the previous session is forgotten: sequence numbers, the
+  // replay window, the path, and the clock estimate (a new session may be a
+  // new host: until its first pong there is no estimate, and every message
+  // age is unknown).
   void open_session(uint64_t session_id, const Key& tx_key, const Key& rx_key,
                     std::optional<asio::ip::udp::endpoint> peer);
   void close_session();
@@ -85,6 +89,7 @@ class StreamLink {
   void handle(std::span<const uint8_t> d, const asio::ip::udp::endpoint& from, int64_t now);
   void on_path_message(const wire::StreamMessage& m, const asio::ip::udp::endpoint& from, int64_t now);
   void tick();
+  void update_path_timing();
   void set_link(bool up, int64_t now);
   void sync_stats();
 

@@ -1,5 +1,7 @@
 #include "common/net/stream_receiver.h"
 
+#include <algorithm>
+
 namespace hemm::net {
 
 StreamReceiver::StreamReceiver(uint32_t replay_window) : window_size_(replay_window), window_(replay_window) {
@@ -11,6 +13,7 @@ void StreamReceiver::open(uint64_t session_id, const Key& rx_key) {
   key_ = rx_key;
   window_ = ReplayWindow(window_size_);
   newest_by_kind_.fill(0);
+  chunks_.fill(ChunkStream{});
 }
 
 StreamReceiver::Verdict StreamReceiver::receive(std::span<const uint8_t> d, DatagramHeader* h,
@@ -56,13 +59,35 @@ StreamReceiver::Verdict StreamReceiver::receive(std::span<const uint8_t> d, Data
     last_error_ = "bad payload";
     return Verdict::kRejected;
   }
-  uint64_t& newest = newest_by_kind_[static_cast<size_t>(m.body_case())];
-  if (hd.seq < newest) {
-    ++c_.late;
-    last_error_ = "late";
-    return Verdict::kLate;
+  ChunkStream* chunk = nullptr;
+  uint32_t frame = 0;
+  if (m.has_range_scan()) {
+    chunk = &chunks_[std::min<size_t>(static_cast<size_t>(std::max(0, static_cast<int>(m.range_scan().sensor()))), 3)];
+    frame = m.range_scan().scan_id();
+  } else if (m.has_depth_chunk()) {
+    chunk = &chunks_[4];
+    frame = m.depth_chunk().cloud_id();
   }
-  newest = hd.seq;
+  if (chunk != nullptr) {
+    // Newest-wins by frame: older than the newest chunk, but of its frame, is not late.
+    if (hd.seq < chunk->newest_seq && frame != chunk->frame) {
+      ++c_.late;
+      last_error_ = "late";
+      return Verdict::kLate;
+    }
+    if (hd.seq > chunk->newest_seq) {
+      chunk->newest_seq = hd.seq;
+      chunk->frame = frame;
+    }
+  } else {
+    uint64_t& newest = newest_by_kind_[static_cast<size_t>(m.body_case())];
+    if (hd.seq < newest) {
+      ++c_.late;
+      last_error_ = "late";
+      return Verdict::kLate;
+    }
+    newest = hd.seq;
+  }
   ++c_.delivered;
   *h = hd;
   msg->Swap(&m);

@@ -2,7 +2,11 @@
 // datagram (size, magic, version, session, tag, replay window, payload) and
 // keeps the counters of what arrived. Newest-wins per message kind: a
 // datagram older (by sequence number) than the newest already delivered of
-// its kind is counted late and not delivered.
+// its kind is counted late and not delivered. Chunked kinds are judged by
+// frame: a RangeScan chunk per sensor (its scan_id), a DepthChunk by its
+// cloud_id. A chunk of the frame the newest delivered chunk belongs to is
+// delivered whatever its sequence number (reordered chunks of the frame
+// being assembled are part of the newest); a chunk of an older frame is late.
 //
 // Counters:
 //   lost       sequence numbers skipped and not (yet) filled in
@@ -77,6 +81,15 @@ class StreamReceiver {
   uint64_t session_id_ = 0;
   Key key_{};
   std::array<uint64_t, kKinds> newest_by_kind_{};
+  // Chunked streams: RangeScan per sensor (RangeSensorType 0-2, others
+  // together in slot 3), DepthChunk in slot 4. The newest chunk's sequence
+  // number and frame.
+  struct ChunkStream {
+    uint64_t newest_seq = 0;
+    uint32_t frame = 0;
+  };
+  static constexpr size_t kChunkStreams = 5;
+  std::array<ChunkStream, kChunkStreams> chunks_{};
   StreamCounters c_;
   const char* last_error_ = "";
   std::vector<uint8_t> plain_;  // the opened payload of the datagram being received

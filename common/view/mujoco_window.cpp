@@ -31,28 +31,10 @@ int to_mj_type(Shape s) {
 
 }  // namespace
 
-void MjModelDeleter::operator()(mjModel* m) const { mj_deleteModel(m); }
-void MjDataDeleter::operator()(mjData* d) const { mj_deleteData(d); }
-
 MjDataPtr make_data(mjModel* m) {
-  MjDataPtr d(mj_makeData(m));
-  if (!d) throw std::runtime_error("mj_makeData failed");
+  MjDataPtr d = sim::make_data(m);
   mj_forward(m, d.get());
   return d;
-}
-
-MjModelPtr load_model_xml(const std::string& name, const std::string& xml) {
-  mjVFS vfs;
-  mj_defaultVFS(&vfs);
-  const int size = static_cast<int>(xml.size());
-  if (mj_makeEmptyFileVFS(&vfs, name.c_str(), size) != 0) throw std::runtime_error("MuJoCo VFS full");
-  const int i = mj_findFileVFS(&vfs, name.c_str());
-  std::memcpy(vfs.filedata[i], xml.data(), xml.size());
-  char err[1000] = "";
-  mjModel* m = mj_loadXML(name.c_str(), &vfs, err, sizeof err);
-  mj_deleteVFS(&vfs);
-  if (m == nullptr) throw std::runtime_error(name + ": " + err);
-  return MjModelPtr(m);
 }
 
 struct MujocoWindow::Impl {

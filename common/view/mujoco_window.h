@@ -17,28 +17,18 @@
 #include <string>
 #include <vector>
 
+#include "common/sim/mujoco_owner.h"
 #include "common/view/png_io.h"
 #include "common/view/primitives.h"
 
-struct mjModel_;
-struct mjData_;
-
 namespace hemm::view {
 
-// Owning pointers to a view's own MuJoCo model and data.
-struct MjModelDeleter {
-  void operator()(mjModel_* m) const;
-};
-struct MjDataDeleter {
-  void operator()(mjData_* d) const;
-};
-using MjModelPtr = std::unique_ptr<mjModel_, MjModelDeleter>;
-using MjDataPtr = std::unique_ptr<mjData_, MjDataDeleter>;
-// mj_makeData + mj_forward: the model at rest, ready to draw.
+// A view's own MuJoCo model and data (common/sim/mujoco_owner.h; its
+// load_model_xml / load_model_file make the model).
+using sim::MjDataPtr;
+using sim::MjModelPtr;
+// sim::make_data + mj_forward: the model at rest, ready to draw.
 MjDataPtr make_data(mjModel_* m);
-// A view's world from MJCF text (through MuJoCo's virtual file system, named
-// `name`). Throws std::runtime_error with MuJoCo's message.
-MjModelPtr load_model_xml(const std::string& name, const std::string& xml);
 
 struct WindowOptions {
   bool visible = true;

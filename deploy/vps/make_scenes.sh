@@ -9,7 +9,7 @@
 # Voxel sizes: peg-in-hole 1 mm (its clearance) with 1.5 mm pointshells, the
 # table at 2 mm; assembly 3 mm for the static part, 2.5 mm for the tools (the
 # engine report's choice: <= 2 % RMS force error). Distance layers: 4 (the
-# couplings' maximum expected penetration needs 2; culling wants 4: README, VPS).
+# couplings' maximum expected penetration needs 2; culling wants 4: docs/vps.md).
 set -euo pipefail
 build="${1:?usage: deploy/vps/make_scenes.sh BUILD_DIR [OUT_DIR] [BOSSES]}"
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"

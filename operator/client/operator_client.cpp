@@ -3,18 +3,12 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
-#include <cinttypes>
 
 #include "common/net/log_guard.h"
+#include "common/net/session_id.h"
 
 namespace hemm::op {
 namespace {
-
-std::string hex_id(uint64_t v) {
-  char b[17];
-  std::snprintf(b, sizeof b, "%016" PRIx64, v);
-  return b;
-}
 
 constexpr int64_t kFirstRetryDelayMs = 200;
 constexpr int64_t kMaxRetryDelayMs = 5000;
@@ -153,13 +147,16 @@ void OperatorClient::connect() {
   });
 }
 
-void OperatorClient::retry_or_fail(int code, const std::string& reason, bool timed_out) {
+void OperatorClient::retry_or_fail(int code, const std::string& reason, bool timed_out, bool authenticated) {
   if (stopped_) return;
   const int64_t now = net::steady_now_ns();
   // First contact: try for connect_for_ms. After a session: for reconnect_for_ms.
   const int64_t budget_ms = ever_open_ ? o_.reconnect_for_ms : o_.connect_for_ms;
-  const bool refusal = code == net::kExitAuth || code == net::kExitVersion ||
-                       (code == net::kExitRefused && !ever_open_);
+  const bool refusal_code = code == net::kExitAuth || code == net::kExitVersion || code == net::kExitRefused;
+  if (refusal_code) last_refusal_code_ = code;
+  // Only the robot's authenticated word ends the attempts now; control taken
+  // after a session was open may be our own old session, not yet dropped.
+  const bool refusal = authenticated && refusal_code && !(code == net::kExitRefused && ever_open_);
   if (refusal || now - trying_since_ns_ >= budget_ms * int64_t{1000000}) {
     fatal(code, reason);
     return;
@@ -194,10 +191,10 @@ void OperatorClient::on_handshake_frame(uint64_t attempt, std::span<const uint8_
       conn_->close_after_send();
       conn_.reset();
       const int code = exit_code_for(step.error);
-      spdlog::error("event=handshake_failed code={} reason=\"{}\"", wire::ErrorCode_Name(step.error),
-                    net::log_safe(step.reason));
+      spdlog::error("event=handshake_failed code={} authenticated={} reason=\"{}\"", wire::ErrorCode_Name(step.error),
+                    step.authenticated, net::log_safe(step.reason));
       streams_.update_stats([](net::LinkStatistics& s) { ++s.handshakes_failed; });
-      retry_or_fail(code, step.reason);
+      retry_or_fail(code, step.reason, false, step.authenticated);
       return;
     }
   }
@@ -225,7 +222,7 @@ void OperatorClient::on_open() {
   streams_.update_stats([](net::LinkStatistics& s) { ++s.sessions_opened; });
   spdlog::info("event=session_open session={} has_control={} stream_endpoint={}:{} robot_heartbeat_ms={} "
                "robot_link_timeout_ms={}",
-               hex_id(sid), w.has_control(), o_.robot_address, port, w.heartbeat_period_ms(), w.link_timeout_ms());
+               net::hex_id(sid), w.has_control(), o_.robot_address, port, w.heartbeat_period_ms(), w.link_timeout_ms());
   streams_.open_session(sid, tx, rx, asio::ip::udp::endpoint(robot_addr_, static_cast<uint16_t>(port)));
 }
 

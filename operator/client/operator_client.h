@@ -9,6 +9,15 @@
 // doubled after each step that timed out (up to 4x). Failed attempts are
 // retried after 200 ms, doubling up to 5 s, for connect_for_ms on first
 // contact and reconnect_for_ms after a lost session.
+//
+// Refusals (issue 23): only an authenticated refusal ends the attempts at
+// once (net::HandshakeStep::authenticated: sealed with the session keys, or a
+// clear Error tagged with the pre-shared key over our Hello): a wrong
+// protocol version, and control taken before any session was open. An
+// unauthenticated one (a clear Error without a valid tag, which anyone on the
+// path or on the robot's port can send, or a Challenge whose proof does not
+// match our key) fails that attempt only; when the time is up the client
+// gives up with the code of the last refusal (give_up_code()).
 // Runs on one io_context (the network thread); link_up(), has_control() and
 // statistics() may be called from other threads.
 //
@@ -63,6 +72,10 @@ class OperatorClient {
   bool has_control() const { return has_control_.load(std::memory_order_acquire); }
   // A session was open at some point (network thread).
   bool ever_opened() const { return ever_open_; }
+  // The exit code for a run that ends before a session was ever opened
+  // (network thread): the last refusal's (auth 4, version 5, refused 6), or
+  // peer lost (7) when no attempt was refused.
+  int give_up_code() const { return last_refusal_code_; }
   net::LinkStatistics statistics() const { return streams_.statistics(); }
 
   net::StreamLink& streams() { return streams_; }
@@ -76,7 +89,7 @@ class OperatorClient {
   void connect();
   void arm_step_timer(uint64_t attempt);
   int64_t step_timeout_ms() const;
-  void retry_or_fail(int code, const std::string& reason, bool timed_out = false);
+  void retry_or_fail(int code, const std::string& reason, bool timed_out = false, bool authenticated = false);
   void on_handshake_frame(uint64_t attempt, std::span<const uint8_t> payload);
   void on_open();
   void on_session_frame_in(const wire::SessionFrame& f);
@@ -101,6 +114,7 @@ class OperatorClient {
   int64_t measured_rtt_ms_ = 0;  // Hello -> Challenge of the latest attempt that got one
   uint32_t failures_ = 0;        // consecutive failed attempts (retry back-off)
   uint32_t step_timeouts_ = 0;   // consecutive attempts that ended in a step time-out
+  int last_refusal_code_ = net::kExitPeerLost;
   std::atomic<bool> has_control_{false};
   std::map<wire::SessionFrame::BodyCase, SessionHandler> handlers_;
   SessionHandler frame_tap_;

@@ -11,10 +11,11 @@ bool finite(const Eigen::Vector3d& v) { return v.allFinite(); }
 
 }  // namespace
 
-HoldScript::HoldScript(const Eigen::Vector3d& position_H, std::uint32_t buttons) {
+HoldScript::HoldScript(const Eigen::Vector3d& position_H, std::uint32_t buttons, bool deadman) {
   if (!finite(position_H)) throw std::invalid_argument("HoldScript: non-finite position");
   target_.position_H = position_H;
   target_.buttons = buttons;
+  target_.deadman = deadman;
 }
 
 HandTarget HoldScript::at(double) const noexcept { return target_; }
@@ -57,11 +58,13 @@ HandTarget WaypointScript::at(double t_s) const noexcept {
   if (!(t_s > w.front().t_s)) {  // also catches NaN
     out.position_H = w.front().position_H;
     out.buttons = w.front().buttons;
+    out.deadman = w.front().deadman;
     return out;
   }
   if (t_s >= w.back().t_s) {
     out.position_H = w.back().position_H;
     out.buttons = w.back().buttons;
+    out.deadman = w.back().deadman;
     return out;
   }
   // First waypoint strictly after t: the segment is [it-1, it].
@@ -72,6 +75,7 @@ HandTarget WaypointScript::at(double t_s) const noexcept {
   const double s = (t_s - a.t_s) / (b.t_s - a.t_s);
   out.position_H = a.position_H + s * (b.position_H - a.position_H);
   out.buttons = a.buttons;
+  out.deadman = a.deadman;
   return out;
 }
 
@@ -94,6 +98,27 @@ HandTarget ButtonEventsScript::at(double t_s) const noexcept {
   const auto it = std::upper_bound(events_.begin(), events_.end(), t_s,
                                    [](double t, const ButtonEvent& e) { return t < e.t_s; });
   out.buttons = (it == events_.begin()) ? 0u : (it - 1)->buttons;
+  return out;
+}
+
+DeadmanScript::DeadmanScript(std::shared_ptr<const HandScript> motion, std::vector<DeadmanPress> presses)
+    : motion_(std::move(motion)), presses_(std::move(presses)) {
+  if (!motion_) throw std::invalid_argument("DeadmanScript: no motion script");
+  for (std::size_t i = 0; i < presses_.size(); ++i) {
+    const DeadmanPress& p = presses_[i];
+    if (!std::isfinite(p.from_s) || !(p.to_s > p.from_s))
+      throw std::invalid_argument("DeadmanScript: press " + std::to_string(i) + " must start at a finite time and end after it");
+    if (i > 0 && !(p.from_s >= presses_[i - 1].to_s))
+      throw std::invalid_argument("DeadmanScript: press " + std::to_string(i) + " overlaps or precedes the one before");
+  }
+}
+
+HandTarget DeadmanScript::at(double t_s) const noexcept {
+  HandTarget out = motion_->at(t_s);
+  // The last press starting at or before t: pressed if t is inside it.
+  const auto it = std::upper_bound(presses_.begin(), presses_.end(), t_s,
+                                   [](double t, const DeadmanPress& p) { return t < p.from_s; });
+  out.deadman = it != presses_.begin() && t_s < (it - 1)->to_s;
   return out;
 }
 

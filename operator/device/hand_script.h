@@ -18,6 +18,7 @@ struct HandTarget {
   Eigen::Vector3d position_H = Eigen::Vector3d::Zero();
   Eigen::Quaterniond orientation_H = Eigen::Quaterniond::Identity();
   std::uint32_t buttons = 0;
+  bool deadman = false;  // the hand presses the dead-man (HandleInputs::deadman)
 };
 
 class HandScript {
@@ -29,7 +30,7 @@ class HandScript {
 // Holds one position for ever.
 class HoldScript final : public HandScript {
  public:
-  explicit HoldScript(const Eigen::Vector3d& position_H, std::uint32_t buttons = 0);
+  explicit HoldScript(const Eigen::Vector3d& position_H, std::uint32_t buttons = 0, bool deadman = false);
   HandTarget at(double t_s) const noexcept override;
 
  private:
@@ -51,11 +52,13 @@ class LineScript final : public HandScript {
 };
 
 // Piecewise-linear through waypoints at given times; holds the first before
-// and the last after. Buttons switch at each waypoint (no interpolation).
+// and the last after. Buttons and the dead-man switch at each waypoint (no
+// interpolation).
 struct Waypoint {
   double t_s = 0.0;
   Eigen::Vector3d position_H = Eigen::Vector3d::Zero();
   std::uint32_t buttons = 0;
+  bool deadman = false;
 };
 class WaypointScript final : public HandScript {
  public:
@@ -80,6 +83,23 @@ class ButtonEventsScript final : public HandScript {
  private:
   std::shared_ptr<const HandScript> motion_;
   std::vector<ButtonEvent> events_;
+};
+
+// Another script with its dead-man replaced: pressed during each span
+// [from_s, to_s) (to_s may be +infinity), released outside them. Spans in
+// time order, not overlapping.
+struct DeadmanPress {
+  double from_s = 0.0;
+  double to_s = 0.0;
+};
+class DeadmanScript final : public HandScript {
+ public:
+  DeadmanScript(std::shared_ptr<const HandScript> motion, std::vector<DeadmanPress> presses);
+  HandTarget at(double t_s) const noexcept override;
+
+ private:
+  std::shared_ptr<const HandScript> motion_;
+  std::vector<DeadmanPress> presses_;
 };
 
 }  // namespace hemm::device

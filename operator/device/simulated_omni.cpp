@@ -70,6 +70,7 @@ void simulated_omni_step(const SimulatedOmniModel& m, SimulatedOmniData& d,
   }
   d.orientation_H = target.orientation_H;
   d.buttons = target.buttons;
+  d.deadman = target.deadman;
   d.t_s += m.dt_s;
   ++d.steps;
 }
@@ -86,6 +87,7 @@ SimulatedOmni::SimulatedOmni(const SimulatedOmniModel& model,
   data_.position_H = t0.position_H;
   data_.orientation_H = t0.orientation_H;
   data_.buttons = t0.buttons;
+  data_.deadman = t0.deadman;
 }
 
 void SimulatedOmni::read(DeviceSample& out) noexcept {
@@ -106,6 +108,8 @@ void SimulatedOmni::read(DeviceSample& out) noexcept {
   e.angular_velocity_H.setZero();
   e.handle = HandleInputs{};
   e.handle.buttons = d->buttons;
+  e.handle.has_deadman = true;
+  e.handle.deadman = d->deadman;
   e.enabled = true;
 }
 

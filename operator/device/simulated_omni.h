@@ -8,8 +8,10 @@
 // spring (k_hand) and damper (b_hand), so forces the servo renders push back on
 // the hand as on a real one: a constant force F displaces it by F / k_hand at
 // steady state. The workspace box has stiff one-sided end stops (spring +
-// damper, never pulling). Orientation and buttons follow the script directly
-// (the Omni renders no torque; its angular velocity is reported as zero).
+// damper, never pulling). Orientation, buttons and the stylus's dead-man
+// follow the script directly (the Omni renders no torque; its angular
+// velocity is reported as zero). The SIMULATED stylus has a dead-man input
+// (HandleInputs::has_deadman): pressed while the hand script presses it.
 // As a HapticDevice it has one end-effector that renders force only: the
 // commanded torque is ignored, a grip force is ignored and counted (the stylus
 // has no grip), a command with any non-finite entry acts as zero and is
@@ -70,6 +72,7 @@ struct SimulatedOmniData {
   Eigen::Vector3d velocity_H = Eigen::Vector3d::Zero();
   Eigen::Quaterniond orientation_H = Eigen::Quaterniond::Identity();
   std::uint32_t buttons = 0;
+  bool deadman = false;  // the stylus's dead-man, as the hand holds it
   Eigen::Vector3d applied_force_H = Eigen::Vector3d::Zero();  // after the limits
   double mean_square_force = 0.0;  // thermal state [N^2]
   std::uint64_t steps = 0;

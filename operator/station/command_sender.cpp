@@ -1,5 +1,8 @@
 #include "operator/station/command_sender.h"
 
+#include <spdlog/spdlog.h>
+
+#include <bit>
 #include <stdexcept>
 
 namespace hemm::op {
@@ -67,6 +70,13 @@ void CommandSender::send_once() {
     estop_presses_seen_ = latest_.estop_presses;
     estop_pending_ = true;
   }
+  if (latest_.nonfinite_poses > stats_.nonfinite_poses) {
+    // The first time, then at every doubling: a broken sensor does not flood the log.
+    const std::uint64_t before = stats_.nonfinite_poses;
+    stats_.nonfinite_poses = latest_.nonfinite_poses;
+    if (before == 0 || std::bit_width(before) != std::bit_width(stats_.nonfinite_poses))
+      spdlog::warn("event=device_pose_nonfinite count={} action=\"all motion held\"", stats_.nonfinite_poses);
+  }
   if (link_up_ && !link_up_()) {
     // Nothing to send on; a re-opened link hears the mode (and a pending e-stop) again.
     ++stats_.link_down;
@@ -77,14 +87,15 @@ void CommandSender::send_once() {
   const wire::Mode mode = to_wire_mode(latest_.mode);
   const bool fresh = now - latest_.t_ns <= p_.stale_after_ns;
   if (!fresh && latest_.moves_robot) ++stats_.stale;
-  const bool deadman = latest_.moves_robot && fresh;
+  const bool deadman = latest_.deadman && fresh && (mode != wire::MODE_MANIPULATION || latest_.arm_valid);
+  const bool moves = deadman && latest_.moves_robot;
   wire::Command& c = *msg_.mutable_command();
   c.set_stamp_ns(now);
   c.set_mode(mode);
   c.set_deadman(deadman);
-  c.set_v(deadman ? latest_.v : 0.0);
-  c.set_omega(deadman ? latest_.omega : 0.0);
-  if (latest_.arm_valid) {
+  c.set_v(moves ? latest_.v : 0.0);
+  c.set_omega(moves ? latest_.omega : 0.0);
+  if (moves && latest_.arm_valid) {
     c.mutable_arm_target()->set_x(latest_.arm_target_R.x());
     c.mutable_arm_target()->set_y(latest_.arm_target_R.y());
     c.mutable_arm_target()->set_z(latest_.arm_target_R.z());
@@ -93,6 +104,7 @@ void CommandSender::send_once() {
   }
   if (send_(msg_)) {
     ++stats_.commands_sent;
+    if (deadman) ++stats_.deadman_pressed;
     if (model_ != nullptr) model_->record_command(SentCommand{now, c.v(), c.omega()});
     // The mode goes on the session only once the link carries commands; a
     // failed send (no session: connecting, reconnecting) forgets it, so a

@@ -1,7 +1,12 @@
 // The command sender (network thread): at rate_hz takes the newest
-// StationSetpoint from the servo task's mailbox and sends a wire Command
-// (deadman = the mode moves the robot AND the servo's setpoint is fresh: a
-// stalled servo thread stops the robot). A mode change also goes as a
+// StationSetpoint from the servo task's mailbox and sends a wire Command.
+// Its dead-man is the hand's (the setpoint's deadman: the device's dead-man
+// input) AND the setpoint is fresh (a stalled servo thread stops the robot);
+// a manipulation setpoint without an arm target (the motion hold) goes
+// without it (nothing to follow). Motion (v, omega, the arm target) goes only
+// with the dead-man and when the task commands motion; otherwise the command
+// is neutral. Device samples with a non-finite pose (the setpoint's count
+// grew) are logged here, off the servo thread. A mode change also goes as a
 // ModeChange session frame, after the first command of that mode was sent
 // successfully (and again after the link was lost and is back). Each command sent is recorded for the pose
 // prediction (model thread). An e-stop pressed on the device (the setpoint's
@@ -32,6 +37,8 @@ struct CommandSenderStats {
   std::uint64_t mode_changes_sent = 0;
   std::uint64_t stale = 0;  // commands sent with the deadman released because the setpoint was stale
   std::uint64_t estops_sent = 0;  // EStop frames (engage or release) sent
+  std::uint64_t deadman_pressed = 0;  // commands sent with the hand's dead-man pressed
+  std::uint64_t nonfinite_poses = 0;  // device samples with a non-finite pose (the task's count)
 };
 
 class CommandSender {

@@ -34,6 +34,8 @@ std::string validate(const NavGoalParams& p) {
   if (!(std::isfinite(p.tolerance) && p.tolerance >= p.stop_distance)) return "tolerance must be >= stop_distance";
   if (!(std::isfinite(p.v_min) && p.v_min >= 0.0 && p.v_min <= p.v_cruise)) return "need 0 <= v_min <= v_cruise";
   if (!(std::isfinite(p.reverse_range) && p.reverse_range >= 0.0)) return "reverse_range must be >= 0";
+  if (!pos(p.rearm_release_s) || !(std::isfinite(p.rearm_retry_s) && p.rearm_retry_s > p.rearm_release_s))
+    return "need 0 < rearm_release_s < rearm_retry_s";
   return {};
 }
 
@@ -109,6 +111,12 @@ device::HandTarget NavGoalHand::at(double t_s) const noexcept {
   position_H_ += n > max_step ? Eigen::Vector3d(step * (max_step / n)) : step;
   device::HandTarget out;
   out.position_H = position_H_;
+  // The dead-man: held, but let go briefly when the robot waits to be re-armed.
+  if (v.valid && (v.robot_safety & wire::SAFETY_REARM) != 0 && std::isfinite(t_s) && t_s >= next_rearm_s_) {
+    release_until_s_ = t_s + p_.rearm_release_s;
+    next_rearm_s_ = t_s + p_.rearm_retry_s;
+  }
+  out.deadman = !(std::isfinite(t_s) && t_s < release_until_s_);
   return out;
 }
 

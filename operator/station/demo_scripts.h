@@ -16,6 +16,8 @@
 //    (1.42, -0.8) in W and sweeps along x = 1.42 to y = -1.6 and back,
 //    through the bin at (1.5, -1.2), r = 0.15, 8 cm off its centre line: the
 //    proxy meets the bin's near (seen) face and slides round it.
+// Where a script drives the robot (nav-to-wall, nav-to-goal) the hand presses
+// the stylus's dead-man; "idle" and "probe-cylinder" (exploration) do not.
 //  - "nav-to-goal": navigation mode, CLOSED LOOP: the hand watches the robot
 //    pose the station shows (OperatorView) and steers the stylus so the
 //    robot drives along a route of goals in W and stops at the last one
@@ -66,6 +68,8 @@ struct NavGoalParams {
   double reverse_range = 0.5;     // m
   double max_offset = 0.030;      // m of stylus travel per axis (the Omni's box: +-35 mm deep)
   double hand_speed = 0.05;       // m/s: how fast the hand moves the stylus (rate limit)
+  double rearm_release_s = 0.2;   // s the dead-man is let go to re-arm the robot
+  double rearm_retry_s = 1.0;     // s between two such re-arms
 };
 // Empty if usable, else what is wrong.
 std::string validate(const NavGoalParams& p);
@@ -91,7 +95,11 @@ NavHandTarget hand_target_for_goal(const OperatorView& view, const Eigen::Vector
 // route (intermediate goals are passed inside pass_radius; never while the
 // view is invalid, e.g. the model is stale) and rate-limits the stylus
 // target to hand_speed. When the robot restarted (view.resyncs changed) the
-// route starts again from its first goal. at() keeps its state in mutable members: it is
+// route starts again from its first goal. The hand holds the dead-man
+// pressed; when the display shows the robot waiting to be re-armed
+// (SAFETY_REARM: after an e-stop, a lost link, an expired watchdog) it lets
+// go for rearm_release_s and presses again, at most once per rearm_retry_s,
+// as a person would. at() keeps its state in mutable members: it is
 // called only on the thread the SIMULATED Omni's hardware runs on (the servo
 // thread in lock-step, right after the tick that wrote the view; its own
 // thread when threaded, where the station hands it the newest view through a
@@ -127,6 +135,7 @@ class NavGoalHand final : public device::HandScript {
   mutable Eigen::Vector3d position_H_ = Eigen::Vector3d::Zero();
   mutable NavHandTarget last_;
   mutable std::uint64_t resyncs_seen_ = 0;
+  mutable double release_until_s_ = -1.0, next_rearm_s_ = 0.0;
 };
 
 // The default route of "nav-to-goal" (see the file comment).

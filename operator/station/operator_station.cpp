@@ -132,7 +132,9 @@ std::string to_string(const OperatorStationSummary& s) {
     << " max=" << s.model.shapes.max_fit_ms << "\n"
     << "commands: sent=" << s.commands.commands_sent << " failures=" << s.commands.send_failures
     << " link_down=" << s.commands.link_down << " mode_changes=" << s.commands.mode_changes_sent << " stale=" << s.commands.stale
-    << " mode_switches=" << s.mode_switches << "\n"
+    << " mode_switches=" << s.mode_switches << " deadman_pressed=" << s.commands.deadman_pressed << "\n"
+    << "device: nonfinite_poses=" << s.device_nonfinite_poses
+    << (s.device_nonfinite_poses > 0 ? " (all motion was held on those ticks)" : "") << "\n"
     << "e-stop: device presses=" << s.estop_presses << " sent=" << s.commands.estops_sent
     << " acknowledged=" << s.estop_acks << " refused=" << s.estop_refusals << " robot reports "
     << (s.robot_estop < 0 ? "nothing" : s.robot_estop ? "engaged" : "released") << "\n"
@@ -217,6 +219,8 @@ report::OperatorStation to_report(const OperatorStationSummary& s) {
   c.set_mode_changes_sent(s.commands.mode_changes_sent);
   c.set_stale(s.commands.stale);
   c.set_estops_sent(s.commands.estops_sent);
+  c.set_deadman_pressed(s.commands.deadman_pressed);
+  r.set_device_nonfinite_poses(s.device_nonfinite_poses);
   r.set_mode_switches(s.mode_switches);
   report::OperatorEStop& e = *r.mutable_estop();
   e.set_device_presses(s.estop_presses);
@@ -540,6 +544,7 @@ OperatorStationSummary OperatorStation::summary() const {
   s.commands = sender_->stats();
   s.mode_switches = task_->mode_switches();
   s.estop_presses = task_->estop_presses();
+  s.device_nonfinite_poses = task_->nonfinite_poses();
   s.estop_acks = estop_acks_;
   s.estop_refusals = estop_refusals_;
   s.robot_estop = robot_estop_;

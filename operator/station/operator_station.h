@@ -76,6 +76,7 @@ struct OperatorStationSummary {
   CommandSenderStats commands;
   std::uint64_t mode_switches = 0;
   std::uint64_t estop_presses = 0;  // on the device (both buttons)
+  std::uint64_t device_nonfinite_poses = 0;  // device samples whose pose was not finite (all motion held)
   std::uint64_t estop_acks = 0, estop_refusals = 0;  // the robot's answers to this station's EStop frames
   int robot_estop = -1;             // as the robot last reported it: 1 engaged, 0 released, -1 never reported
   ArmRefusalSummary arm_refusals;   // arm targets the robot refused, as its states reported them

@@ -47,6 +47,18 @@ std::size_t format_station_log_record(const StationLogRecord& r, char* buf, std:
   return static_cast<std::size_t>(n);
 }
 
+bool device_deadman(const device::DeviceSample& in) noexcept {
+  bool any = false, all = true;
+  const int n = std::clamp(in.end_effectors, 0, device::kMaxEndEffectors);
+  for (int i = 0; i < n; ++i) {
+    const device::HandleInputs& h = in.ee[static_cast<std::size_t>(i)].handle;
+    if (!h.has_deadman) continue;
+    any = true;
+    all = all && h.deadman;
+  }
+  return any && all;
+}
+
 OperatorServoTask::OperatorServoTask(const OperatorTaskParams& p, StationLogger* log, OperatorView* view)
     : p_(p), mode_(p.initial_mode), log_(log), view_(view) {
   if (std::string e = haptics::validate(p.proxy); !e.empty())
@@ -126,7 +138,15 @@ void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelS
   }
   const Eigen::Matrix3d R = R_B_H();
   const Eigen::Vector3d& p_H = in.ee[0].position_H;  // the Omni's stylus: end-effector 0
-  const Eigen::Vector3d p_B = p_H.allFinite() ? Eigen::Vector3d(R * p_H) : Eigen::Vector3d::Zero();
+  // A pose that is not finite is not the device origin: the point stays
+  // where the last finite one was, and all motion is held (below).
+  const bool pose_ok = p_H.allFinite() && in.ee[0].orientation_H.coeffs().allFinite();
+  if (pose_ok) {
+    p_B_last_ = R * p_H;
+  } else {
+    ++nonfinite_poses_;
+  }
+  const Eigen::Vector3d p_B = p_B_last_;
 
   // A model going stale (or a robot restart being taken in): the force fades
   // (never a step: the gain moves at most 1 / fade per second whatever its
@@ -164,6 +184,7 @@ void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelS
     hold_motion(p_B);
   }
   if (stale) hold_motion(p_B);  // held from where the hand is when the model is fresh again
+  if (!pose_ok) hold_motion(p_B);  // held from the last finite point until the hand moves on from there
   if (!estop_press && !first_) {
     if (rising & device::kButton1) {
       switch_to(mode_ == math::Mode::kExploration   ? math::Mode::kNavigation
@@ -214,7 +235,8 @@ void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelS
   const bool tool6 = tool6_ != nullptr && mode_ == math::Mode::kExploration;
   if (tool6) {
     const bool live = snap != nullptr && snap->have_state && !snap->resyncing;
-    tool6_->tick(in.ee[0], T_W_R_, live ? snap->voxmap.get() : nullptr, out.deadline_ns);
+    tool6_->tick(in.ee[0], T_W_R_, live ? snap->voxmap.get() : nullptr, live ? snap->voxmap_builds : 0,
+                 out.deadline_ns);
   }
 
   // Manipulation through the model (issue 13): the point probe at the tool
@@ -235,6 +257,8 @@ void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelS
   sp.tick = ticks_;
   sp.mode = mode_;
   sp.estop_presses = estop_presses_;
+  sp.nonfinite_poses = nonfinite_poses_;
+  sp.deadman = pose_ok && device_deadman(in);
   math::BaseCommand nav_cmd;
   if (mode_ == math::Mode::kNavigation) nav_cmd = math::navigation_command(navigate_, proxy_B + anchor_.offset_B);
   if (held_) {
@@ -286,6 +310,7 @@ void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelS
     view_->mode = mode_;
     view_->valid = snap != nullptr && snap->have_state && !stale;
     view_->resyncs = resyncs_seen_;
+    view_->robot_safety = snap != nullptr && snap->have_state ? snap->state.safety : 0u;
   }
 
   if (log_ != nullptr || view_ticks_ != nullptr) {

@@ -40,6 +40,21 @@
 // interlock: motion starts from rest, never at the speed the proxy happens
 // to give).
 //
+// Dead-man (issue 23). The setpoint carries the hand's dead-man input (the
+// device's: pressed when every end-effector handle that has a dead-man
+// reports it pressed; a device without one never moves the robot); the
+// command sender puts it on the wire. The task's motion hold and its mode
+// decide what the command asks for; the dead-man whether the robot may
+// follow it.
+//
+// A device pose that is not finite (end-effector 0's position or
+// orientation) holds all motion (no dead-man, zero command, no arm target)
+// instead of being read as the device origin; the interaction point stays
+// where the last finite pose put it, each such tick is counted
+// (nonfinite_poses, reported by the command sender off the servo thread),
+// and when the pose is finite again the robot stays held until the hand has
+// moved (the motion hold).
+//
 // The robot pose used on each tick is the snapshot's prediction extrapolated
 // to the tick time with the command acting (bounded by max_extrapolation_s).
 //
@@ -86,9 +101,15 @@ struct StationSetpoint {
   double omega = 0.0;   // rad/s
   Eigen::Vector3d arm_target_R = Eigen::Vector3d::Zero();  // manipulation
   bool arm_valid = false;
-  bool moves_robot = false;  // deadman: the mode commands motion
+  bool moves_robot = false;  // the mode (and the motion hold) command motion
+  bool deadman = false;      // the hand's dead-man pressed (and the pose finite)
   std::uint64_t estop_presses = 0;  // e-stop presses on the device so far (both buttons together)
+  std::uint64_t nonfinite_poses = 0;  // device samples with a non-finite pose so far (all motion held)
 };
+
+// The device's dead-man: pressed when every end-effector handle that has a
+// dead-man input reports it pressed, and at least one has one.
+bool device_deadman(const device::DeviceSample& in) noexcept;
 
 // One record per tick, W frame, for the plots (deploy/plots/plot_run.py).
 struct StationLogRecord {
@@ -171,6 +192,7 @@ struct OperatorView {
   math::Mode mode = math::Mode::kExploration;
   bool valid = false;         // false until the model has a RobotState, and while it is stale
   std::uint64_t resyncs = 0;  // robot restarts taken in: a closed-loop hand restarts its task from the robot's state
+  std::uint32_t robot_safety = 0;  // the newest RobotState's SafetyFlags (wire.proto; 0: none yet)
 };
 
 struct OperatorTaskParams {
@@ -213,7 +235,7 @@ struct OperatorTaskParams {
   // feels the proxy's force before the real arm touches anything. Its
   // radius is the tool's keep-out: above the robot's own scene keep-out
   // around its seen points (link radius 0.02 + clearance 0.01 + pad 0.01 =
-  // 0.04 m, robot_side/control/safety.h ArmKeepOut), by 1 cm for the two
+  // 0.04 m, robot_side/control/arm_keep_out.h), by 1 cm for the two
   // models' differences (noise, voxels), so a target on the model's surface
   // is not refused by the robot.
   double tool_probe_radius = 0.05;
@@ -245,6 +267,7 @@ class OperatorServoTask final : public servo::ServoTask {
   const math::Pose2& robot_pose() const noexcept { return T_W_R_; }
   std::uint64_t mode_switches() const noexcept { return switches_; }
   std::uint64_t estop_presses() const noexcept { return estop_presses_; }
+  std::uint64_t nonfinite_poses() const noexcept { return nonfinite_poses_; }
   double force_gain() const noexcept { return force_gain_; }
   // True while motion is held (see "Motion hold" above).
   bool motion_held() const noexcept { return held_; }
@@ -302,6 +325,8 @@ class OperatorServoTask final : public servo::ServoTask {
   Eigen::Vector3d goal_W_ = Eigen::Vector3d::Zero();
   std::uint32_t buttons_prev_ = 0;
   std::uint64_t estop_presses_ = 0;
+  std::uint64_t nonfinite_poses_ = 0;
+  Eigen::Vector3d p_B_last_ = Eigen::Vector3d::Zero();  // the newest finite stylus point (B)
   bool first_ = true;
   std::uint64_t switches_ = 0;
   double force_gain_ = 1.0;         // stale-model fade

@@ -77,7 +77,7 @@ Tool6Explorer::Tool6Explorer(const Tool6Params& p) : p_(p) {
 }
 
 void Tool6Explorer::tick(const device::EndEffectorSample& s, const math::Pose2& T_W_R, const vps::Voxmap* vm,
-                         std::int64_t deadline_ns) noexcept {
+                         std::uint64_t voxmap_build, std::int64_t deadline_ns) noexcept {
   valid_ = s.position_H.allFinite() && s.orientation_H.coeffs().allFinite() && s.orientation_H.norm() > 0.5;
   // The sample is in the device's frame (D, the HapticDevice API's "H").
   const Eigen::Isometry3d T_W_D = robot_pose3(T_W_R) * Eigen::Translation3d(p_.origin_R) * p_.T_H_D;
@@ -89,6 +89,10 @@ void Tool6Explorer::tick(const device::EndEffectorSample& s, const math::Pose2& 
     goal_W_ = T_W_D * T_D_P;
   }
   if (!s.enabled) vm = nullptr;  // a detached hand: the tool follows the device, nothing displayed
+  // The pair state is of one build: a new build at the old one's address is
+  // still new (forgetting the pointer makes probe_tool_tick start again).
+  if (vm != nullptr && voxmap_build != voxmap_build_) state_.voxmap = nullptr;
+  voxmap_build_ = voxmap_build;
   Eigen::Isometry3d goal = goal_W_;
   if (!valid_) goal.translation().x() = NAN;  // the tool keeps its pose, zero wrench
   if (vm == nullptr || !valid_) {  // nothing evaluated

@@ -28,8 +28,10 @@
 // work_budget.h: tick_budget_ns, never past the tick's deadline less
 // tick_margin_ns, over the measured cost of a work unit: calibrated here on
 // a box voxmap of the live voxmap's resolution, then updated every tick on
-// the live one) and capped by `budget` in units; the pair state is reset
-// when the snapshot's voxmap pointer changes; no voxmap -> zero wrench.
+// the live one) and capped by `budget` in units; the pair state belongs to
+// one voxmap build (the snapshot's voxmap_builds) and is reset when another
+// build comes, even one published at the address of the old (freed) one;
+// no voxmap -> zero wrench.
 #pragma once
 
 #include <cstdint>
@@ -80,10 +82,10 @@ class Tool6Explorer {
   explicit Tool6Explorer(const Tool6Params& p);
 
   // Servo thread: one tick for the end-effector sample s (H), the robot pose
-  // (W) and the snapshot's voxmap (null: none yet); deadline_ns: the tick's
-  // (TickOutput::deadline_ns; 0: unknown).
+  // (W) and the snapshot's voxmap (null: none yet) with its build number;
+  // deadline_ns: the tick's (TickOutput::deadline_ns; 0: unknown).
   void tick(const device::EndEffectorSample& s, const math::Pose2& T_W_R, const vps::Voxmap* vm,
-            std::int64_t deadline_ns = 0) noexcept;
+            std::uint64_t voxmap_build, std::int64_t deadline_ns = 0) noexcept;
   // The wrench to display, scaled by gain (the stale-model fade), into c.
   void write(double gain, device::EndEffectorCommand& c) const noexcept;
   // The tick's goal pose, tool pose, displayed wrench (W) into the log record.
@@ -109,6 +111,7 @@ class Tool6Explorer {
   vps::TickWorkBudget budget_;
   Eigen::Isometry3d goal_W_ = Eigen::Isometry3d::Identity();
   Eigen::Matrix3d R_W_D_ = Eigen::Matrix3d::Identity();
+  std::uint64_t voxmap_build_ = 0;  // the build the pair state belongs to
   bool valid_ = false;
 };
 

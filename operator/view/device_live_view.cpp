@@ -80,7 +80,7 @@ void DeviceLiveView::stop() { thread_.stop(); }
 LiveViewStats DeviceLiveView::stats() const { return live_view_stats(counters_, dropped_.load(), thread_); }
 
 void DeviceLiveView::run(const std::atomic<bool>& stop) {
-  view::MjModelPtr model = view::load_model_xml("device_view.xml", kDeviceWorldXml);
+  view::MjModelPtr model = sim::load_model_xml("device_view.xml", kDeviceWorldXml);
   view::MjDataPtr data = view::make_data(model.get());
   const view::CameraSpec camera = default_device_camera(setup_);
   DeviceViewRecord tick;

@@ -40,7 +40,7 @@ constexpr const char* kStationWorldXml = R"(<mujoco model="hemm_operator_view">
 </mujoco>
 )";
 
-view::MjModelPtr load_world() { return view::load_model_xml("operator_view.xml", kStationWorldXml); }
+view::MjModelPtr load_world() { return sim::load_model_xml("operator_view.xml", kStationWorldXml); }
 
 }  // namespace
 

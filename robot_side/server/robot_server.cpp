@@ -3,16 +3,11 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
-#include <cinttypes>
+
+#include "common/net/session_id.h"
 
 namespace hemm::robot {
 namespace {
-
-std::string hex_id(uint64_t v) {
-  char b[17];
-  std::snprintf(b, sizeof b, "%016" PRIx64, v);
-  return b;
-}
 
 // Per-source limits: an IPv4 address, or an IPv6 /64 (one host's share of
 // addresses; counting each IPv6 address alone would give one host millions).
@@ -298,18 +293,18 @@ void RobotServer::activate(Pending p) {
   streams_.open_session(sid, udp_tx, udp_rx, std::nullopt);
   streams_.update_stats([](net::LinkStatistics& s) { ++s.sessions_opened; });
   spdlog::info("event=session_open peer={} name=\"{}\" session={} has_control={}", active_->peer(), active_name_,
-               hex_id(sid), control);
+               net::hex_id(sid), control);
 }
 
 void RobotServer::on_active_frame(const wire::SessionFrame& f) {
   switch (f.body_case()) {
     case wire::SessionFrame::kBye:
-      spdlog::info("event=peer_bye session={} reason=\"{}\"", hex_id(active_session_),
+      spdlog::info("event=peer_bye session={} reason=\"{}\"", net::hex_id(active_session_),
                    net::log_safe(f.bye().reason()));
       end_active("operator said bye", false);
       return;
     case wire::SessionFrame::kError:
-      spdlog::warn("event=peer_error session={} code={} reason=\"{}\"", hex_id(active_session_),
+      spdlog::warn("event=peer_error session={} code={} reason=\"{}\"", net::hex_id(active_session_),
                    wire::ErrorCode_Name(f.error().code()), net::log_safe(f.error().reason()));
       end_active("operator reported an error", false);
       return;
@@ -329,7 +324,7 @@ void RobotServer::send_session_frame(const wire::SessionFrame& f) {
 
 void RobotServer::end_active(const std::string& reason, bool send_bye) {
   if (!active_) return;
-  spdlog::info("event=session_closed session={} reason=\"{}\"", hex_id(active_session_), reason);
+  spdlog::info("event=session_closed session={} reason=\"{}\"", net::hex_id(active_session_), reason);
   if (send_bye && active_->is_open()) {
     wire::SessionFrame b;
     b.mutable_bye()->set_reason(reason);

@@ -16,9 +16,13 @@
 #include <mujoco/mujoco.h>
 
 #include "common/config/config.h"
+#include "common/sim/mujoco_owner.h"
 #include "config_robot.pb.h"
 #include "robot_side/control/arm_control.h"
-#include "robot_side/control/safety.h"
+#include "robot_side/control/arm_keep_out.h"
+#include "robot_side/control/collision_guard.h"
+#include "robot_side/control/seen_voxels.h"
+#include "robot_side/control/watchdog.h"
 #include "robot_side/sim/mujoco_ray_caster.h"
 
 namespace hemm::robot {
@@ -32,13 +36,6 @@ constexpr double kArmClearanceRange = 0.10;
 static_assert(static_cast<int>(ArmRefusal::kFloor) == wire::ARM_REFUSAL_FLOOR &&
               static_cast<int>(ArmRefusal::kBase) == wire::ARM_REFUSAL_BASE &&
               static_cast<int>(ArmRefusal::kScene) == wire::ARM_REFUSAL_SCENE);
-
-struct ModelDeleter {
-  void operator()(mjModel* m) const { mj_deleteModel(m); }
-};
-struct DataDeleter {
-  void operator()(mjData* d) const { mj_deleteData(d); }
-};
 
 Eigen::Isometry3d pose_from(const mjtNum* pos, const mjtNum* quat) {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
@@ -122,7 +119,7 @@ std::shared_ptr<const std::vector<Eigen::Vector3f>> integrate_seen(SeenVoxels& s
 // never waited for.
 struct DepthWorker {
   const mjModel* m = nullptr;
-  std::unique_ptr<mjData, DataDeleter> d;
+  sim::MjDataPtr d;
   SimDepthCameraParams params;
   std::mt19937_64 rng;
   std::mutex mu;
@@ -210,8 +207,8 @@ struct DepthWorker {
 };
 
 struct SimulatedRobot::Impl {
-  std::unique_ptr<mjModel, ModelDeleter> m;
-  std::unique_ptr<mjData, DataDeleter> d;
+  sim::MjModelPtr m;
+  sim::MjDataPtr d;
 
   // Model indices.
   int base_body = -1, arm_base_body = -1, floor_geom = -1, ee_site = -1;
@@ -248,6 +245,9 @@ struct SimulatedRobot::Impl {
   bool arm_goal_flagged = false;
   bool arm_holding = true;
   bool operator_in_control = false, estop = false, link_lost = false;
+  // Re-arm (simulated_robot.h): armed once a neutral command and then a
+  // pressed one came after the last stop.
+  bool armed = false, neutral_seen = false;
   uint64_t rejected = 0;
   uint32_t safety = 0;
 
@@ -449,6 +449,24 @@ struct SimulatedRobot::Impl {
     return sc;
   }
 
+  void disarm() {
+    armed = false;
+    neutral_seen = false;
+  }
+
+  // A command of the operator's, towards the re-arm: counted only once no
+  // stop is in force. A pressed command after a neutral one arms.
+  void rearm_with(const BaseArmCommand& c) {
+    if (armed || !operator_in_control || estop || link_lost) return;
+    const bool neutral = !c.deadman || (c.mode != wire::MODE_NAVIGATION && c.mode != wire::MODE_MANIPULATION) ||
+                         (c.mode == wire::MODE_NAVIGATION && c.v == 0.0 && c.omega == 0.0);
+    if (c.deadman && neutral_seen) {
+      armed = true;
+    } else if (neutral) {
+      neutral_seen = true;
+    }
+  }
+
   void control_step() {
     const double dt = m->opt.timestep;
     const int64_t t = now();
@@ -461,7 +479,9 @@ struct SimulatedRobot::Impl {
     if (expired && operator_in_control) flags |= wire::SAFETY_WATCHDOG;
     if (estop) flags |= wire::SAFETY_ESTOP;
     if (link_lost) flags |= wire::SAFETY_LINK_LOST;
-    const bool may_move = operator_in_control && !expired && !estop && !link_lost && command.deadman;
+    if (!operator_in_control || expired || estop || link_lost) disarm();
+    if (!armed) flags |= wire::SAFETY_REARM;
+    const bool may_move = armed && command.deadman;
 
     // Base.
     double v_cmd = 0.0, w_cmd = 0.0;
@@ -559,9 +579,11 @@ std::optional<std::string> SimulatedRobot::load(const config::RobotConfig& cfg, 
   if (const auto issues = config::validate_robot_config(cfg); !issues.empty())
     return "config: " + issues.front().field + ": " + issues.front().message;
   auto impl = std::make_unique<Impl>();
-  char err[1024] = "";
-  impl->m.reset(mj_loadXML(scene_path.c_str(), nullptr, err, sizeof err));
-  if (!impl->m) return "MuJoCo could not load " + scene_path + ": " + err;
+  try {
+    impl->m = sim::load_model_file(scene_path);
+  } catch (const std::runtime_error& e) {
+    return std::string("MuJoCo could not load ") + e.what();  // "PATH: MuJoCo's message"
+  }
   mjModel* m = impl->m.get();
   m->opt.timestep = cfg.sim().timestep_s();
   impl->d.reset(mj_makeData(m));
@@ -721,6 +743,9 @@ std::optional<std::string> SimulatedRobot::set_command(const BaseArmCommand& c, 
   if (c.mode < wire::MODE_IDLE || c.mode > wire::MODE_EXPLORATION) return reject("command has an unknown mode");
   if (c.arm_target_R.norm() > 10.0) return reject("arm target farther than 10 m");
   if (std::abs(c.wrist_pitch) > 10.0 || std::abs(c.wrist_roll) > 10.0) return reject("wrist angles out of range");
+  // A command after the watchdog expired comes after a stop (the step may
+  // not have seen the expiry yet).
+  if (watchdog_expired(s.watchdog, now_ns)) s.disarm();
   // Without the deadman the arm holds whatever the target says (a held
   // operator sends none: (0, 0, 0), which is in the base): nothing to solve.
   if (c.mode == wire::MODE_MANIPULATION && c.deadman) {
@@ -799,8 +824,19 @@ std::optional<std::string> SimulatedRobot::set_command(const BaseArmCommand& c, 
   }
   s.command = c;
   watchdog_feed(s.watchdog, now_ns);
+  s.rearm_with(c);
   return std::nullopt;
 }
+
+void SimulatedRobot::stop_commanded_motion(uint64_t seq) {
+  if (!impl_) return;
+  BaseArmCommand neutral;
+  neutral.mode = wire::MODE_IDLE;
+  neutral.seq = seq;
+  impl_->command = neutral;
+}
+
+bool SimulatedRobot::armed() const { return impl_ && impl_->armed; }
 
 uint64_t SimulatedRobot::rejected_commands() const { return impl_ ? impl_->rejected : 0; }
 SimulatedRobot::ArmRefusals SimulatedRobot::arm_refusals() const { return impl_ ? impl_->arm_refusals : ArmRefusals{}; }
@@ -808,15 +844,22 @@ SeenVoxelsStats SimulatedRobot::seen_voxels_stats() const { return impl_ ? impl_
 SimulatedRobot::ArmContactStats SimulatedRobot::arm_contacts_sim() const {
   return impl_ ? impl_->arm_contacts : ArmContactStats{};
 }
+// Each stop disarms at once: a stop set and cleared between two steps still counts.
 void SimulatedRobot::set_operator_in_control(bool b) {
-  if (impl_) impl_->operator_in_control = b;
+  if (!impl_) return;
+  impl_->operator_in_control = b;
+  if (!b) impl_->disarm();
 }
 void SimulatedRobot::set_estop(bool b) {
-  if (impl_) impl_->estop = b;
+  if (!impl_) return;
+  impl_->estop = b;
+  if (b) impl_->disarm();
 }
 bool SimulatedRobot::estop() const { return impl_ && impl_->estop; }
 void SimulatedRobot::set_link_lost(bool b) {
-  if (impl_) impl_->link_lost = b;
+  if (!impl_) return;
+  impl_->link_lost = b;
+  if (b) impl_->disarm();
 }
 
 RobotStateSim SimulatedRobot::state() const {

@@ -13,7 +13,16 @@
 //     to a stop within its acceleration limits, the arm holds;
 //   * collision guard: the base's forward/backward speed and its yaw rate are
 //     limited so that it stops short of what its own laser and sonar see, in
-//     space they saw free (CollisionGuardParams in robot_side/control/safety.h).
+//     space they saw free (CollisionGuardParams in robot_side/control/collision_guard.h).
+//
+// Re-arm: a stop is not undone by its cause going away. After the e-stop
+// (engaged from anywhere), a lost link, an expired watchdog, or a time
+// without an operator in control (start-up included), the robot follows
+// nothing (SAFETY_REARM) until it has received, after the cause cleared, a
+// neutral command (the dead-man released, or a command that asks for no
+// motion: idle or exploration, navigation with v = omega = 0) and then a
+// command with the dead-man pressed. So releasing an e-stop, or a link
+// coming back, never resumes what the operator happened to be streaming.
 //
 // Time is the simulation's: time_ns() = origin + steps * timestep. In real-time
 // mode the station sets the origin to its steady clock and steps to it (see
@@ -28,7 +37,9 @@
 #include <vector>
 
 #include "robot_side/control/base_control.h"
-#include "robot_side/control/safety.h"
+#include "robot_side/control/arm_keep_out.h"
+#include "robot_side/control/collision_guard.h"
+#include "robot_side/control/seen_voxels.h"
 #include "robot_side/sim/depth_camera.h"
 #include "robot_side/sim/range_sensors.h"
 #include "robot_side/sim/sim_types.h"
@@ -82,11 +93,17 @@ class SimulatedRobot {
   // A manipulation target whose arm pose would reach into the floor, the
   // base or what the robot's own sensors have seen (recent scans; with the
   // depth camera its seen voxels) is refused too (ArmKeepOut in
-  // robot_side/control/safety.h), counted by reason; when the IK's solution
+  // robot_side/control/arm_keep_out.h), counted by reason; when the IK's solution
   // is refused for the base or the scene, the elbow-up solution of the same
   // target is tried first. A manipulation command without the deadman moves
   // nothing: its target is not solved (nor refused).
   std::optional<std::string> set_command(const BaseArmCommand& command, int64_t now_ns);
+  // The robot's own neutral command (an IDLE command: e.g. when the session
+  // changes mode). It stops what the old command was doing; it is not the
+  // operator's, so it does not count towards the re-arm and feeds no watchdog.
+  void stop_commanded_motion(uint64_t seq);
+  // False while motion is held until re-armed (see "Re-arm" above).
+  bool armed() const;
   uint64_t rejected_commands() const;
   struct ArmRefusals {
     uint64_t floor = 0, base = 0, scene = 0;

@@ -3,11 +3,11 @@
 #include <cmath>
 
 #include "common/mapping/depth_stream.h"
+#include "common/math/finite.h"
 
 namespace hemm::robot {
 namespace {
 constexpr uint32_t kMaxBeams = 100000;
-bool finite3(const proto::Vec3& v) { return std::isfinite(v.x()) && std::isfinite(v.y()) && std::isfinite(v.z()); }
 }  // namespace
 
 void to_wire(const Pose2& p, proto::Pose2* out) {
@@ -103,7 +103,7 @@ void to_wire(const BaseArmCommand& c, wire::Command* out) {
 
 std::optional<std::string> from_wire(const wire::Command& m, uint64_t seq, BaseArmCommand* out) {
   if (!wire::Mode_IsValid(m.mode()) || m.mode() == wire::MODE_UNSPECIFIED) return "command mode unknown";
-  if (!std::isfinite(m.v()) || !std::isfinite(m.omega()) || !finite3(m.arm_target()) ||
+  if (!std::isfinite(m.v()) || !std::isfinite(m.omega()) || !math::finite3(m.arm_target()) ||
       !std::isfinite(m.wrist_pitch()) || !std::isfinite(m.wrist_roll()))
     return "command has non-finite values";
   BaseArmCommand c;

@@ -104,11 +104,24 @@ void refuse(RobotStation::Shared& sh, uint64_t request_id, const std::string& wh
 // Network thread: queue a request for the simulation thread, or refuse it.
 void queue_request(const SharedPtr& sh, Request r) {
   std::lock_guard<std::mutex> lk(sh->req_mu);
-  // The robot's own e-stop is never refused.
-  if (sh->requests.size() >= kMaxQueuedRequests && r.kind != Request::Kind::kLocalEStop) {
-    refuse(*sh, r.request_id, "too many pending requests");
-    send_now(*sh, make_ack(r.request_id, false, "too many pending requests"));
-    return;
+  if (sh->requests.size() >= kMaxQueuedRequests) {
+    // An e-stop is never refused. The robot's own always queues. An
+    // operator's engaging one queues past the bound unless the queue's last
+    // operator e-stop already engages: then this one is that one (acked now;
+    // the simulation thread engages at its next step). So a flood of them
+    // adds at most one entry per release queued before the queue filled.
+    if (r.kind == Request::Kind::kEStop && r.engaged) {
+      const auto last = std::find_if(sh->requests.rbegin(), sh->requests.rend(),
+                                     [](const Request& q) { return q.kind == Request::Kind::kEStop; });
+      if (last != sh->requests.rend() && last->engaged) {
+        send_now(*sh, make_ack(r.request_id, true, "e-stop engaged"));
+        return;
+      }
+    } else if (r.kind != Request::Kind::kLocalEStop) {
+      refuse(*sh, r.request_id, "too many pending requests");
+      send_now(*sh, make_ack(r.request_id, false, "too many pending requests"));
+      return;
+    }
   }
   sh->requests.push_back(std::move(r));
 }
@@ -497,11 +510,10 @@ void RobotStation::run() {
           continue;
         }
         if (r.mode != exec_mode) {
-          // Stop what the old mode was doing until a command of the new one.
-          BaseArmCommand neutral;
-          neutral.mode = wire::MODE_IDLE;
-          neutral.seq = last_seq;
-          if (!robot_.set_command(neutral, robot_.time_ns())) exec_mode = wire::MODE_IDLE;
+          // Stop what the old mode was doing until a command of the new one
+          // (the robot's own neutral command: it re-arms nothing).
+          robot_.stop_commanded_motion(last_seq);
+          exec_mode = wire::MODE_IDLE;
         }
         if (r.mode != session_mode) ++sh.mode_changes;
         session_mode = r.mode;

@@ -20,10 +20,14 @@
 // (its stamp mapped to the robot's clock with the link's offset estimate),
 // or arriving before there is an estimate, is refused (commands_stale). The
 // watchdog counts from a command's send time, not its arrival: a command
-// held on the path for t gets t less (README "Protocol", "Command age"). Mode
+// held on the path for t gets t less (docs/protocol.md, "Command age"). Mode
 // changes need control; engaging the e-stop does not (any authenticated
 // session may stop the robot), releasing it does. The robot station has its
-// own e-stop too (local_estop), which only the robot station releases.
+// own e-stop too (local_estop), which only the robot station releases. An
+// e-stop is never refused, not even with the request queue full. After any
+// stop (e-stop, lost link, expired watchdog, no operator) the robot moves
+// again only after a neutral command and then a pressed one
+// (SimulatedRobot "Re-arm"; docs/security.md).
 //
 // Session mode: until the controlling operator sends a ModeChange, commands
 // carry their own mode. After one, a command in another mode is dropped

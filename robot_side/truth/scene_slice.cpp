@@ -3,6 +3,7 @@
 #include <mujoco/mujoco.h>
 
 #include "common/mesh/primitives.h"
+#include "common/sim/mujoco_owner.h"
 
 #include <algorithm>
 #include <cmath>
@@ -180,19 +181,15 @@ bool with_scene(const std::string& path, std::string* error, F&& f) {
     if (error) *error = path + ": no such scene file";
     return false;
   }
-  char err[1024] = "";
-  std::unique_ptr<mjModel, void (*)(mjModel*)> m(mj_loadXML(path.c_str(), nullptr, err, sizeof err), mj_deleteModel);
-  if (!m) {
-    if (error) *error = path + ": MuJoCo could not load the scene: " + err;
+  sim::MujocoOwner scene;
+  try {
+    scene = sim::MujocoOwner::from_file(path);
+  } catch (const std::runtime_error& e) {
+    if (error) *error = std::string("MuJoCo could not load the scene: ") + e.what();  // "PATH: MuJoCo's message"
     return false;
   }
-  std::unique_ptr<mjData, void (*)(mjData*)> d(mj_makeData(m.get()), mj_deleteData);
-  if (!d) {
-    if (error) *error = path + ": MuJoCo could not allocate data for the scene";
-    return false;
-  }
-  mj_forward(m.get(), d.get());
-  f(m.get(), d.get());
+  mj_forward(scene.m(), scene.d());
+  f(scene.m(), scene.d());
   return true;
 }
 

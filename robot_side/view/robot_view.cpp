@@ -116,9 +116,7 @@ void RobotLiveView::start() {
 void RobotLiveView::stop() { thread_.stop(); }
 
 void RobotLiveView::run(const std::atomic<bool>& stop) {
-  char err[1000] = "";
-  view::MjModelPtr model(mj_loadXML(scene_path_.c_str(), nullptr, err, sizeof err));
-  if (!model) throw std::runtime_error("cannot load scene '" + scene_path_ + "': " + err);
+  view::MjModelPtr model = sim::load_model_file(scene_path_);  // throws "PATH: MuJoCo's message"
   // The world's walls and furniture see-through (the view's copy only), so
   // a camera above a room still shows the robot behind a 2.5 m wall.
   for (int g = 0; g < model->ngeom; ++g)

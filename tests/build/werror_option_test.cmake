@@ -1,5 +1,10 @@
 # Configures the tree twice (math only, to keep it short) and reads the
 # compile commands: -Werror only with -DHEMM_WERROR=ON.
+# Under a directory of its own (string(RANDOM) is seeded from the system's
+# random source), so two ctest runs of one build tree at once do not
+# configure into the same place.
+string(RANDOM LENGTH 12 ALPHABET 0123456789abcdefghijklmnopqrstuvwxyz _run)
+set(WORK_DIR ${WORK_DIR}/${_run})
 function(configure_and_read werror out)
   set(dir ${WORK_DIR}/${werror})
   file(REMOVE_RECURSE ${dir})
@@ -16,6 +21,7 @@ endfunction()
 
 configure_and_read(OFF plain)
 configure_and_read(ON strict)
+file(REMOVE_RECURSE ${WORK_DIR})
 if(NOT plain MATCHES "workspace_maps\\.cpp")
   message(FATAL_ERROR "no compile command for common/math in the plain configuration")
 endif()

@@ -22,6 +22,21 @@ inline double sphere_halfspace_force(double K, double R, double delta) {
          (R * (1 - u0 * u0 * u0) / 3.0 + (delta - R) * (1 - u0 * u0) / 2.0);
 }
 
+// Volume of a sphere of radius R below a plane h above its lowest point
+// (h clamped to [0, 2R]): pi h^2 (3R - h) / 3. sphere_halfspace_force is K
+// times this volume (the pressure integral of a linear depth is the volume
+// under the plane).
+inline double sphere_cap_volume(double R, double h) {
+  h = std::clamp(h, 0.0, 2 * R);
+  return std::numbers::pi * h * h * (3 * R - h) / 3.0;
+}
+
+// Volume of a sphere (radius R, centre height zc) between the planes z = lo
+// and z = hi (lo <= hi): its overlap with a plate of thickness hi - lo.
+inline double sphere_slab_volume(double R, double zc, double lo, double hi) {
+  return sphere_cap_volume(R, hi - (zc - R)) - sphere_cap_volume(R, lo - (zc - R));
+}
+
 // A plane (a flat face) at distance h from the centre of a sphere R: p is the
 // sphere's depth R - |x - c| over the disc the sphere cuts from the plane;
 // the force is along the face's inward normal.

@@ -2,12 +2,18 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 
 namespace hemm::vps {
 
 namespace {
 
 constexpr std::uint32_t kNever = 0xFFFFFFFFu;
+// Far faces told apart per pair and tick (PairState); one more group holds
+// the rest, always kept. Two far faces are one when their normals agree
+// within ~1 degree and their planes within a quarter voxel.
+constexpr int kThroughGroups = 4;
+constexpr double kSameFarFace = 0.9998;
 
 // floor() as an int for the hot loop: truncation and a fix-up, with the
 // total grid_floor for anything non-finite or out of range.
@@ -164,6 +170,7 @@ class PairEval {
   }
 
   void finish(int level_used, PairResult* out) {
+    keep_or_release_through_points();
     out_.levels_completed = level_used + 1;
     const int l = std::clamp(level_used, 0, kMaxShellLevels - 1);
     const Eigen::Matrix3d R_W_V = T_W_V_.linear();
@@ -187,6 +194,7 @@ class PairEval {
 
   bool state_ok() const {
     return state_ == nullptr || (state_->entry.size() == 3 * ps_.size() && state_->seen.size() == ps_.size() &&
+                                 state_->sheet_visits.size() == ps_.size() && ps_.size() < (std::size_t{1} << 29) &&
                                  state_->node_mark.size() == ps_.nodes.size() &&
                                  state_->level_node_mark.size() == ps_.level_nodes.size());
   }
@@ -200,10 +208,78 @@ class PairEval {
     }
   }
 
+  // Points past the far face of the wall they came through, summed apart per
+  // far face (u: unit normal towards the side they came from; the face is
+  // u.y = f). A group counts if some sheet point of the pair visited this
+  // tick lies on that side of the face (the object still reaches back into
+  // the wall); otherwise the object has gone through: its force is dropped
+  // and its points are released (not seen: next tick they come from where
+  // they are now). The last group (overflow) is always kept.
+  struct ThroughGroup {
+    Eigen::Vector3d u = Eigen::Vector3d::Zero();
+    double f = 0.0;
+    Eigen::Vector3d F[kMaxShellLevels], tau[kMaxShellLevels];
+    int contacts = 0;
+    double max_pen = 0.0;
+    void reset(const Eigen::Vector3d& u_in, double f_in) {
+      u = u_in;
+      f = f_in;
+      for (int l = 0; l < kMaxShellLevels; ++l) {
+        F[l].setZero();
+        tau[l].setZero();
+      }
+      contacts = 0;
+      max_pen = 0.0;
+    }
+  };
+
+  int through_group(const Eigen::Vector3d& u, double f) {
+    for (int gi = 0; gi < n_thr_; ++gi) {
+      if (thr_[gi].u.dot(u) > kSameFarFace && std::abs(thr_[gi].f - f) < 0.25 * s_) return gi;
+    }
+    if (n_thr_ == kThroughGroups) {
+      if (!overflow_used_) thr_[kThroughGroups].reset(Eigen::Vector3d::Zero(), 0.0);
+      overflow_used_ = true;
+      return kThroughGroups;
+    }
+    thr_[n_thr_].reset(u, f);
+    return n_thr_++;
+  }
+
+  void keep_or_release_through_points() {
+    if (n_thr_ == 0 && !overflow_used_) return;
+    // The farthest any visited sheet point reaches along each group's u.
+    double reach[kThroughGroups];
+    std::fill(reach, reach + kThroughGroups, -std::numeric_limits<double>::infinity());
+    const std::uint32_t* visits = state_->sheet_visits.data();
+    for (int i = 0; i < n_visits_; ++i) {
+      const auto k = static_cast<std::size_t>(visits[i] >> 3);
+      const Eigen::Vector3d x = T_V_P_ * Eigen::Vector3d(ps_.px[k], ps_.py[k], ps_.pz[k]);
+      for (int gi = 0; gi < n_thr_; ++gi) reach[gi] = std::max(reach[gi], thr_[gi].u.dot(x));
+    }
+    for (int gi = 0; gi <= kThroughGroups; ++gi) {
+      if (gi == kThroughGroups ? !overflow_used_ : gi >= n_thr_) continue;
+      const ThroughGroup& t = thr_[gi];
+      if (gi < kThroughGroups && !(reach[gi] > t.f)) {
+        for (int i = 0; i < n_visits_; ++i) {
+          if (static_cast<int>(visits[i] & 7u) == gi + 1) state_->seen[visits[i] >> 3] = kNever;
+        }
+        continue;
+      }
+      for (int l = 0; l < kMaxShellLevels; ++l) {
+        F_[l] += t.F[l];
+        tau_[l] += t.tau[l];
+      }
+      out_.contacts += t.contacts;
+      out_.max_penetration = std::max(out_.max_penetration, t.max_pen);
+    }
+  }
+
   // Depth of x (grid coordinates g, voxmap frame x) in the sheet of voxel
-  // (vx, block bi, local index li).
+  // (vx, block bi, local index li). *through: the far-face group of a point
+  // past the far face of the wall it came through (through_group), else -1.
   double sheet_depth(std::int32_t k, const Voxel& vx, std::int32_t bi, int li, const Eigen::Vector3d& g,
-                     const Eigen::Vector3i& v, const Eigen::Vector3d& x) {
+                     const Eigen::Vector3i& v, const Eigen::Vector3d& x, int* through) {
     const std::int32_t si = vm_.sheet_of_block[static_cast<std::size_t>(bi)];
     const SheetBlock& sb = vm_.sheets[static_cast<std::size_t>(si)];
     const double phi_c = sb.phi[static_cast<std::size_t>(li)];
@@ -212,6 +288,7 @@ class PairEval {
     const Eigen::Vector3d c = vm_.origin + (v.cast<double>() + Eigen::Vector3d::Constant(0.5)) * s_;
     const double phi = phi_c + n.dot((g - v.cast<double>() - Eigen::Vector3d::Constant(0.5)) * s_);
     ++out_.sheet_points;
+    *through = -1;
     if (state_ == nullptr) return phi >= -0.5 * th ? -phi : phi + th;  // nearer face
     const auto ku = static_cast<std::size_t>(k);
     float* e = &state_->entry[3 * ku];
@@ -224,7 +301,17 @@ class PairEval {
     }
     state_->seen[ku] = state_->tick;
     const double phi_e = phi_c + n.dot(Eigen::Vector3d(e[0], e[1], e[2]) - c);
-    const double depth = phi_e >= -0.5 * th ? -phi : phi + th;
+    const bool plus = phi_e >= -0.5 * th;  // came through the + face
+    const double depth = plus ? -phi : phi + th;
+    if (depth > th) {
+      // Past the far face (the - face for a point come through the +
+      // face, phi = -th there; else the + face, phi = 0).
+      const double nx = n.dot(x) - phi;  // n.y on the + face
+      *through = plus ? through_group(n, nx - th) : through_group(-n, -nx);
+    }
+    if (n_visits_ < static_cast<int>(state_->sheet_visits.size()))
+      state_->sheet_visits[static_cast<std::size_t>(n_visits_++)] =
+          static_cast<std::uint32_t>(k) << 3 | static_cast<std::uint32_t>(*through + 1);
     if (depth <= 0.0) {  // outside on its own side: this is where it now comes from
       e[0] = static_cast<float>(x.x());
       e[1] = static_cast<float>(x.y());
@@ -311,8 +398,9 @@ class PairEval {
     const Eigen::Vector3d n(r_[0] * pn[0] + r_[1] * pn[1] + r_[2] * pn[2], r_[3] * pn[0] + r_[4] * pn[1] + r_[5] * pn[2],
                             r_[6] * pn[0] + r_[7] * pn[1] + r_[8] * pn[2]);
     double pen;
+    int through = -1;
     if (sheet) {
-      pen = sheet_depth(k, vx, bi, li, g, v, x);
+      pen = sheet_depth(k, vx, bi, li, g, v, x, &through);
       if (pen > 0.0 && state_ != nullptr) mark_node(leaf);
     } else {
       double pen_layered = -1.0;
@@ -323,20 +411,33 @@ class PairEval {
       pen = layered_ ? pen_layered : std::max(-field(ga), pen_layered);
     }
     if (pen <= 0.0) return;
-    ++out_.contacts;
-    out_.max_penetration = std::max(out_.max_penetration, pen);
+    // Past the far face of the wall it came through: summed apart until the
+    // pair's other points have said whether the object still reaches back
+    // into the wall (keep_or_release_through_points).
+    Eigen::Vector3d* F = F_;
+    Eigen::Vector3d* tau = tau_;
+    if (through >= 0) {
+      ThroughGroup& tg = thr_[through];
+      F = tg.F;
+      tau = tg.tau;
+      ++tg.contacts;
+      tg.max_pen = std::max(tg.max_pen, pen);
+    } else {
+      ++out_.contacts;
+      out_.max_penetration = std::max(out_.max_penetration, pen);
+    }
     const Eigen::Vector3d f = (params_.stiffness * pen) * n;  // per unit weight
     const Eigen::Vector3d t = (x - r_V_).cross(f);
     if (per_level_) {
       const float* w = &ps_.level_weight[ku * kMaxShellLevels];
       for (int l = ps_.point_level[ku]; l < ps_.levels; ++l) {
-        F_[l] += w[l] * f;
-        tau_[l] += w[l] * t;
+        F[l] += w[l] * f;
+        tau[l] += w[l] * t;
       }
     } else {
       const int l = ps_.levels - 1;
-      F_[l] += ps_.weight[ku] * f;
-      tau_[l] += ps_.weight[ku] * t;
+      F[l] += ps_.weight[ku] * f;
+      tau[l] += ps_.weight[ku] * t;
     }
   }
 
@@ -383,6 +484,10 @@ class PairEval {
   bool layered_ = false, valid_ = false;
   int max_layer_ = 1;
   Eigen::Vector3d F_[kMaxShellLevels], tau_[kMaxShellLevels];
+  ThroughGroup thr_[kThroughGroups + 1];  // the last: overflow, always kept
+  int n_thr_ = 0;
+  bool overflow_used_ = false;
+  int n_visits_ = 0;  // this tick's entries in state_->sheet_visits
   PairResult out_;
   const std::vector<std::int32_t>* parent_ = nullptr;
   std::vector<std::uint32_t>* marks_ = nullptr;
@@ -418,6 +523,7 @@ void init_pair_state(const PointShell& ps, PairState* state) {
   state->seen.assign(ps.size(), kNever);
   state->node_mark.assign(ps.nodes.size(), kNever);
   state->level_node_mark.assign(ps.level_nodes.size(), kNever);
+  state->sheet_visits.assign(ps.size(), 0u);
   state->tick = 0;
   state->has_prev = false;
 }

@@ -29,7 +29,10 @@ enum class PenetrationModel {
   // and gradients (voxmap.h), continuous and second-order accurate. Points in
   // sheet voxels (thin walls, open surfaces) take their depth from the sheet's
   // face on the side they came from (PairState), so a wall thinner than a
-  // voxel is neither tunnelled nor pushes the wrong way. Point-cloud surface
+  // voxel is neither tunnelled nor pushes the wrong way. A point past the
+  // wall's far face counts only while the object still reaches back across
+  // that face: once it has gone through, its force is exactly zero and its
+  // points are felt from the side they are now on. Point-cloud surface
   // voxels (no normals) use the layered value when larger.
   kContinuous,
 };
@@ -75,13 +78,27 @@ struct PairResult {
 // contact (they are not culled on the next tick, so a point pushed through a
 // thin wall keeps being seen while it is within the sheet's layers); the
 // previous relative pose (a point not seen on the previous tick takes its
-// position there as where it came from). Sized by init_pair_state
-// (allocates: do it when the model is loaded, not on the servo thread).
+// position there as where it came from: leaving the sheet's layers, on
+// either side, releases what it remembered).
+//
+// A point past the far face of the wall it came through counts only while
+// some sheet point of the pair lies on the entry side of that far face (the
+// object still reaches into the wall; the face taken as a plane, from the
+// point's sheet). On a tick with none, the object has gone through: those
+// points' force is dropped and they are released (from the next tick on
+// they come from where they were). Exact for flat walls; where the points
+// past the far faces of one pair lie on more than four distinct planes
+// (curved thin walls, several walls at once), the others are kept as before
+// until they leave the layers. Sized by init_pair_state (allocates: do it
+// when the model is loaded, not on the servo thread).
 struct PairState {
   std::vector<float> entry;             // 3 per point
   std::vector<std::uint32_t> seen;      // tick of the point's last sheet visit
   std::vector<std::uint32_t> node_mark; // tick of the node's last sheet contact (full tree)
   std::vector<std::uint32_t> level_node_mark;  // the same for the levels' trees
+  // This tick's sheet visits: point index << 3 | its far-face group + 1 (0:
+  // not past a far face); one per point at most.
+  std::vector<std::uint32_t> sheet_visits;
   std::uint32_t tick = 0;
   Eigen::Isometry3d T_V_P_prev = Eigen::Isometry3d::Identity();
   bool has_prev = false;

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 #include <limits>
 #include <numbers>
 #include <random>
@@ -11,6 +10,7 @@
 
 #include <mujoco/mujoco.h>
 
+#include "common/sim/mujoco_owner.h"
 #include "operator/device/bimanual/scene.h"
 
 namespace hemm::device::bimanual {
@@ -83,26 +83,6 @@ std::optional<std::string> validate(const PlantConfig& c) {
 
 namespace {
 
-struct ModelDeleter {
-  void operator()(mjModel* m) const { mj_deleteModel(m); }
-};
-struct DataDeleter {
-  void operator()(mjData* d) const { mj_deleteData(d); }
-};
-
-mjModel* load_from_text(const std::string& xml) {
-  auto vfs = std::make_unique<mjVFS>();
-  mj_defaultVFS(vfs.get());
-  if (mj_makeEmptyFileVFS(vfs.get(), "bimanual.xml", static_cast<int>(xml.size())) != 0)
-    throw std::runtime_error("BimanualPlant: MuJoCo VFS full");
-  std::memcpy(vfs->filedata[mj_findFileVFS(vfs.get(), "bimanual.xml")], xml.data(), xml.size());
-  char err[1000] = "";
-  mjModel* m = mj_loadXML("bimanual.xml", vfs.get(), err, sizeof err);
-  mj_deleteVFS(vfs.get());
-  if (!m) throw std::runtime_error(std::string("BimanualPlant: MuJoCo rejected the scene: ") + err);
-  return m;
-}
-
 int id_of(const mjModel* m, mjtObj type, const std::string& name) {
   const int id = mj_name2id(m, type, name.c_str());
   if (id < 0) throw std::runtime_error("BimanualPlant: scene lacks " + name);
@@ -129,8 +109,8 @@ struct BimanualPlant::Impl {
   std::array<hk::Arm7Model, kArms> arms;
   std::array<HandleSpec, kArms> handles;
   std::string xml;
-  std::unique_ptr<mjModel, ModelDeleter> m;
-  std::unique_ptr<mjData, DataDeleter> d;
+  sim::MjModelPtr m;
+  sim::MjDataPtr d;
 
   struct Arm {
     std::array<int, hk::kArm7Dof> qpos{}, dof{};
@@ -167,8 +147,12 @@ struct BimanualPlant::Impl {
     sp.timestep_s = h;
     sp.proximity_margin_m = cfg.proximity_margin_m;
     xml = bimanual_scene_mjcf(sp);
-    m.reset(load_from_text(xml));
-    d.reset(mj_makeData(m.get()));
+    try {
+      m = sim::load_model_xml("bimanual.xml", xml);
+      d = sim::make_data(m.get());
+    } catch (const std::runtime_error& e) {
+      throw std::runtime_error(std::string("BimanualPlant: MuJoCo rejected the scene: ") + e.what());
+    }
     owner.assign(static_cast<std::size_t>(m->ngeom), kOwnerNone);
     owner[static_cast<std::size_t>(id_of(m.get(), mjOBJ_GEOM, "table"))] = kOwnerStatic;
     owner[static_cast<std::size_t>(id_of(m.get(), mjOBJ_GEOM, "column"))] = kOwnerStatic;

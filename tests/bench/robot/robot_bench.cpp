@@ -25,6 +25,7 @@ void prepare(hr::SimulatedRobot& r, bool laser, bool sonar) {
   r.set_base_pose_sim({0.5, -0.3, 0.0});
   r.enable_sensors(laser, sonar);
   r.set_operator_in_control(true);
+  r.set_command(hr::BaseArmCommand{}, r.time_ns());  // neutral: the robot re-arms on the next command
 }
 
 void command(hr::SimulatedRobot& r) {

@@ -9,6 +9,7 @@
 
 #include "common/mesh/mesh_io.h"
 #include "common/mesh/primitives.h"
+#include "tests/temp_dir.h"
 
 namespace hemm::mesh {
 namespace {
@@ -135,10 +136,7 @@ TEST(MeshMass, BoxInertiaMatchesClosedForm) {
 class MeshFiles : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = std::filesystem::temp_directory_path() /
-           ("hemm_mesh_test_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) + "_" +
-            std::to_string(reinterpret_cast<std::uintptr_t>(this)));
-    std::filesystem::create_directories(dir_);
+    dir_ = hemm::test::make_temp_dir("hemm_mesh_test");
   }
   void TearDown() override { std::filesystem::remove_all(dir_); }
   std::string write(const std::string& name, const std::string& text) {

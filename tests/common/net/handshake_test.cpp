@@ -248,5 +248,67 @@ TEST(HandshakeTest, PeerSuppliedReasonsAreMadeLogSafe) {
   check(client.on_frame(frame));
 }
 
+// Issue 23 item 5: which refusals are authenticated. The robot's own
+// refusals in clear carry a tag over the operator's Hello (with the key);
+// the same Error without the tag, with another client's tag, or with the
+// code or reason changed is not authenticated. A refusal sealed after the
+// Proof is.
+TEST(HandshakeTest, OnlyTaggedOrSealedRefusalsAreAuthenticated) {
+  {  // version mismatch, as the robot sends it
+    Pair p(key(1), key(1), 7, kProtocolVersion);
+    const auto hello = p.client.start();
+    const auto s1 = p.server.on_frame(hello);
+    ASSERT_EQ(s1.kind, HandshakeStep::Kind::kFailed);
+    const wire::SessionFrame f = parse(s1.reply);
+    EXPECT_EQ(f.error().refusal_tag().size(), kProofBytes);
+    EXPECT_TRUE(refusal_tag_matches(key(1), hello, f.error()));
+    EXPECT_FALSE(refusal_tag_matches(key(2), hello, f.error()));
+    const auto c1 = p.client.on_frame(s1.reply);
+    EXPECT_EQ(c1.error, wire::ERROR_VERSION_MISMATCH);
+    EXPECT_TRUE(c1.authenticated);
+  }
+  {  // the same refusal, tampered with or untagged: not authenticated
+    Pair p(key(1), key(1), 7, kProtocolVersion);
+    const auto s1 = p.server.on_frame(p.client.start());
+    wire::SessionFrame f = parse(s1.reply);
+    f.mutable_error()->set_code(wire::ERROR_AUTH_FAILED);
+    const std::string changed = f.SerializeAsString();
+    const auto c1 = p.client.on_frame(std::vector<uint8_t>(changed.begin(), changed.end()));
+    EXPECT_EQ(c1.kind, HandshakeStep::Kind::kFailed);
+    EXPECT_FALSE(c1.authenticated);
+    EXPECT_NE(c1.reason.find("unauthenticated"), std::string::npos) << c1.reason;
+    ClientHandshake other(client_params(key(1)));
+    other.start();
+    EXPECT_FALSE(other.on_frame(make_error_frame(wire::ERROR_VERSION_MISMATCH, "no")).authenticated);
+  }
+  {  // a tag made for another client's Hello
+    Pair p(key(1), key(1), 7, kProtocolVersion);
+    const auto s1 = p.server.on_frame(p.client.start());
+    ClientHandshake other(ClientHandshake::Params{key(1), 7, "op", true, Nonce{4, 5, 6}});
+    other.start();
+    EXPECT_FALSE(other.on_frame(s1.reply).authenticated);
+  }
+  {  // a forged proof: the robot's clear refusal is tagged; the client sees it authenticated
+    Pair p(key(1), key(1));
+    auto s1 = p.server.on_frame(p.client.start());
+    auto c1 = p.client.on_frame(s1.reply);
+    auto f = parse(c1.reply);
+    std::string proof = f.proof().client_proof();
+    proof[0] ^= 1;
+    f.mutable_proof()->set_client_proof(proof);
+    const std::string forged = f.SerializeAsString();
+    const auto s2 = p.server.on_frame(std::vector<uint8_t>(forged.begin(), forged.end()));
+    const auto c2 = p.client.on_frame(s2.reply);
+    EXPECT_EQ(c2.error, wire::ERROR_AUTH_FAILED);
+    EXPECT_TRUE(c2.authenticated);
+  }
+  {  // a wrong key: the robot's proof does not match ours, this attempt fails, unauthenticated
+    Pair p(key(2), key(1));
+    const auto c1 = p.client.on_frame(p.server.on_frame(p.client.start()).reply);
+    EXPECT_EQ(c1.error, wire::ERROR_AUTH_FAILED);
+    EXPECT_FALSE(c1.authenticated);
+  }
+}
+
 }  // namespace
 }  // namespace hemm::net

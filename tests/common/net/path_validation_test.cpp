@@ -92,6 +92,54 @@ TEST(PathValidation, AnOperatorThatMovedIsValidatedAfterItsOldPathWentQuiet) {
   EXPECT_EQ(v.counters().validated, 2u);
 }
 
+// Issue 23 item 4: a token earned while the path was quiet is worth nothing
+// once the path carries traffic again: the response validates its address
+// only if the current path is still silent when it arrives. The token is
+// used up by the attempt.
+TEST(PathValidation, AResponseArrivingWhileTheCurrentPathCarriesTrafficValidatesNothing) {
+  PathValidator v;
+  v.params().quiet_ns = 250 * kMsNs;
+  const PathAddress op = addr(1, 5000), forwarder = addr(2, 6000);
+  ASSERT_TRUE(v.on_response(*v.on_datagram(op, 0), 1 * kMsNs));
+  // A 300 ms gap in the operator's traffic: a copy from elsewhere is challenged.
+  const auto tok = v.on_datagram(forwarder, 300 * kMsNs);
+  ASSERT_TRUE(tok);
+  // The operator's traffic is back; the held token is redeemed 100 ms later.
+  for (int64_t t = 310 * kMsNs; t <= 400 * kMsNs; t += 10 * kMsNs) EXPECT_FALSE(v.on_datagram(op, t));
+  EXPECT_FALSE(v.on_response(*tok, 405 * kMsNs));
+  EXPECT_EQ(v.peer(), op);
+  // Used up: not even in a later quiet spell.
+  EXPECT_FALSE(v.on_response(*tok, 700 * kMsNs));
+  EXPECT_EQ(v.peer(), op);
+  EXPECT_EQ(v.counters().validated, 1u);
+}
+
+// Tokens live 4 round trips within [250 ms, 8 s]: the link's measured round
+// trip, else the one the session's validation took, else (nothing known, no
+// path to take over yet) the ceiling.
+TEST(PathValidation, TokensLiveFourRoundTripsWithinAFloorAndACeiling) {
+  PathValidator v;
+  EXPECT_EQ(v.token_lifetime_ns(), 8000 * kMsNs);
+  const PathAddress op = addr(1, 5000), other = addr(3, 7000);
+  const auto first = v.on_datagram(op, 0);
+  ASSERT_TRUE(v.on_response(*first, 100 * kMsNs));  // the validation took 100 ms
+  EXPECT_EQ(v.token_lifetime_ns(), 400 * kMsNs);
+  // A token issued in a quiet spell, redeemed 450 ms later: expired.
+  const auto tok = v.on_datagram(other, 400 * kMsNs);
+  ASSERT_TRUE(tok);
+  EXPECT_FALSE(v.on_response(*tok, 851 * kMsNs));
+  EXPECT_EQ(v.counters().responses_unmatched, 1u);
+  v.params().rtt_ns = 20 * kMsNs;  // measured by the link: the floor
+  EXPECT_EQ(v.token_lifetime_ns(), 250 * kMsNs);
+  v.params().rtt_ns = 1000 * kMsNs;
+  EXPECT_EQ(v.token_lifetime_ns(), 4000 * kMsNs);
+  v.params().rtt_ns = 3000 * kMsNs;  // the ceiling
+  EXPECT_EQ(v.token_lifetime_ns(), 8000 * kMsNs);
+  v.reset();  // a new session knows nothing of the old one's round trip
+  v.params().rtt_ns = 0;
+  EXPECT_EQ(v.token_lifetime_ns(), 8000 * kMsNs);
+}
+
 TEST(PathValidation, ChallengesAreRateLimitedPerCandidateAndInAll) {
   PathValidator v;
   v.params().first_retry_ns = 1000 * kMsNs;  // as when a round trip of 500 ms is known
@@ -118,7 +166,7 @@ TEST(PathValidation, ChallengesAreRateLimitedPerCandidateAndInAll) {
 
 TEST(PathValidation, ExpiredAndEvictedTokensValidateNothing) {
   PathValidator v;
-  v.params().token_lifetime_ns = 1000 * kMsNs;
+  v.params().token_max_ns = 1000 * kMsNs;  // the lifetime while no round trip is known
   v.params().min_interval_ns = 0;
   v.params().max_tokens = 2;
   const auto t1 = v.on_datagram(addr(1, 1), 0);

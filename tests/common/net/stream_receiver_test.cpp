@@ -104,5 +104,64 @@ TEST(StreamReceiverTest, ClosedReceiverAcceptsNothing) {
   EXPECT_EQ(r.counters().rejected_unknown_session, 2u);
 }
 
+// ---------------------------------------------------------------- issue 23 item 7
+std::vector<uint8_t> seal(uint64_t seq, const wire::StreamMessage& m) {
+  const std::string p = m.SerializeAsString();
+  std::vector<uint8_t> d;
+  encode_datagram(kKey, DatagramHeader{kSession, seq, 1}, std::span(reinterpret_cast<const uint8_t*>(p.data()), p.size()),
+                  &d);
+  return d;
+}
+std::vector<uint8_t> depth_chunk(uint64_t seq, uint32_t cloud, uint32_t first_row) {
+  wire::StreamMessage m;
+  m.mutable_depth_chunk()->set_cloud_id(cloud);
+  m.mutable_depth_chunk()->set_first_row(first_row);
+  m.mutable_depth_chunk()->set_row_count(10);
+  return seal(seq, m);
+}
+std::vector<uint8_t> scan_chunk(uint64_t seq, wire::RangeSensorType sensor, uint32_t scan, uint32_t first_beam) {
+  wire::StreamMessage m;
+  m.mutable_range_scan()->set_sensor(sensor);
+  m.mutable_range_scan()->set_scan_id(scan);
+  m.mutable_range_scan()->set_first_beam(first_beam);
+  return seal(seq, m);
+}
+std::vector<uint8_t> state(uint64_t seq) {
+  wire::StreamMessage m;
+  m.mutable_robot_state()->set_stamp_ns(static_cast<int64_t>(seq));
+  return seal(seq, m);
+}
+
+// Newest wins per kind, but a chunk of the frame being assembled is part of
+// the newest, not older than it: chunks of one depth frame arriving out of
+// order, with robot states between them, are all delivered; a chunk of an
+// older frame is late.
+TEST(StreamReceiverTest, ReorderedChunksOfTheFrameBeingAssembledAreDelivered) {
+  StreamReceiver r(64);
+  r.open(kSession, kKey);
+  DatagramHeader h;
+  wire::StreamMessage m;
+  // Cloud 6 (seq 1-3) was sent before cloud 7 (seq 4-6); states 7 and 8.
+  EXPECT_EQ(r.receive(depth_chunk(4, 7, 0), &h, &m), ReceiverVerdict::kDeliver);
+  EXPECT_EQ(r.receive(state(7), &h, &m), ReceiverVerdict::kDeliver);
+  EXPECT_EQ(r.receive(depth_chunk(6, 7, 20), &h, &m), ReceiverVerdict::kDeliver);
+  EXPECT_EQ(r.receive(state(8), &h, &m), ReceiverVerdict::kDeliver);
+  EXPECT_EQ(r.receive(depth_chunk(5, 7, 10), &h, &m), ReceiverVerdict::kDeliver) << "a chunk of cloud 7 was dropped";
+  EXPECT_EQ(m.depth_chunk().first_row(), 10u);
+  EXPECT_EQ(r.receive(depth_chunk(3, 6, 20), &h, &m), ReceiverVerdict::kLate);  // cloud 6 is superseded
+  EXPECT_EQ(r.receive(state(2), &h, &m), ReceiverVerdict::kLate);               // states: newest wins as before
+  // Laser and sonar chunks share the RangeScan kind: each sensor's frame is its own.
+  EXPECT_EQ(r.receive(scan_chunk(11, wire::RANGE_SENSOR_LASER, 30, 0), &h, &m), ReceiverVerdict::kDeliver);
+  EXPECT_EQ(r.receive(scan_chunk(13, wire::RANGE_SENSOR_SONAR, 9, 0), &h, &m), ReceiverVerdict::kDeliver);
+  EXPECT_EQ(r.receive(scan_chunk(12, wire::RANGE_SENSOR_LASER, 30, 91), &h, &m), ReceiverVerdict::kDeliver);
+  EXPECT_EQ(r.receive(scan_chunk(10, wire::RANGE_SENSOR_LASER, 29, 91), &h, &m), ReceiverVerdict::kLate);
+  // The next cloud supersedes cloud 7: a straggler of 7 is late from then on.
+  EXPECT_EQ(r.receive(depth_chunk(15, 8, 0), &h, &m), ReceiverVerdict::kDeliver);
+  EXPECT_EQ(r.receive(depth_chunk(14, 7, 30), &h, &m), ReceiverVerdict::kLate);
+  const auto& c = r.counters();
+  EXPECT_EQ(c.delivered, 9u);
+  EXPECT_EQ(c.late, 4u);
+}
+
 }  // namespace
 }  // namespace hemm::net

@@ -23,13 +23,13 @@ TEST(Explore3dBimanualLoopback, ToolOnTheRightArmRestsOnTheTrueBlockTopAndFollow
   ASSERT_EQ(ocfg.device().type(), "sim-bimanual");
   hemm::test::Explore3dRun r;
   const auto bimanual = std::make_shared<const hemm::config::BimanualDeviceConfig>(ocfg.device().bimanual());
-  hemm::test::run_explore_block(
+  hemm::test::run_explore(
       "explore3d_bimanual_loopback_test.csv", ocfg,
       [&](hemm::op::OperatorStationOptions& so) {
         so.device = "sim-bimanual";
         so.bimanual = bimanual;
       },
-      22500, &r);
+      "explore-block", 22500, &r);
   if (HasFatalFailure()) return;
   const hemm::op::OperatorStationSummary& sum = r.sum;
   EXPECT_EQ(r.servo_allocs, 0u);  // both arms' controllers and MuJoCo included

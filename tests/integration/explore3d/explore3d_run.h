@@ -1,15 +1,17 @@
-// One run of the 6-DoF probe tool's "explore-block" script on the live
-// voxmap over real loopback sockets (robot and operator stations in one
-// process), and its SIMULATION-ONLY truth: the logged goal path replayed with
-// the same tool, contact and coupling against the scene's geometry voxelised
-// exactly at 2.5 mm (robot_side/truth/tool6_truth.h). Shared by the tests of
-// each device that holds the tool (sim-hand6, sim-bimanual).
+// One run of a 6-DoF probe tool script ("explore-block" or "explore-table")
+// on the live voxmap over real loopback sockets (robot and operator stations
+// in one process), and its SIMULATION-ONLY truth: the logged goal path
+// replayed with the same tool, contact and coupling against the scene's
+// geometry voxelised exactly at 2.5 mm (robot_side/truth/tool6_truth.h).
+// Shared by the tests of each device that holds the tool (sim-hand6,
+// sim-bimanual).
 #pragma once
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <functional>
 #include <string>
@@ -41,11 +43,14 @@ struct Explore3dRun {
 
 inline constexpr double kBlockTop_m = 0.85;
 
-// Runs for `ms` with probe_3d from `ocfg` (tool "pointshell", script set
-// here to "explore-block"); `device` picks the station's device.
-inline void run_explore_block(const std::string& log, config::OperatorConfig ocfg,
-                              const std::function<void(op::OperatorStationOptions&)>& device, int ms,
-                              Explore3dRun* out) {
+// Runs `script` for `ms` with probe_3d from `ocfg` (tool "pointshell");
+// `device` picks the station's device. Both scripts press the block's top
+// first (t 7.5-8 s: the rest above). With min_ticks, on until the servo has
+// ticked that often (the script runs one period per tick, and a loaded
+// machine drops periods), for at most max_ms.
+inline void run_explore(const std::string& log, config::OperatorConfig ocfg,
+                        const std::function<void(op::OperatorStationOptions&)>& device, const std::string& script,
+                        int ms, Explore3dRun* out, std::uint64_t min_ticks = 0, int max_ms = 0) {
   RobotSide robot(robot_before_table(), table_test_key(11, 3), kHomeScene);
   robot.start();
   asio::io_context io;
@@ -57,7 +62,7 @@ inline void run_explore_block(const std::string& log, config::OperatorConfig ocf
   auto* p3 = ocfg.mutable_probe_3d();
   p3->set_enabled(true);
   p3->set_tool("pointshell");
-  p3->set_tool_hand_script("explore-block");
+  p3->set_tool_hand_script(script);
   op::apply_probe3d_config(ocfg.probe_3d(), &so);
   device(so);
   op::OperatorStation station(io, client, so);
@@ -66,7 +71,14 @@ inline void run_explore_block(const std::string& log, config::OperatorConfig ocf
 
   std::string err;
   ASSERT_TRUE(client.start([](int, const std::string& why) { ADD_FAILURE() << "fatal: " << why; }, &err)) << err;
-  out->servo_allocs = run_station_for(io, client, station, ms, [] {});
+  const auto started = std::chrono::steady_clock::now();
+  out->servo_allocs = run_station_until(
+      io, client, station, ms,
+      [&] {
+        return station.servo_stats().ticks.load(std::memory_order_relaxed) >= min_ticks ||
+               std::chrono::steady_clock::now() - started > std::chrono::milliseconds(max_ms);
+      },
+      [] {});
   out->sum = station.summary();
   const op::OperatorStationSummary& sum = out->sum;
   const op::VoxmapStats& vs = sum.model.voxmap;
@@ -89,10 +101,18 @@ inline void run_explore_block(const std::string& log, config::OperatorConfig ocf
   ASSERT_FALSE(vps::make_probe_tool(out->geometry, &tool));
   vps::Voxmap truth;
   std::vector<std::string> parts;
-  // Around the block (the script's reach: W x 1.6-1.9, y 1.65-2.0) and the table top under it.
-  const Eigen::AlignedBox3d region(Eigen::Vector3d(1.55, 1.6, 0.7), Eigen::Vector3d(1.95, 2.05, 1.1));
+  // "explore-block": around the block (the script's reach: W x 1.6-1.9, y
+  // 1.65-2.0) and the table top under it; "explore-table": the whole table
+  // top and what stands on it (hemm-truth --tool6's default region).
+  const bool block_only = script == "explore-block";
+  const Eigen::AlignedBox3d region(block_only ? Eigen::Vector3d(1.55, 1.6, 0.7) : Eigen::Vector3d(0.8, 1.5, 0.6),
+                                   block_only ? Eigen::Vector3d(1.95, 2.05, 1.1) : Eigen::Vector3d(2.2, 2.5, 1.0));
   ASSERT_TRUE(robot::build_truth_voxmap(kHomeScene, region, 0.0025, &truth, &parts, &err)) << err;
   ASSERT_NE(std::find(parts.begin(), parts.end(), "table_block"), parts.end());
+  if (!block_only) {
+    ASSERT_NE(std::find(parts.begin(), parts.end(), "table_book"), parts.end());
+    ASSERT_NE(std::find(parts.begin(), parts.end(), "table_mug"), parts.end());
+  }
   vps::ToolParams tp = out->params;
   tp.budget = vps::kUnlimitedWork;  // the reference: every point
   const auto t0 = std::chrono::steady_clock::now();
@@ -118,6 +138,45 @@ inline void run_explore_block(const std::string& log, config::OperatorConfig ocf
               "max %.4f N m (true peak %.4f N m)\n",
               t.contact_ticks, t.force_rms, t.force_max, t.true_force_peak, t.torque_rms, t.torque_max,
               t.true_torque_peak);
+}
+
+// The force error over one feature of a script: the ticks in [t0, t1) of
+// the hand's script time where the live or the true tool touches.
+struct FeatureError {
+  const char* name;
+  double t0, t1;
+  std::size_t ticks = 0;
+  double rms = 0, true_peak = 0;  // |live - true| RMS; the true force's peak there (N)
+  double with_model = 0;          // fraction of the feature's ticks that had a live voxmap
+};
+
+// The explore-table script's features (tool6_explorer.cpp; the same phases
+// as deploy/explore3d.sh's table).
+inline std::vector<FeatureError> table_feature_errors(const Explore3dRun& r) {
+  std::vector<FeatureError> f = {{"block top", 6, 15},          {"block front side", 16, 22.5},
+                                 {"block left side", 23, 30},   {"book top", 32, 40.5},
+                                 {"book front side", 41.5, 46.5}, {"mug top", 48.5, 52.5},
+                                 {"mug front side", 53.5, 58.5}};
+  for (FeatureError& e : f) {
+    double e2 = 0;
+    std::size_t in = 0, modelled = 0;
+    for (std::size_t i = 0; i < r.ticks.size() && i < r.truth.replay.wrench.size(); ++i) {
+      const double ts = static_cast<double>(i) * 1e-3;  // one script period per tick
+      if (ts < e.t0 || ts >= e.t1) continue;
+      ++in;
+      modelled += r.ticks[i].model ? 1 : 0;
+      if (r.ticks[i].contacts == 0 && r.truth.replay.contacts[i] == 0) continue;
+      const Eigen::Vector3d& ft = r.truth.replay.wrench[i].force;
+      e2 += (r.ticks[i].force - ft).squaredNorm();
+      ++e.ticks;
+      e.true_peak = std::max(e.true_peak, ft.norm());
+    }
+    if (e.ticks > 0) e.rms = std::sqrt(e2 / static_cast<double>(e.ticks));
+    if (in > 0) e.with_model = static_cast<double>(modelled) / static_cast<double>(in);
+    std::printf("  %-16s %6zu contact ticks, force error RMS %6.2f N of a true peak %5.1f N (live voxmap on %.0f %%)\n",
+                e.name, e.ticks, e.rms, e.true_peak, 100 * e.with_model);
+  }
+  return f;
 }
 
 }  // namespace hemm::test

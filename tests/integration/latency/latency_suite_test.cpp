@@ -17,6 +17,7 @@
 //
 // Also HEMM Fig. 8 as a test: driving at a wall, the robot stops short of it
 // while the scripted hand keeps pushing, and the force holds the hand back.
+#include <gtest/gtest-spi.h>
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 
@@ -59,6 +60,25 @@ constexpr double kTrueGoalTolerance = 0.10;   // m, true base centre to goal
 bool built(const std::string& name) {
   struct stat st {};
   return ::stat((kBin + name).c_str(), &st) == 0 && (st.st_mode & S_IXUSR);
+}
+
+// The four binaries are build dependencies of this test (CMakeLists.txt):
+// one missing is a broken build, a failure, not a reason to skip.
+void expect_built() {
+  for (const char* b : {"hemm-robot", "hemm-operator", "hemm-relay", "hemm-truth"})
+    EXPECT_TRUE(built(b)) << b << " is not built in " << kBin;
+}
+
+// Until `text` shows in `file`, or the process is gone (never started, or
+// exited): a station that does not come up is found at once, not after the
+// whole timeout.
+bool came_up(ChildProcess& p, const std::string& file, const std::string& text, std::chrono::milliseconds timeout) {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  while (std::chrono::steady_clock::now() < deadline) {
+    if (wait_for_text(file, text, 100ms)) return true;
+    if (!p.running()) return wait_for_text(file, text, 0ms);
+  }
+  return false;
 }
 
 double percentile(std::vector<double> v, double q) {
@@ -107,7 +127,11 @@ struct RunResult {
 };
 
 // One run: robot, relay, operator with a script; then hemm-truth on its log.
-RunResult run(const std::string& name, double rtt_ms, const std::string& script, double op_s) {
+// Every way it can end without its numbers (a process that does not start
+// or fails, a missing or short log) is a test failure here, and ok stays
+// false. `robot_bin` is replaceable so that this can be tested.
+RunResult run(const std::string& name, double rtt_ms, const std::string& script, double op_s,
+              const std::string& robot_bin = kBin + "hemm-robot") {
   RunResult r;
   r.name = name;
   r.rtt_target_ms = rtt_ms;
@@ -116,7 +140,7 @@ RunResult run(const std::string& name, double rtt_ms, const std::string& script,
   const int robot_tcp = free_port(), robot_udp = free_port(), relay_tcp = free_port(), relay_udp = free_port();
   const double one_way = rtt_ms / 2.0;
   const double jitter = std::max(1.0, 0.1 * one_way);
-  ChildProcess robot({kBin + "hemm-robot", "--config", kConfigs + "robot.pbtxt", "--listen", "127.0.0.1",
+  ChildProcess robot({robot_bin, "--config", kConfigs + "robot.pbtxt", "--listen", "127.0.0.1",
                       "--session-port", std::to_string(robot_tcp), "--stream-port", std::to_string(robot_udp),
                       "--duration", std::to_string(op_s + 20), "--stats-json", dir + "/robot.json"},
                      dir + "/robot.out", dir + "/robot.err");
@@ -125,8 +149,9 @@ RunResult run(const std::string& name, double rtt_ms, const std::string& script,
            "--- operator\n" + read_file(dir + "/op.err") + read_file(dir + "/op.out") + "--- truth\n" +
            read_file(dir + "/truth.err");
   };
-  if (!wait_for_text(dir + "/robot.err", "event=listening", 15s)) {
+  if (!came_up(robot, dir + "/robot.err", "event=listening", 15s)) {
     r.logs = logs();
+    ADD_FAILURE() << name << ": hemm-robot did not start (" << robot_bin << ")\n" << r.logs;
     return r;
   }
   ChildProcess relay({kBin + "hemm-relay", "--tcp-listen", "127.0.0.1:" + std::to_string(relay_tcp), "--tcp-forward",
@@ -137,8 +162,9 @@ RunResult run(const std::string& name, double rtt_ms, const std::string& script,
                       std::to_string(jitter), "--jitter-dist", "uniform", "--jitter-reorder", "--loss", "0.05",
                       "--stats-json", dir + "/relay.json"},
                      dir + "/relay.out", dir + "/relay.err");
-  if (!wait_for_text(dir + "/relay.out", "hemm-relay ready", 15s)) {
+  if (!came_up(relay, dir + "/relay.out", "hemm-relay ready", 15s)) {
     r.logs = logs();
+    ADD_FAILURE() << name << ": hemm-relay did not start\n" << r.logs;
     return r;
   }
   ChildProcess op({kBin + "hemm-operator", "--config", kConfigs + "operator.pbtxt", "--robot", "127.0.0.1",
@@ -296,8 +322,7 @@ void check_servo(const RunResult& r) {
 }
 
 TEST(LatencySuite, NavigationToAGoalAndProbingThroughTheRelayAt0To1000msRoundTrip) {
-  for (const char* b : {"hemm-robot", "hemm-operator", "hemm-relay", "hemm-truth"})
-    if (!built(b)) GTEST_SKIP() << b << " is not built in " << kBin;
+  expect_built();
   std::vector<RunResult> runs;
 #ifdef HEMM_SANITIZE
   // Under the sanitizers the suite looks for memory errors, not latency
@@ -308,6 +333,7 @@ TEST(LatencySuite, NavigationToAGoalAndProbingThroughTheRelayAt0To1000msRoundTri
 #endif
   for (double rtt : nav_rtts) {
     RunResult r = run("nav-to-goal", rtt, "nav-to-goal", 25.0);
+    EXPECT_TRUE(r.ok) << "nav-to-goal at " << rtt << " ms did not run to the end";
     if (r.ok) {
       SCOPED_TRACE("nav-to-goal rtt " + std::to_string(rtt));
       check_servo(r);
@@ -320,6 +346,7 @@ TEST(LatencySuite, NavigationToAGoalAndProbingThroughTheRelayAt0To1000msRoundTri
   }
   for (double rtt : probe_rtts) {
     RunResult r = run("probe-cylinder", rtt, "probe-cylinder", 18.0);
+    EXPECT_TRUE(r.ok) << "probe-cylinder at " << rtt << " ms did not run to the end";
     if (r.ok) {
       SCOPED_TRACE("probe-cylinder rtt " + std::to_string(rtt));
       check_servo(r);
@@ -337,8 +364,7 @@ TEST(LatencySuite, NavigationToAGoalAndProbingThroughTheRelayAt0To1000msRoundTri
 // command falls into the dead band: the robot stops short of the wall while
 // the hand still pushes and the force holds it back.
 TEST(LatencySuite, Figure8RobotStopsShortOfTheWallWhileTheHandKeepsPushing) {
-  for (const char* b : {"hemm-robot", "hemm-operator", "hemm-relay", "hemm-truth"})
-    if (!built(b)) GTEST_SKIP() << b << " is not built in " << kBin;
+  expect_built();
   const RunResult r = run("nav-to-wall", 0.0, "nav-to-wall", 14.0);
   ASSERT_TRUE(r.ok) << r.logs;
   check_servo(r);
@@ -388,6 +414,17 @@ TEST(LatencySuite, Figure8RobotStopsShortOfTheWallWhileTheHandKeepsPushing) {
   EXPECT_LT(dz[last], -0.008);  // the hand still pushes forward
   EXPECT_GT(fz[last], 0.3);     // and the force holds it back
   EXPECT_EQ(r.contact_steps, 0);
+}
+
+// The suite's own harness: a robot station that never starts (a wrong
+// binary path) fails the run at once instead of passing it whole.
+RunResult g_missing;  // EXPECT_NONFATAL_FAILURE's statement cannot use locals
+TEST(LatencySuite, AStationThatDoesNotStartFailsTheRun) {
+  const auto t0 = std::chrono::steady_clock::now();
+  EXPECT_NONFATAL_FAILURE(g_missing = run("no-robot", 0.0, "nav-to-goal", 5.0, kBin + "hemm-robot-not-there"),
+                          "hemm-robot did not start");
+  EXPECT_FALSE(g_missing.ok);
+  EXPECT_LT(std::chrono::steady_clock::now() - t0, 10s);  // found at once, not after the 15 s start timeout
 }
 
 }  // namespace

@@ -126,12 +126,6 @@ std::optional<double> json_number(const std::string& json, const std::string& ke
   return std::strtod(m[1].str().c_str(), nullptr);
 }
 
-std::string make_temp_dir() {
-  std::string tmpl = "/tmp/hemm-link-test-XXXXXX";
-  const char* d = ::mkdtemp(tmpl.data());
-  return d ? std::string(d) : std::string("/tmp");
-}
-
 ProcessResult run_to_completion(std::vector<std::string> argv, const std::string& dir,
                                 std::chrono::milliseconds timeout) {
   ProcessResult r;

@@ -10,6 +10,8 @@
 #include <string>
 #include <vector>
 
+#include "tests/temp_dir.h"  // make_temp_dir
+
 namespace hemm::test {
 
 class ChildProcess {
@@ -43,8 +45,6 @@ std::string read_file(const std::string& path);
 bool wait_for_text(const std::string& path, const std::string& needle, std::chrono::milliseconds timeout);
 // Value of "key": <number> in a flat JSON object; nullopt if absent.
 std::optional<double> json_number(const std::string& json, const std::string& key);
-// A fresh temporary directory for one test.
-std::string make_temp_dir();
 
 // Runs argv to completion (killed after `timeout`: rc -1) with stdout and
 // stderr through files in `dir`, and returns the exit code and both outputs.

@@ -122,9 +122,10 @@ TEST(Manip3dLoopback, TheToolFeelsTheSeatThroughTheModelAndTheRealArmNeverTouche
   const double press_dz = (seat_z + rho - 0.02) - 0.56;
   const Eigen::Vector3d start_H = at_B(0, 0, 0.03), above_H = at_B(0, 0, 0), pressed_H = at_B(0, 0, press_dz),
                         slid_H = at_B(0, -0.12, press_dz), slid_up_H = at_B(0, -0.12, 0);
+  // The hand holds the stylus's dead-man pressed throughout (issue 23).
   so.hand = std::make_shared<hemm::device::WaypointScript>(std::vector<hemm::device::Waypoint>{
-      {0.0, start_H, 0}, {1.0, above_H, 0}, {5.0, above_H, 0}, {6.5, pressed_H, 0}, {8.0, pressed_H, 0},
-      {10.0, slid_H, 0}, {10.5, slid_H, 0}, {11.5, slid_up_H, 0}});
+      {0.0, start_H, 0, true}, {1.0, above_H, 0, true}, {5.0, above_H, 0, true}, {6.5, pressed_H, 0, true},
+      {8.0, pressed_H, 0, true}, {10.0, slid_H, 0, true}, {10.5, slid_H, 0, true}, {11.5, slid_up_H, 0, true}});
   ho::OperatorStation station(io, client, so);
   station.task().set_servo_thread_hook(&servo_hook);
 

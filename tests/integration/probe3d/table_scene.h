@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <chrono>
 #include <thread>
+#include <utility>
 #include <cmath>
 #include <cstdint>
 #include <numbers>
@@ -41,16 +42,19 @@ inline config::RobotConfig robot_before_table() {
 }
 
 
-// Runs a started station (its client started) for `ms` with the io_context
-// on a network thread, then stops station, client and io. before_stop() runs
-// just before the station stops. Returns the heap allocations counted
-// meanwhile (the servo thread's, with count_allocations_on_this_thread as its hook).
-template <class Station, class Client, class F>
-std::uint64_t run_station_for(asio::io_context& io, Client& client, Station& station, int ms, F&& before_stop) {
+// Runs a started station (its client started) for at least `ms` and then
+// until done() (polled every 50 ms) with the io_context on a network thread,
+// then stops station, client and io. before_stop() runs just before the
+// station stops. Returns the heap allocations counted meanwhile (the servo
+// thread's, with count_allocations_on_this_thread as its hook).
+template <class Station, class Client, class D, class F>
+std::uint64_t run_station_until(asio::io_context& io, Client& client, Station& station, int ms, D&& done,
+                                F&& before_stop) {
   const std::uint64_t before = counted_allocations();
   station.start();
   std::thread net([&] { io.run(); });
   std::this_thread::sleep_for(std::chrono::milliseconds(ms));
+  while (!done()) std::this_thread::sleep_for(std::chrono::milliseconds(50));
   before_stop();
   station.stop();
   const std::uint64_t allocs = counted_allocations() - before;
@@ -59,6 +63,12 @@ std::uint64_t run_station_for(asio::io_context& io, Client& client, Station& sta
   io.stop();
   net.join();
   return allocs;
+}
+
+// The same for `ms` exactly.
+template <class Station, class Client, class F>
+std::uint64_t run_station_for(asio::io_context& io, Client& client, Station& station, int ms, F&& before_stop) {
+  return run_station_until(io, client, station, ms, [] { return true; }, std::forward<F>(before_stop));
 }
 
 }  // namespace hemm::test

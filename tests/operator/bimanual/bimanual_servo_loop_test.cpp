@@ -15,6 +15,7 @@
 #include "operator/device/bimanual/simulated_bimanual_device.h"
 #include "operator/servo/servo_loop.h"
 #include "tests/operator/servo/alloc_counter.h"
+#include "tests/temp_dir.h"
 
 namespace hb = hemm::device::bimanual;
 
@@ -49,7 +50,7 @@ TEST(BimanualServoLoop, RunsAtOneKilohertzWithoutAllocating) {
   hemm::servo::ModelChannel models;
   hemm::servo::ServoLogger log(4096, hemm::servo::servo_log_header(device.limits().end_effectors),
                                &hemm::servo::format_servo_log_record);
-  ASSERT_FALSE(log.start(testing::TempDir() + "bimanual_servo_loop_test.csv"));
+  ASSERT_FALSE(log.start(hemm::test::make_temp_dir() + "/bimanual_servo_loop_test.csv"));
   hemm::servo::ServoConfig cfg;
   hemm::servo::ServoLoop loop(device, task, models, cfg, &log);
   const std::uint64_t before = hemm::test::counted_allocations();

@@ -8,6 +8,7 @@
 
 #include "operator/client/operator_client.h"
 #include "operator/station/operator_station.h"
+#include "tests/temp_dir.h"
 
 namespace hemm::test {
 
@@ -23,12 +24,13 @@ inline op::OperatorClientOptions loopback_client_options(const std::string& name
   return co;
 }
 
-// Servo without SCHED_FIFO or mlockall; the 1 kHz log at HEMM_BINARY_DIR/log_name.
+// Servo without SCHED_FIFO or mlockall; the 1 kHz log at log_name in a fresh
+// temporary directory (tests/temp_dir.h).
 inline op::OperatorStationOptions loopback_station_options(const std::string& log_name) {
   op::OperatorStationOptions so;
   so.servo.realtime = false;
   so.servo.lock_memory = false;
-  so.log_path = std::string(HEMM_BINARY_DIR) + "/" + log_name;
+  so.log_path = make_temp_dir() + "/" + log_name;
   return so;
 }
 

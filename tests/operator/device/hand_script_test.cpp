@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <limits>
 
 namespace hemm::device {
@@ -58,6 +59,36 @@ TEST(HandScript, ButtonEventsOverrideButtons) {
   EXPECT_EQ(s.at(1.5).position_H, Vector3d(0.01, 0, 0));
   EXPECT_THROW(ButtonEventsScript(nullptr, {}), std::invalid_argument);
   EXPECT_THROW(ButtonEventsScript(motion, {{2.0, 0}, {1.0, 0}}), std::invalid_argument);
+}
+
+// Issue 23 item 2: a SIMULATED hand presses the dead-man where its script
+// says: per waypoint (switching there, like the buttons) or in spans laid
+// over another script's motion.
+TEST(HandScript, TheDeadManIsPressedWhereTheScriptSays) {
+  WaypointScript w({{0.0, Vector3d::Zero(), 0, false}, {1.0, Vector3d(0.01, 0, 0), 0, true}, {2.0, Vector3d::Zero(), 0}});
+  EXPECT_FALSE(w.at(0.5).deadman);
+  EXPECT_TRUE(w.at(1.0).deadman);
+  EXPECT_TRUE(w.at(1.5).deadman);
+  EXPECT_FALSE(w.at(2.5).deadman);
+  EXPECT_FALSE(HoldScript(Vector3d::Zero()).at(1.0).deadman);
+  EXPECT_TRUE(HoldScript(Vector3d::Zero(), 0, true).at(1.0).deadman);
+  auto motion = std::make_shared<HoldScript>(Vector3d(0.01, 0, 0), kButton1, true);
+  const double inf = std::numeric_limits<double>::infinity();
+  DeadmanScript d(motion, {{1.0, 2.0}, {3.0, inf}});
+  EXPECT_FALSE(d.at(0.5).deadman);  // the spans replace the motion's own press
+  EXPECT_TRUE(d.at(1.0).deadman);
+  EXPECT_FALSE(d.at(2.0).deadman);
+  EXPECT_FALSE(d.at(2.5).deadman);
+  EXPECT_TRUE(d.at(1e9).deadman);
+  EXPECT_FALSE(d.at(std::nan("")).deadman);
+  EXPECT_EQ(d.at(1.5).buttons, kButton1);
+  EXPECT_EQ(d.at(1.5).position_H, Vector3d(0.01, 0, 0));
+  // The buttons' events keep the motion's dead-man.
+  EXPECT_TRUE(ButtonEventsScript(motion, {}).at(0.5).deadman);
+  EXPECT_THROW(DeadmanScript(nullptr, {}), std::invalid_argument);
+  EXPECT_THROW(DeadmanScript(motion, {{2.0, 1.0}}), std::invalid_argument);
+  EXPECT_THROW(DeadmanScript(motion, {{1.0, 3.0}, {2.0, 4.0}}), std::invalid_argument);
+  EXPECT_THROW(DeadmanScript(motion, {{std::nan(""), 1.0}}), std::invalid_argument);
 }
 
 }  // namespace

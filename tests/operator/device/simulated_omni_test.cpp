@@ -9,6 +9,7 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <vector>
 
 namespace hemm::device {
 namespace {
@@ -153,7 +154,7 @@ TEST(SimulatedOmni, NonFiniteForceIsTreatedAsZeroAndCounted) {
   EXPECT_TRUE(std::isfinite(omni.data().mean_square_force));
 }
 
-TEST(SimulatedOmni, IsOneForceOnlyEndEffectorWithButtonsOnly) {
+TEST(SimulatedOmni, IsOneForceOnlyEndEffectorWithButtonsAndADeadMan) {
   const SimulatedOmniModel m;
   auto script = std::make_shared<HoldScript>(Vector3d(0.01, 0.02, -0.01), kButton2);
   SimulatedOmni omni(m, script);
@@ -163,7 +164,8 @@ TEST(SimulatedOmni, IsOneForceOnlyEndEffectorWithButtonsOnly) {
   EXPECT_EQ(omni.limits().ee[0].workspace_max_H, phantom_omni_limits().ee[0].workspace_max_H);
   EXPECT_EQ(check_limits(omni.limits()), nullptr);
   // Whatever the sample held before, read() reports one end-effector whose
-  // handle has buttons and nothing else.
+  // handle has buttons and the stylus's dead-man (released: the script does
+  // not press it), nothing else.
   DeviceSample s;
   s.end_effectors = 2;
   s.ee[0].handle.has_grip = true;
@@ -176,7 +178,8 @@ TEST(SimulatedOmni, IsOneForceOnlyEndEffectorWithButtonsOnly) {
   EXPECT_EQ(s.ee[0].angular_velocity_H, Vector3d::Zero());
   EXPECT_TRUE(s.ee[0].enabled);
   EXPECT_EQ(s.ee[0].handle.buttons, kButton2);
-  EXPECT_EQ(handle_input_bits(s.ee[0].handle), 0u);
+  EXPECT_EQ(handle_input_bits(s.ee[0].handle), kHasDeadman);
+  EXPECT_FALSE(s.ee[0].handle.deadman);
   EXPECT_EQ(s.ee[0].handle.grip_position, 0.0);
 }
 
@@ -255,6 +258,24 @@ TEST(SimulatedOmni, RejectsBadModelsAndNullScript) {
   EXPECT_THROW(SimulatedOmni(m, script), std::invalid_argument);
   EXPECT_THROW(SimulatedOmni(SimulatedOmniModel{}, nullptr), std::invalid_argument);
   EXPECT_EQ(check_model(SimulatedOmniModel{}), nullptr);
+}
+
+// Issue 23 item 2: the stylus's dead-man is the hand's: pressed while the
+// script presses it, released as soon as it lets go.
+TEST(SimulatedOmni, TheStylusDeadManFollowsTheHandsScriptedPress) {
+  auto hold = std::make_shared<HoldScript>(Vector3d::Zero());
+  auto script = std::make_shared<DeadmanScript>(hold, std::vector<DeadmanPress>{{0.0105, 0.0205}});
+  SimulatedOmni omni(SimulatedOmniModel{}, script);
+  DeviceSample s;
+  std::vector<int> pressed;
+  for (int i = 0; i < 30; ++i) {
+    omni.read(s);
+    ASSERT_TRUE(s.ee[0].handle.has_deadman);
+    pressed.push_back(s.ee[0].handle.deadman ? 1 : 0);
+    omni.write(DeviceCommand{});
+  }
+  // read() i reports the hand after i periods of 1 ms: pressed for 11..20.
+  for (int i = 0; i < 30; ++i) EXPECT_EQ(pressed[static_cast<size_t>(i)], i >= 11 && i <= 20 ? 1 : 0) << i;
 }
 
 }  // namespace

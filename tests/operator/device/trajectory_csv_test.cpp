@@ -3,6 +3,7 @@
 // every kind of bad row or header is rejected with file:line and leaves the
 // output untouched; formatted rows parse back to the same values.
 #include "operator/device/trajectory_csv.h"
+#include "tests/temp_dir.h"
 
 #include <gtest/gtest.h>
 #include <numbers>
@@ -112,7 +113,7 @@ TEST(TrajectoryCsv, LoadReportsMissingFileAndReadsRealFiles) {
   EXPECT_EQ(err->line, 0);
   expect_untouched(t);
 
-  const std::string path = testing::TempDir() + "traj_load_test.csv";
+  const std::string path = hemm::test::make_temp_dir() + "/traj_load_test.csv";
   {
     std::ofstream f(path);
     f << "t_s,x,y,z,buttons\n0,0,0,0,0\n0.1,0.01,0,0,1\n0.2,0.02,0,0.1,0\n";

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "operator/servo/servo_log.h"
+#include "tests/temp_dir.h"
 
 namespace hemm::servo {
 namespace {
@@ -30,7 +31,7 @@ std::vector<std::string> split(const std::string& s) {
 }
 
 TEST(ServoLog, WriterThreadWritesHeaderAndEveryRecord) {
-  const std::string path = testing::TempDir() + "servo_log_test.csv";
+  const std::string path = hemm::test::make_temp_dir() + "/servo_log_test.csv";
   auto logger = make_servo_logger(1024);
   ASSERT_FALSE(logger.start(path));
   EXPECT_TRUE(logger.start(path).has_value());  // already running

@@ -12,6 +12,7 @@
 #include "operator/device/simulated_omni.h"
 #include "operator/servo/trajectory_recorder.h"
 #include "tests/operator/servo/two_hand_device.h"
+#include "tests/temp_dir.h"
 
 namespace hemm::servo {
 namespace {
@@ -19,7 +20,7 @@ namespace {
 using Eigen::Vector3d;
 
 TEST(TrajectoryRecorder, RecordThenReplayReproducesEverySample) {
-  const std::string path = testing::TempDir() + "rec_omni.csv";
+  const std::string path = hemm::test::make_temp_dir() + "/rec_omni.csv";
   auto motion = std::make_shared<device::WaypointScript>(std::vector<device::Waypoint>{
       {0.0, Vector3d(0, 0, 0), 0},
       {0.2, Vector3d(0.03, 0.01, -0.01), device::kButton1},
@@ -79,7 +80,7 @@ void expect_same(const device::EndEffectorSample& got, const device::EndEffector
 }
 
 TEST(TrajectoryRecorder, TwoEndEffectorsRoundTripExactly) {
-  const std::string path = testing::TempDir() + "rec_two_hands.csv";
+  const std::string path = hemm::test::make_temp_dir() + "/rec_two_hands.csv";
   constexpr int kTicks = 700;  // through the disabled window and several button/switch changes
   test::TwoHandDevice dev(kTicks);
   auto for_one = make_trajectory_recorder(1, 8);

@@ -30,6 +30,7 @@
 #include "report.pb.h"
 #include "tests/operator/servo/alloc_counter.h"
 #include "tests/operator/servo/two_hand_device.h"
+#include "tests/temp_dir.h"
 
 namespace hemm::servo {
 namespace {
@@ -83,7 +84,7 @@ std::unique_ptr<const ModelSnapshot> make_wall(std::uint64_t version) {
 }
 
 TEST(ServoLoop, RunsTwoSecondsAtOneKilohertzWithoutAllocating) {
-  const std::string log_path = testing::TempDir() + "servo_loop_test_log.csv";
+  const std::string log_path = hemm::test::make_temp_dir() + "/servo_loop_test_log.csv";
   // The hand pushes 1 mm into the wall at x = 0.02 and holds.
   const double target_x = 0.021;
   auto script = std::make_shared<device::LineScript>(Vector3d::Zero(), Vector3d(target_x, 0, 0), 0.1);
@@ -401,7 +402,7 @@ std::vector<std::string> split_csv(const std::string& s) {
 
 TEST(ServoLoop, TwoEndEffectorsBothWrenchesReachTheDeviceAndTheLog) {
   using test::TwoHandDevice;
-  const std::string log_path = testing::TempDir() + "servo_loop_two_hands.csv";
+  const std::string log_path = hemm::test::make_temp_dir() + "/servo_loop_two_hands.csv";
   TwoHandDevice dev(20000);
   TwoHandTask task;
   ModelChannel models;

@@ -44,6 +44,7 @@ ho::StationSetpoint nav(std::int64_t t, double v, double w) {
   s.v = v;
   s.omega = w;
   s.moves_robot = true;
+  s.deadman = true;  // the hand presses the dead-man
   return s;
 }
 
@@ -92,6 +93,7 @@ TEST(CommandSender, DeadmanModeFramesAndHistory) {
   m.arm_target_R = {0.4, 0.1, 0.3};
   m.arm_valid = true;
   m.moves_robot = true;
+  m.deadman = true;
   f.box.publish(m);
   f.sender.send_once();
   EXPECT_TRUE(f.sent.back().deadman());
@@ -108,6 +110,42 @@ TEST(CommandSender, DeadmanModeFramesAndHistory) {
   f.sender.send_once();
   ASSERT_EQ(f.frames.size(), frames_before + 1);
   EXPECT_EQ(f.frames.back().mode_change().mode(), hw::MODE_MANIPULATION);
+}
+
+// Issue 23 item 2: the wire's dead-man is the hand's. Released: no dead-man
+// and no motion, whatever the task commands. Pressed while the task holds
+// motion: the dead-man with a neutral command. Pressed in manipulation
+// without an arm target: nothing to follow, no dead-man. Non-finite device
+// poses the task counted are counted (and logged) here.
+TEST(CommandSender, TheDeadManIsTheHandsAndMotionGoesOnlyWithIt) {
+  Fixture f;
+  ho::StationSetpoint sp = nav(f.now, 0.4, 0.1);
+  sp.deadman = false;
+  f.box.publish(sp);
+  f.sender.send_once();
+  ASSERT_EQ(f.sent.size(), 1u);
+  EXPECT_FALSE(f.sent[0].deadman());
+  EXPECT_EQ(f.sent[0].v(), 0.0);
+  EXPECT_EQ(f.sent[0].omega(), 0.0);
+  sp.deadman = true;
+  sp.moves_robot = false;  // the task's motion hold
+  f.box.publish(sp);
+  f.sender.send_once();
+  EXPECT_TRUE(f.sent.back().deadman());
+  EXPECT_EQ(f.sent.back().v(), 0.0);
+  ho::StationSetpoint m;
+  m.t_ns = f.now;
+  m.mode = hm::Mode::kManipulation;
+  m.deadman = true;  // pressed, but held: no arm target
+  f.box.publish(m);
+  f.sender.send_once();
+  EXPECT_FALSE(f.sent.back().deadman());
+  EXPECT_FALSE(f.sent.back().has_arm_target());
+  m.nonfinite_poses = 7;
+  f.box.publish(m);
+  f.sender.send_once();
+  EXPECT_EQ(f.sender.stats().nonfinite_poses, 7u);
+  EXPECT_EQ(f.sender.stats().deadman_pressed, 1u);
 }
 
 // With the link down nothing is sent and it is not a failure; when it comes

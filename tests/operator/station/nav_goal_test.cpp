@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 #include <numbers>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -221,6 +222,34 @@ TEST(NavGoalParams, Validation) {
 }
 
 // ---------------------------------------------------------------- the hand
+
+// Issue 23: the closed-loop hand holds the stylus's dead-man pressed; when
+// its display shows the robot waiting to be re-armed it lets go for
+// rearm_release_s and presses again, at most once per rearm_retry_s.
+TEST(NavGoalHand, PressesTheDeadManAndLetsGoBrieflyWhenTheRobotWaitsToBeReArmed) {
+  auto view = std::make_shared<ho::OperatorView>();
+  ho::NavGoalParams p;
+  ho::NavGoalHand hand(view, {{1.0, 0.0}}, p);
+  *view = view_at(0, 0, 0);
+  EXPECT_TRUE(hand.at(0.5).deadman);
+  view->robot_safety = hemm::wire::SAFETY_REARM;
+  std::vector<double> released;
+  for (int i = 0; i <= 2500; ++i) {
+    const double t = 1.0 + i * 0.001;
+    if (!hand.at(t).deadman) released.push_back(t);
+  }
+  // Let go at 1.0 s and 2.0 s (not in between), each time for 0.2 s.
+  ASSERT_FALSE(released.empty());
+  EXPECT_NEAR(released.front(), 1.0, 1e-9);
+  const auto second = std::find_if(released.begin(), released.end(), [](double t) { return t > 1.5; });
+  ASSERT_NE(second, released.end());
+  EXPECT_NEAR(*second, 2.0, 0.0015);
+  EXPECT_NEAR(static_cast<double>(released.size()) * 0.001, 3 * p.rearm_release_s, 0.004);  // 1.0, 2.0 and 3.0 s
+  view->robot_safety = 0;  // re-armed: held pressed
+  for (int i = 1; i <= 1500; ++i) EXPECT_TRUE(hand.at(3.5 + i * 0.001).deadman);
+  p.rearm_retry_s = p.rearm_release_s;
+  EXPECT_FALSE(ho::validate(p).empty());
+}
 
 TEST(NavGoalHand, MovesTheStylusAtBoundedSpeedAndFollowsTheRoute) {
   auto view = std::make_shared<ho::OperatorView>();

@@ -5,6 +5,7 @@
 #include <numbers>
 
 #include <cmath>
+#include <limits>
 #include <vector>
 
 #include "common/haptics/vps/voxmap.h"
@@ -339,6 +340,41 @@ TEST(EStop, BothButtonsTogetherAreAnEStopAndSwitchNoMode) {
   EXPECT_EQ(r.task.mode(), hm::Mode::kExploration);
 }
 
+// Issue 23 item 2: a stylus pose that is not finite (a sensor fault, a
+// broken replay) holds all motion; it does not become the device origin
+// (which in manipulation would send the arm to the workspace centre, and in
+// navigation through the dead band would count as neutral). When the pose is
+// finite again the robot stays held until the hand moves.
+TEST(NonFinitePose, HoldsAllMotionAndDoesNotBecomeTheDeviceOrigin) {
+  ho::OperatorTaskParams p;
+  p.initial_mode = hm::Mode::kManipulation;
+  Runner r(p);
+  const auto free_space = wall_snapshot({20, -1}, {20, 1}, {-1, 0}, {0, 0, 0});
+  const Eigen::Vector3d there = H(0.010, 0.004, 0.008);
+  r.move(*free_space, H(0, 0, 0), there, 200, 50);
+  ASSERT_TRUE(r.task.last_setpoint().moves_robot);
+  ASSERT_TRUE(r.task.last_setpoint().arm_valid);
+  const Eigen::Vector3d target = r.task.last_setpoint().arm_target_R;
+  for (const double bad : {std::nan(""), std::numeric_limits<double>::infinity()}) {
+    for (int i = 0; i < 20; ++i) {
+      r.tick(*free_space, Eigen::Vector3d(bad, 0.0, 0.0));
+      EXPECT_FALSE(r.task.last_setpoint().moves_robot) << "tick " << i;
+      EXPECT_FALSE(r.task.last_setpoint().arm_valid) << "tick " << i;
+      EXPECT_TRUE(r.task.last_setpoint().arm_target_R.allFinite());
+    }
+  }
+  // Counted (the command sender logs and reports the count off the servo thread).
+  EXPECT_EQ(r.task.nonfinite_poses(), 40u);
+  EXPECT_EQ(r.task.last_setpoint().nonfinite_poses, 40u);
+  // Finite again, where it was: still held (the hand has not moved).
+  for (int i = 0; i < 100; ++i) r.tick(*free_space, there);
+  EXPECT_FALSE(r.task.last_setpoint().moves_robot);
+  // The hand moves on: the target continues from where it was, not from the origin.
+  r.move(*free_space, there, there + H(0, 0, 0.004), 50, 10);
+  EXPECT_TRUE(r.task.last_setpoint().moves_robot);
+  EXPECT_LT((r.task.last_setpoint().arm_target_R - target).norm(), 0.05);
+}
+
 // Issue 9 item 8: a model going stale (no robot data: the robot died, the
 // link went) fades its force to zero over fade_s, never in one tick, and the
 // robot is held; fresh data brings the force back at the same bounded rate.
@@ -537,6 +573,43 @@ TEST(Tool6, TheTimeBudgetBoundsTheToolsWorkAndTheTickNamesIt) {
   task.tick(s, *snap, out);
   EXPECT_GT(out.work, 0);
   EXPECT_LE(out.work, std::max(static_cast<std::int64_t>(12'500 / c) + 1, hemm::vps::coarsest_level_work(tool.tool().shell)));
+}
+
+// Issue 23 item 7: the 6-DoF tool's contact state belongs to one voxmap
+// build. A new build published at the address of the old one (freed, and
+// its memory reused) is a new voxmap: the pair state starts again.
+TEST(Tool6, ContactStateIsKeyedOnTheVoxmapBuildNotOnItsAddress) {
+  ho::OperatorTaskParams p;
+  p.tool6.enabled = true;
+  Runner r(p);
+  ASSERT_NE(r.task.tool6(), nullptr);
+  hemm::vps::VoxmapParams vp;
+  vp.voxel_size = 0.01;
+  auto build = [&](double top) {
+    hemm::mesh::TriangleMesh m = hemm::mesh::make_box({0.1, 0.1, 0.05}, 2);
+    for (auto& v : m.vertices) v += Eigen::Vector3d(0.85, 0.0, top - 0.05);
+    auto vm = std::make_shared<hemm::vps::Voxmap>();
+    EXPECT_FALSE(hemm::vps::build_voxmap(m, vp, vm.get(), nullptr));
+    return vm;
+  };
+  auto vm = build(0.93);  // the tool's tip (radius 2 cm at z 0.95) rests on its top
+  auto snap = std::make_unique<ho::OperatorModelSnapshot>();
+  snap->map = hmap::build_snapshot(hmap::MapParams{}, hmap::LocalMap{});
+  snap->have_state = true;
+  snap->version = 1;
+  snap->voxmap = vm;
+  snap->voxmap_builds = 1;
+  for (int i = 0; i < 50; ++i) r.tick(*snap, Eigen::Vector3d::Zero());
+  const std::uint64_t changes = r.task.tool6()->state().voxmap_changes;
+  // Build 2 (the box 5 mm higher) lands where build 1 was.
+  *vm = *build(0.935);
+  snap->version = 2;
+  snap->voxmap_builds = 2;
+  r.tick(*snap, Eigen::Vector3d::Zero());
+  EXPECT_EQ(r.task.tool6()->state().voxmap_changes, changes + 1) << "the old build's contact state was kept";
+  // Later ticks of the same build keep it.
+  for (int i = 0; i < 10; ++i) r.tick(*snap, Eigen::Vector3d::Zero());
+  EXPECT_EQ(r.task.tool6()->state().voxmap_changes, changes + 1);
 }
 
 TEST(Tick, NeverAllocatesOrFrees) {

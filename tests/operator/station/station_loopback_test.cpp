@@ -243,4 +243,46 @@ TEST(StationLoopback, CommandsFlowModelHoldsTheWallAndTheProbeFeelsIt) {
   EXPECT_TRUE(map_csv.good());
 }
 
+// Issue 23 item 2: the wire's dead-man is the hand's dead-man input, not
+// "the mode moves the robot". The SIMULATED hand drives in navigation (the
+// stylus 20 mm forward: well out of the dead band) but never presses the
+// dead-man: no command may carry it, and none asks for motion.
+TEST(StationLoopback, InNavigationWithTheDeadManReleasedNoCommandCarriesTheDeadManOrAsksForMotion) {
+  FakeRobot robot;
+  asio::io_context io;
+  ho::OperatorClient client(io, hemm::test::loopback_client_options("station-test", robot.server->session_port(), test_key()));
+  ho::OperatorStationOptions so = hemm::test::loopback_station_options("station_loopback_deadman_test.csv");
+  so.task.initial_mode = hm::Mode::kNavigation;
+  const Eigen::Vector3d fwd_H = ho::R_B_H().transpose() * Eigen::Vector3d(0.020, 0.0, 0.0);
+  so.hand = std::make_shared<hemm::device::LineScript>(Eigen::Vector3d::Zero(), fwd_H, 0.03, 0.5);
+  ho::OperatorStation station(io, client, so);
+  std::string err;
+  ASSERT_TRUE(client.start([](int, const std::string& why) { ADD_FAILURE() << "fatal: " << why; }, &err)) << err;
+  station.start();
+  std::thread net([&] { io.run(); });
+  std::this_thread::sleep_for(std::chrono::milliseconds(2000));
+  station.stop();
+  asio::post(io, [&] { client.stop("test over"); });
+  std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  io.stop();
+  net.join();
+  std::vector<hw::Command> cmds;
+  {
+    std::lock_guard<std::mutex> lk(robot.mu);
+    cmds = robot.commands;
+  }
+  ASSERT_GT(cmds.size(), 100u);
+  std::size_t pressed = 0, moving = 0;
+  for (const auto& c : cmds) {
+    EXPECT_EQ(c.mode(), hw::MODE_NAVIGATION);
+    pressed += c.deadman();
+    moving += c.v() != 0.0 || c.omega() != 0.0;
+  }
+  std::printf("%zu commands: %zu with the dead-man, %zu asking for motion; the task's last setpoint v = %.3f m/s\n",
+              cmds.size(), pressed, moving, station.task().last_setpoint().v);
+  EXPECT_GT(station.task().last_setpoint().v, 0.05) << "the hand did drive (the task's command)";
+  EXPECT_EQ(pressed, 0u);
+  EXPECT_EQ(moving, 0u);
+}
+
 }  // namespace

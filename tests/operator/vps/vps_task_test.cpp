@@ -26,6 +26,7 @@
 #include "operator/device/simulated_omni.h"
 #include "operator/vps/vps_session.h"
 #include "tests/operator/servo/alloc_counter.h"
+#include "tests/temp_dir.h"
 
 namespace hemm::op {
 namespace {
@@ -161,7 +162,7 @@ void run_omni(std::int64_t budget, const std::string& log_name, OmniRun* out) {
       {1.8, {0.03, -0.008, 0}}});
   device::SimulatedOmni omni(device::SimulatedOmniModel{}, script);
   VpsLogger log = make_vps_logger(4096);
-  const std::string log_path = ::testing::TempDir() + log_name + "_" + std::to_string(::getpid()) + ".csv";
+  const std::string log_path = hemm::test::make_temp_dir() + "/" + log_name + ".csv";
   ASSERT_FALSE(log.start(log_path));
   VpsServoTask task(model, omni.limits(), tp, &log);
   EXPECT_LE(task.coupling(0).params.k_lin, omni.limits().ee[0].max_stiffness);
@@ -382,7 +383,7 @@ TEST(VpsServoTask, TimeBudgetHoldsThePegInHolesPairsToTheirTimeWithoutAllocating
 
 TEST(VpsModel, LoadsMeshFilesThroughTheCache) {
   namespace fs = std::filesystem;
-  const fs::path dir = fs::path(::testing::TempDir()) / "vps_model_cache";
+  const fs::path dir = fs::path(hemm::test::make_temp_dir()) / "vps_model_cache";
   fs::remove_all(dir);
   fs::create_directories(dir);
   const std::string scene = (dir / "table.stl").string(), tool = (dir / "ball.stl").string();

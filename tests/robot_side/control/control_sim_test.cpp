@@ -10,7 +10,9 @@
 #include <gtest/gtest.h>
 
 #include "config_robot.pb.h"
-#include "robot_side/control/safety.h"
+#include "robot_side/control/arm_keep_out.h"
+#include "robot_side/control/collision_guard.h"
+#include "robot_side/control/watchdog.h"
 #include "robot_side/sim/simulated_robot.h"
 
 namespace hr = hemm::robot;
@@ -33,6 +35,14 @@ struct Fixture {
     robot.set_base_pose_sim(start);
     robot.set_operator_in_control(true);
     robot.step(200);  // settle on the wheels
+    neutral();
+  }
+  // The robot follows an operator only after a neutral command (it is
+  // disarmed at start-up and after any stop: simulated_robot.h "Re-arm").
+  void neutral() {
+    hr::BaseArmCommand c;
+    c.seq = ++seq;
+    ASSERT_FALSE(robot.set_command(c, robot.time_ns()));
   }
   void drive(double v, double omega) {
     hr::BaseArmCommand c;
@@ -57,6 +67,7 @@ TEST(ArmControl, TenCentimetreStepSettlesWithinTwoMillimetres) {
   const hk::Arm5Vector q0 = (hk::Arm5Vector() << 0.0, 1.0, -1.8, 0.0, 0.0).finished();
   r.set_arm_q_sim(q0);
   r.step(300);
+  f.neutral();
   const hr::RobotStateSim s0 = r.state();
   const Eigen::Vector3d p0 = s0.T_R_E.translation();
   ASSERT_LT((p0 - (r.T_R_A() * hk::forward_kinematics(r.arm_model(), q0)).translation()).norm(), 2e-3)
@@ -300,6 +311,7 @@ TEST(Safety, TurningInPlaceWithTheArmOutStopsShortOfAWallBeside) {
     hr::SimulatedRobot& r = f.robot;
     if (arm_out) r.set_arm_q_sim(hk::Arm5Vector::Zero());  // straight forward, level
     r.step(200);
+    f.neutral();
     int contacts = 0;
     bool guard_flag = false;
     const double theta0 = r.state().T_W_R_truth.theta;
@@ -332,6 +344,7 @@ TEST(Safety, ReversingWithNoDataBehindIsACrawl) {
   r.set_base_pose_sim({1.7, 1.0, std::numbers::pi});
   r.set_operator_in_control(true);
   r.step(200);
+  f.neutral();
   int contacts = 0;
   double v_min = 0.0;
   for (int ms = 0; ms < 4000; ++ms) {
@@ -378,7 +391,9 @@ TEST(Safety, ArmTargetsIntoTheFloorTheBaseOrASeenWallAreRefused) {
   EXPECT_EQ(r.rejected_commands(), 3u);
   r.step(500);
   EXPECT_LT((r.state().q - q0).norm(), 0.02);  // nothing was followed
-  // Short of the wall (0.07 m): taken, and the arm goes there.
+  // Short of the wall (0.07 m): taken, and the arm goes there (after a
+  // neutral command: the watchdog expired during the 0.5 s without one).
+  f.neutral();
   if (const auto e = arm(0.38, 0.0, 0.36)) ADD_FAILURE() << *e;
   for (int ms = 0; ms < 2000; ++ms) {
     if (ms % 10 == 0) {
@@ -401,8 +416,9 @@ TEST(Safety, EstopAndOperatorGating) {
   }
   EXPECT_LT(std::abs(r.state().v_truth), 0.005);
   EXPECT_NE(r.state().safety & hemm::wire::SAFETY_NO_OPERATOR, 0u);
-  // With it, it drives; the e-stop stops it fast.
+  // With it (and a neutral command first), it drives; the e-stop stops it fast.
   r.set_operator_in_control(true);
+  f.neutral();
   for (int ms = 0; ms < 800; ++ms) {
     if (ms % 10 == 0) f.drive(0.5, 0.0);
     r.step(1);

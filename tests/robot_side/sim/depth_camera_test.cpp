@@ -12,6 +12,7 @@
 #include <gtest/gtest.h>
 
 #include "robot_side/sim/mujoco_ray_caster.h"
+#include "tests/temp_dir.h"
 
 namespace hr = hemm::robot;
 namespace hm = hemm::mapping;
@@ -22,7 +23,8 @@ struct Sim {
   mjModel* m = nullptr;
   mjData* d = nullptr;
   explicit Sim(const std::string& body) {
-    const std::string path = testing::TempDir() + "depth_camera_test.xml";
+    static const std::string dir = hemm::test::make_temp_dir();  // one per test process
+    const std::string path = dir + "/depth_camera_test.xml";
     std::ofstream(path) << "<mujoco><worldbody>" << body << "</worldbody></mujoco>";
     char err[512] = "";
     m = mj_loadXML(path.c_str(), nullptr, err, sizeof err);

@@ -15,6 +15,7 @@
 #include "robot_side/sim/realtime.h"
 #include "robot_side/control/arm_control.h"
 #include "robot_side/sim/simulated_robot.h"
+#include "tests/temp_dir.h"
 
 namespace hr = hemm::robot;
 namespace hk = hemm::kinematics;
@@ -100,7 +101,7 @@ TEST(SimulatedRobot, LoadErrorsLeaveTheRobotUnloaded) {
   hr::SimulatedRobot r;
   EXPECT_TRUE(r.load(hemm::config::RobotConfig(), "/nonexistent/scene.xml"));
   EXPECT_FALSE(r.loaded());
-  const std::string bad = std::string(HEMM_BINARY_DIR) + "/no_robot_scene.xml";
+  const std::string bad = hemm::test::make_temp_dir() + "/no_robot_scene.xml";
   std::ofstream(bad) << "<mujoco><worldbody><geom type='plane' size='1 1 0.1'/></worldbody></mujoco>";
   const auto err = r.load(hemm::config::RobotConfig(), bad);
   ASSERT_TRUE(err);
@@ -415,6 +416,7 @@ TEST(ArmKeepOut3dSim, ThePathToAGoalIsCheckedNotOnlyTheGoal) {
   const std::uint64_t touched = r.arm_contacts_sim().contact_steps;  // on the path poses above
   const std::uint64_t checks0 = r.seen_voxels_stats().checks;
   const auto t0 = std::chrono::steady_clock::now();
+  ASSERT_FALSE(r.set_command(hr::BaseArmCommand{}, r.time_ns()));  // neutral first: the robot re-arms
   const auto err = r.set_command(arm_command(over_seat, 21), r.time_ns());
   const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   ASSERT_FALSE(err) << *err;
@@ -461,4 +463,70 @@ TEST(ArmKeepOut3dSim, ArmContactsAndTheToolsTrueClearanceToTheSeat) {
   EXPECT_GE(r.arm_contacts_sim().contact_steps, 1u);
   EXPECT_LT(r.arm_contacts_sim().tool_clearance, 0.0);
   EXPECT_GT(r.robot_contacts_sim("chair_w_seat"), 0);
+}
+
+// ---------------------------------------------------------------- re-arm (issue 23 item 1)
+namespace {
+hr::BaseArmCommand drive_command(double v, bool deadman, std::uint64_t seq) {
+  hr::BaseArmCommand c;
+  c.mode = hemm::wire::MODE_NAVIGATION;
+  c.v = v;
+  c.deadman = deadman;
+  c.seq = seq;
+  return c;
+}
+// Streams c every 10 ms for ms milliseconds; returns the largest |true speed|.
+double stream(hr::SimulatedRobot& r, const hr::BaseArmCommand& c, int ms) {
+  double v = 0.0;
+  for (int i = 0; i < ms; ++i) {
+    if (i % 10 == 0) {
+      EXPECT_FALSE(r.set_command(c, r.time_ns()));
+    }
+    r.step(1);
+    v = std::max(v, std::abs(r.state().v_truth));
+  }
+  return v;
+}
+}  // namespace
+
+// Every stop leaves the robot disarmed (SAFETY_REARM) until a neutral command
+// and then a pressed one: at start-up, after the e-stop (even one set and
+// cleared between two steps), a lost link and a time without the operator.
+// Zero motion with the dead-man pressed is neutral too; the robot's own
+// neutral command (a mode change) is not the operator's and re-arms nothing.
+TEST(SimulatedRobot, AfterEveryStopOnlyANeutralCommandThenAPressedOneMovesTheRobot) {
+  hr::SimulatedRobot r;
+  ASSERT_FALSE(r.load(hemm::config::RobotConfig(), kScene));
+  r.set_base_pose_sim({-0.5, -0.3, 0.0});
+  r.set_operator_in_control(true);
+  r.step(200);
+  std::uint64_t seq = 0;
+  // Start-up: pressed at once is not followed.
+  EXPECT_LT(stream(r, drive_command(0.3, true, ++seq), 500), 0.005);
+  EXPECT_NE(r.state().safety & hemm::wire::SAFETY_REARM, 0u);
+  EXPECT_FALSE(r.armed());
+  stream(r, drive_command(0.0, true, ++seq), 20);  // zero motion, pressed: neutral
+  EXPECT_GT(stream(r, drive_command(0.3, true, ++seq), 800), 0.25);
+  EXPECT_TRUE(r.armed());
+  EXPECT_EQ(r.state().safety & hemm::wire::SAFETY_REARM, 0u);
+  // The e-stop set and cleared before the next step still disarms.
+  r.set_estop(true);
+  r.set_estop(false);
+  EXPECT_FALSE(r.armed());
+  r.step(600);  // the base comes to rest (the watchdog too has expired by now)
+  EXPECT_LT(stream(r, drive_command(0.3, true, ++seq), 500), 0.01);
+  // The robot's own neutral command re-arms nothing.
+  r.stop_commanded_motion(seq);
+  EXPECT_LT(stream(r, drive_command(0.3, true, ++seq), 300), 0.01);
+  // Neutral commands during a stop do not count: only after it cleared.
+  r.set_link_lost(true);
+  stream(r, drive_command(0.0, false, ++seq), 50);
+  r.set_link_lost(false);
+  EXPECT_LT(stream(r, drive_command(0.3, true, ++seq), 300), 0.01);
+  stream(r, drive_command(0.3, false, ++seq), 20);  // released: neutral
+  EXPECT_GT(stream(r, drive_command(0.3, true, ++seq), 800), 0.25);
+  // Control lost and given back: not followed until re-armed.
+  r.set_operator_in_control(false);
+  r.set_operator_in_control(true);
+  EXPECT_FALSE(r.armed());
 }

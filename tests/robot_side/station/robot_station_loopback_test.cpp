@@ -18,6 +18,7 @@
 
 #include <gtest/gtest.h>
 #include <sched.h>
+#include <spdlog/spdlog.h>
 
 #include "config_robot.pb.h"
 #include "common/clock/steady_clock.h"
@@ -26,6 +27,7 @@
 #include "robot_side/sim/realtime.h"
 #include "robot_side/sim/wire_convert.h"
 #include "robot_side/station/robot_station.h"
+#include "tests/common/net/udp_forwarder.h"
 #include "tests/robot_side/station/robot_side.h"
 
 namespace hr = hemm::robot;
@@ -90,8 +92,10 @@ struct FakeOperator {
   int64_t hold_ns = 0;
   std::deque<hw::Command> held;
 
-  FakeOperator(uint16_t session_port, bool want_control) {
+  // stream_port: where to send the streams (0: the port the robot announces).
+  FakeOperator(uint16_t session_port, bool want_control, uint16_t stream_port = 0) {
     hemm::op::OperatorClientOptions o;
+    o.stream_port = stream_port;
     o.station_name = "fake-operator";
     o.robot_address = "127.0.0.1";
     o.session_port = session_port;
@@ -178,6 +182,12 @@ struct FakeOperator {
   void send_frame(hw::SessionFrame f) {
     asio::post(io, [this, f = std::move(f)] { client->send_session_frame(f); });
   }
+  // Many frames in one go (one write burst on the session's TCP connection).
+  void send_frames(std::vector<hw::SessionFrame> fs) {
+    asio::post(io, [this, fs = std::move(fs)] {
+      for (const auto& f : fs) client->send_session_frame(f);
+    });
+  }
   // Link loss without Bye: the operator's UDP socket goes away, TCP stays.
   void kill_streams() {
     asio::post(io, [this] { client->streams().stop(); });
@@ -219,6 +229,21 @@ hw::Command nav_command(double v) {
   c.set_omega(0.0);
   c.set_deadman(true);
   return c;
+}
+
+// The dead-man released: asks for nothing (a neutral command).
+hw::Command released_command() {
+  hw::Command c = nav_command(0.0);
+  c.set_deadman(false);
+  return c;
+}
+
+// The robot follows an operator only after a neutral command (issue 23): the
+// dead-man released for 0.1 s, then c.
+void neutral_then(FakeOperator& op, const hw::Command& c) {
+  op.set_command(released_command());
+  sleep_s(0.1);
+  op.set_command(c);
 }
 
 hw::SessionFrame mode_change(hw::Mode mode, uint64_t id) {
@@ -471,7 +496,7 @@ TEST(RobotStationLoopback, NavigationCommandMovesBaseAndWatchdogStopsIt) {
   ASSERT_TRUE(wait_until([&] { return op.ack_for(7).has_value(); }, 2.0));
   EXPECT_TRUE(op.ack_for(7)->ok());
 
-  op.set_command(nav_command(kSpeed));
+  neutral_then(op, nav_command(kSpeed));
   sleep_s(2.2);
   op.set_command(std::nullopt);
   sleep_s(1.3);
@@ -587,13 +612,14 @@ TEST(RobotStationLoopback, CommandsWithoutControlHaveNoEffect) {
 }
 
 // E-stop over the session channel: acknowledged and reported, the base stops
-// and stays; released: motion resumes.
+// and stays; released: motion resumes after a neutral command and a fresh
+// press (issue 23).
 TEST(RobotStationLoopback, EStopStopsBaseAndReleaseAllowsMotion) {
   RobotSide robot(test_config());
   robot.start();
   FakeOperator op(robot.server->session_port(), true);
   ASSERT_TRUE(op.wait_connected());
-  op.set_command(nav_command(kSpeed));
+  neutral_then(op, nav_command(kSpeed));
   ASSERT_TRUE(wait_until([&] { auto s = op.last_state(); return s && s->v() > 0.25; }, 3.0));
 
   op.send_frame(estop_frame(true));
@@ -615,6 +641,7 @@ TEST(RobotStationLoopback, EStopStopsBaseAndReleaseAllowsMotion) {
   ASSERT_TRUE(wait_until([&] { return op.ack_with_reason("e-stop released").has_value(); }, 2.0));
   EXPECT_TRUE(op.ack_with_reason("e-stop released")->ok());
   ASSERT_TRUE(wait_until([&] { return op.estop_reports(false) == 1; }, 1.0));
+  neutral_then(op, nav_command(kSpeed));
   EXPECT_TRUE(wait_until([&] { auto s = op.last_state(); return s && s->v() > 0.25; }, 2.0));
   EXPECT_EQ(op.last_state()->safety() & hw::SAFETY_ESTOP, 0u);
   EXPECT_EQ(robot.station->statistics().estop_changes, 2u);
@@ -628,7 +655,7 @@ TEST(RobotStationLoopback, EStopAckNamesTheRequestAndTheRobotsOwnEStopIsReleased
   robot.start();
   FakeOperator op(robot.server->session_port(), true);
   ASSERT_TRUE(op.wait_connected());
-  op.set_command(nav_command(kSpeed));
+  neutral_then(op, nav_command(kSpeed));
   ASSERT_TRUE(wait_until([&] { auto s = op.last_state(); return s && s->v() > 0.25; }, 3.0));
 
   // Operator e-stop with a request id: the Ack carries it.
@@ -639,6 +666,7 @@ TEST(RobotStationLoopback, EStopAckNamesTheRequestAndTheRobotsOwnEStopIsReleased
   op.send_frame(estop_frame(false, 42));
   ASSERT_TRUE(wait_until([&] { return op.ack_for(42).has_value(); }, 2.0));
   EXPECT_TRUE(op.ack_for(42)->ok());
+  neutral_then(op, nav_command(kSpeed));
   ASSERT_TRUE(wait_until([&] { auto s = op.last_state(); return s && s->v() > 0.25; }, 2.0));
 
   // The robot's own e-stop: stopped, reported to the operator.
@@ -655,8 +683,9 @@ TEST(RobotStationLoopback, EStopAckNamesTheRequestAndTheRobotsOwnEStopIsReleased
   sleep_s(0.3);
   EXPECT_LT(std::abs(op.last_state()->v()), 0.01);
   EXPECT_NE(op.last_state()->safety() & hw::SAFETY_ESTOP, 0u);
-  // Released at the robot: motion resumes (the operator never engaged it).
+  // Released at the robot: motion resumes after a neutral command and a fresh press.
   robot.station->local_estop(false, "test key");
+  neutral_then(op, nav_command(kSpeed));
   EXPECT_TRUE(wait_until([&] { auto s = op.last_state(); return s && s->v() > 0.25; }, 2.0));
   EXPECT_FALSE(robot.station->statistics().estop_local);
   EXPECT_EQ(robot.station->statistics().estop_changes, 4u);
@@ -672,7 +701,7 @@ TEST(RobotStationLoopback, LinkLossStopsRobot) {
   robot.start();
   FakeOperator op(robot.server->session_port(), true);
   ASSERT_TRUE(op.wait_connected());
-  op.set_command(nav_command(kSpeed));
+  neutral_then(op, nav_command(kSpeed));
   ASSERT_TRUE(wait_until([&] { return robot.station->latest_state().v > 0.25; }, 3.0));
   EXPECT_EQ(robot.station->latest_state().safety & hw::SAFETY_LINK_LOST, 0u);
 
@@ -739,6 +768,7 @@ TEST(RobotStationLoopback, BadAndStaleCommandsChangeNothing) {
   op.send_frame(mode_change(hw::MODE_NAVIGATION, 13));
   ASSERT_TRUE(wait_until([&] { return op.ack_for(13).has_value(); }, 2.0));
   EXPECT_TRUE(op.ack_for(13)->ok());
+  neutral_then(op, nav_command(kSpeed));
   EXPECT_TRUE(wait_until([&] { return robot.station->latest_state().v > 0.25; }, 2.0));
   st = robot.station->statistics();
   EXPECT_GT(st.commands_applied, 0u);
@@ -758,7 +788,7 @@ TEST(RobotStationLoopback, CommandsHeldOnThePathAndReleasedSecondsLaterAreRefuse
   ASSERT_TRUE(wait_until([&] { return op.ack_for(31).has_value(); }, 2.0));
   EXPECT_TRUE(op.ack_for(31)->ok());
   op.set_hold(3.0);
-  op.set_command(nav_command(kSpeed));
+  neutral_then(op, nav_command(kSpeed));  // the neutral ones are held too, and refused
   sleep_s(3.0 + 1.5);  // 1.5 s of held commands arrive
   auto st = robot.station->statistics();
   const auto s = robot.station->latest_state();
@@ -771,8 +801,10 @@ TEST(RobotStationLoopback, CommandsHeldOnThePathAndReleasedSecondsLaterAreRefuse
   EXPECT_LT(std::abs(s.v), 0.01);
   EXPECT_LT(std::abs(s.T_W_R_truth.x), 0.003);
 
-  // The same commands without the hold move the robot.
+  // The same commands without the hold move the robot (after a neutral one:
+  // no command of this session was followed yet).
   op.set_hold(0.0);
+  neutral_then(op, nav_command(kSpeed));
   EXPECT_TRUE(wait_until([&] { return robot.station->latest_state().v > 0.25; }, 3.0));
   EXPECT_GT(robot.station->statistics().commands_applied, 0u);
 }
@@ -788,7 +820,7 @@ TEST(RobotStationLoopback, WatchdogCountsFromTheCommandsSendTimeNotItsArrival) {
   op.send_frame(mode_change(hw::MODE_NAVIGATION, 41));
   ASSERT_TRUE(wait_until([&] { return op.ack_for(41).has_value(); }, 2.0));
   op.set_hold(0.150);
-  op.set_command(nav_command(kSpeed));
+  neutral_then(op, nav_command(kSpeed));
   ASSERT_TRUE(wait_until([&] { return robot.station->latest_state().v > 0.25; }, 3.0));
   op.set_command(std::nullopt);
   sleep_s(1.0);
@@ -806,4 +838,160 @@ TEST(RobotStationLoopback, WatchdogCountsFromTheCommandsSendTimeNotItsArrival) {
   EXPECT_LT(left_s, watchdog_s - 0.15 + 0.05);
   EXPECT_GT(left_s, watchdog_s - 0.15 - 0.05);
   EXPECT_GT(robot.station->statistics().commands_applied, 20u);  // followed while they came
+}
+
+// ---------------------------------------------------------------- issue 23 item 1: re-arm
+namespace {
+
+// The operator starts from neutral (the dead-man released), then drives.
+void start_driving(FakeOperator& op, RobotSide& robot) {
+  op.set_command(released_command());
+  sleep_s(0.1);
+  op.set_command(nav_command(kSpeed));
+  ASSERT_TRUE(wait_until([&] { return robot.station->latest_state().v > 0.25; }, 3.0)) << "never drove";
+}
+
+struct Rest {
+  double max_v = 0.0;   // |true forward speed|, m/s
+  double max_dx = 0.0;  // |true x travelled|, m
+};
+// Following 0.3 m/s would pass 0.05 m/s within 50 ms (1 m/s^2) and travel
+// metres in a second; a base that just braked still rocks on its wheels at
+// up to ~0.02 m/s without going anywhere.
+constexpr double kStillSpeed = 0.05, kStillTravel = 0.003;
+// Watches the SIMULATED robot's true motion for `seconds`.
+Rest watch_rest(RobotSide& robot, double seconds) {
+  Rest r;
+  const double x0 = robot.station->latest_state().T_W_R_truth.x;
+  const int64_t end = hemm::steady_now_ns() + static_cast<int64_t>(seconds * 1e9);
+  while (hemm::steady_now_ns() < end) {
+    const auto s = robot.station->latest_state();
+    r.max_v = std::max(r.max_v, std::abs(s.v_truth));
+    r.max_dx = std::max(r.max_dx, std::abs(s.T_W_R_truth.x - x0));
+    sleep_s(0.004);
+  }
+  return r;
+}
+
+// After the stop, the operator keeps streaming the same pressed command: the
+// robot must stay at rest; a neutral command and then a pressed one move it.
+void expect_rearm_needed(FakeOperator& op, RobotSide& robot, const char* what) {
+  op.set_command(nav_command(kSpeed));
+  const Rest held = watch_rest(robot, 1.0);
+  EXPECT_NE(robot.station->latest_state().safety & hw::SAFETY_REARM, 0u) << what << ": not reported as waiting";
+  std::printf("%s: streaming v = %.2f m/s with the dead-man pressed for 1 s after: max |v| %.4f m/s, |dx| %.4f m\n",
+              what, kSpeed, held.max_v, held.max_dx);
+  EXPECT_LT(held.max_v, kStillSpeed) << what << ": moved without a neutral command first";
+  EXPECT_LT(held.max_dx, kStillTravel) << what;
+  op.set_command(released_command());
+  sleep_s(0.1);
+  op.set_command(nav_command(kSpeed));
+  EXPECT_TRUE(wait_until([&] { return robot.station->latest_state().v > 0.25; }, 2.0))
+      << what << ": a neutral command and a fresh press did not re-arm";
+  EXPECT_EQ(robot.station->latest_state().safety & hw::SAFETY_REARM, 0u) << what;
+}
+
+}  // namespace
+
+// Issue 23 item 1: releasing the operator's e-stop is not a go. The operator
+// kept streaming v = 0.3 m/s with the dead-man pressed through the stop.
+TEST(RobotStationLoopback, AfterTheOperatorsEStopIsReleasedTheRobotWaitsForANeutralCommandThenAFreshPress) {
+  RobotSide robot(test_config());
+  robot.start();
+  FakeOperator op(robot.server->session_port(), true);
+  ASSERT_TRUE(op.wait_connected());
+  start_driving(op, robot);
+  op.send_frame(estop_frame(true, 51));
+  ASSERT_TRUE(wait_until([&] { return op.ack_for(51).has_value(); }, 2.0));
+  ASSERT_TRUE(wait_until([&] { return std::abs(robot.station->latest_state().v) < 0.01; }, 2.0));
+  op.send_frame(estop_frame(false, 52));
+  ASSERT_TRUE(wait_until([&] { return op.ack_for(52).has_value(); }, 2.0));
+  EXPECT_TRUE(op.ack_for(52)->ok());
+  ASSERT_TRUE(wait_until([&] { return !robot.station->statistics().estop; }, 1.0));
+  expect_rearm_needed(op, robot, "operator e-stop released");
+}
+
+// The same for the robot's own e-stop (a key or the control socket at the robot).
+TEST(RobotStationLoopback, AfterTheRobotsOwnEStopIsReleasedTheRobotWaitsForANeutralCommandThenAFreshPress) {
+  RobotSide robot(test_config());
+  robot.start();
+  FakeOperator op(robot.server->session_port(), true);
+  ASSERT_TRUE(op.wait_connected());
+  start_driving(op, robot);
+  robot.station->local_estop(true, "test key");
+  ASSERT_TRUE(wait_until([&] { return std::abs(robot.station->latest_state().v) < 0.01; }, 2.0));
+  robot.station->local_estop(false, "test key");
+  ASSERT_TRUE(wait_until([&] { return !robot.station->statistics().estop; }, 1.0));
+  expect_rearm_needed(op, robot, "robot e-stop released");
+}
+
+// The watchdog: the operator's commands stop for 0.6 s (the link stays up:
+// heartbeats), then come back as they were. They are not followed until a
+// neutral command and a fresh press.
+TEST(RobotStationLoopback, AfterTheWatchdogExpiredCommandsAreFollowedOnlyAfterANeutralOneThenAFreshPress) {
+  RobotSide robot(test_config());
+  robot.start();
+  FakeOperator op(robot.server->session_port(), true);
+  ASSERT_TRUE(op.wait_connected());
+  start_driving(op, robot);
+  op.set_command(std::nullopt);
+  ASSERT_TRUE(wait_until([&] { return (robot.station->latest_state().safety & hw::SAFETY_WATCHDOG) != 0; }, 2.0));
+  ASSERT_TRUE(wait_until([&] { return std::abs(robot.station->latest_state().v) < 0.01; }, 2.0));
+  EXPECT_TRUE(robot.server->link_up());
+  expect_rearm_needed(op, robot, "watchdog expired");
+}
+
+// A lost link: a forwarder between the stations drops everything for longer
+// than the link timeout while the operator keeps streaming; when the link is
+// back the streamed commands are not followed until a neutral one and a
+// fresh press.
+TEST(RobotStationLoopback, AfterALostLinkCommandsAreFollowedOnlyAfterANeutralOneThenAFreshPress) {
+  RobotSide robot(test_config());
+  robot.start();
+  hemm::test::UdpForwarder path(robot.server->stream_port());
+  FakeOperator op(robot.server->session_port(), true, path.front_port());
+  ASSERT_TRUE(op.wait_connected());
+  start_driving(op, robot);
+  path.set_paused(true);
+  ASSERT_TRUE(wait_until([&] { return !robot.server->link_up(); }, 3.0));
+  ASSERT_TRUE(wait_until([&] { return std::abs(robot.station->latest_state().v) < 0.01; }, 2.0));
+  path.set_paused(false);
+  ASSERT_TRUE(wait_until([&] { return robot.server->link_up() && robot.server->operator_in_control(); }, 3.0));
+  expect_rearm_needed(op, robot, "link restored");
+}
+
+// An operator's e-stop is never refused, not even when its request queue is
+// full: bursts of mode changes fill the queue (the ones around the e-stop are
+// refused for it), the e-stop in the middle of each burst is taken.
+TEST(RobotStationLoopback, AnOperatorsEStopIsNeverRefusedEvenWhenTheRequestQueueIsFull) {
+  RobotSide robot(test_config());
+  robot.start();
+  FakeOperator op(robot.server->session_port(), true);
+  ASSERT_TRUE(op.wait_connected());
+  const auto level = spdlog::get_level();
+  spdlog::set_level(spdlog::level::err);  // thousands of refusals otherwise
+  constexpr int kBursts = 4, kHalf = 300;
+  int judged = 0;
+  for (int b = 0; b < kBursts; ++b) {
+    const uint64_t base = 100000 * static_cast<uint64_t>(b + 1);
+    std::vector<hw::SessionFrame> fs;
+    for (int i = 0; i < kHalf; ++i) fs.push_back(mode_change(hw::MODE_NAVIGATION, base + static_cast<uint64_t>(i)));
+    fs.push_back(estop_frame(true, base + 50000));
+    for (int i = 0; i < kHalf; ++i)
+      fs.push_back(mode_change(hw::MODE_NAVIGATION, base + kHalf + static_cast<uint64_t>(i)));
+    op.send_frames(std::move(fs));
+    ASSERT_TRUE(wait_until([&] { return op.ack_for(base + 50000).has_value(); }, 5.0)) << "burst " << b;
+    ASSERT_TRUE(wait_until([&] { return op.ack_for(base + 2 * kHalf - 1).has_value(); }, 5.0)) << "burst " << b;
+    const auto before = op.ack_for(base + kHalf - 1), after = op.ack_for(base + kHalf);
+    const bool full = before && after && !before->ok() && !after->ok();
+    judged += full;
+    const auto e = op.ack_for(base + 50000);
+    std::printf("burst %d: queue full around the e-stop: %s; e-stop ack ok=%d \"%s\"\n", b, full ? "yes" : "no",
+                e->ok(), e->reason().c_str());
+    EXPECT_TRUE(e->ok()) << "burst " << b << ": " << e->reason();
+  }
+  spdlog::set_level(level);
+  EXPECT_GT(robot.station->statistics().requests_refused, 0u);
+  EXPECT_GE(judged, 1) << "the queue was never full around an e-stop: nothing judged";
+  EXPECT_TRUE(robot.station->statistics().estop);
 }

@@ -14,6 +14,7 @@
 #include <gtest/gtest.h>
 
 #include "common/math/frames.h"
+#include "tests/temp_dir.h"
 
 namespace hemm::robot {
 namespace {
@@ -172,7 +173,7 @@ TEST(SceneMeshes, HomeTableAndItsObjectsAreMeshedWhereTheSceneSays) {
   EXPECT_TRUE(m.skipped.empty());
 
   // A shape that cannot be meshed is reported, not dropped.
-  const std::string path = ::testing::TempDir() + "/scene_meshes_ellipsoid.xml";
+  const std::string path = hemm::test::make_temp_dir() + "/scene_meshes_ellipsoid.xml";
   {
     std::ofstream f(path);
     f << "<mujoco><worldbody><geom name=\"egg\" type=\"ellipsoid\" size=\"0.1 0.2 0.3\" pos=\"0 0 1\"/>"

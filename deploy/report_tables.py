@@ -1,0 +1,245 @@
+#!/usr/bin/python3
+"""The tables of docs/measurements.md, made from the runs' own outputs (deploy/report.sh).
+
+Subcommands (each prints Markdown on stdout; a bad input exits 2 with a message):
+
+  bench BENCH_JSON       a benchmark's Google Benchmark JSON (--benchmark_out_format=json):
+                         mean / median / stddev of the wall-clock time and the CPU time per case
+  latency TEST_OUTPUT    the latency suite's table (the text latency_suite_test prints
+                         between "[ latency ]" and "per50/per99:") as a Markdown table
+  markdown-rows FILE     the Markdown table rows ("|" lines) of a script's output, as they are
+  section NAME TITLE     one section of the document, with its heading, command, date, machine
+                         and condition (--command, --date, --machine, --condition), the table
+                         from --table FILE (or --missing REASON); between markers, so a later
+                         run can replace it alone
+  merge DOC SECTION...   DOC with each SECTION file's section put in its place (in the order
+                         of the --order NAME=TITLE options), the sections not given kept from
+                         DOC, or marked missing
+
+Only the Python standard library.
+"""
+import argparse
+import json
+import math
+import re
+import sys
+
+BEGIN = "<!-- report.sh section: {} -->"
+END = "<!-- report.sh end: {} -->"
+HEADER = """# Measurements
+
+Every table below is produced by `deploy/report.sh` from the outputs of the runs it names
+(it is not edited by hand). Each section gives the command that produced it, the date, the
+machine and its condition: figures taken on a machine shared with other work are not hemm's
+figures, and say so. Everything here runs in simulation (SIMULATED devices, robot and sensors;
+the truth is the simulation's own geometry).
+
+Regenerate all of it on an idle machine with
+
+```
+bash deploy/report.sh build/release --condition "idle: nothing else running"
+```
+
+"""
+
+
+class InputError(Exception):
+    pass
+
+
+def md_table(header, rows, align=None):
+    """A Markdown table; align: one of 'l'/'r' per column (default: first left, rest right)."""
+    align = align or ["l"] + ["r"] * (len(header) - 1)
+    if len(align) != len(header) or any(len(r) != len(header) for r in rows):
+        raise InputError("table rows do not match the header's %d columns" % len(header))
+    out = ["| " + " | ".join(header) + " |", "|" + "|".join("---" if a == "l" else "--:" for a in align) + "|"]
+    cell = lambda c: str(c).replace("|", "\\|")  # "|F|max" stays one cell
+    out[0] = "| " + " | ".join(cell(h) for h in header) + " |"
+    out += ["| " + " | ".join(cell(c) for c in r) + " |" for r in rows]
+    return "\n".join(out) + "\n"
+
+
+def num(v):
+    """Three significant figures, without an exponent (1234.5 -> 1235, 0.01234 -> 0.0123)."""
+    if v == 0 or abs(v) >= 100:
+        return "%.0f" % v
+    digits = 2 - int(math.floor(math.log10(abs(v))))
+    return "%.*f" % (digits, v)
+
+
+def bench_table(bench):
+    """bench: Google Benchmark's JSON output (dict). Aggregates (mean/median/stddev) where the
+    case repeated, else the single run. Times in the benchmark's own unit."""
+    if not isinstance(bench, dict) or not isinstance(bench.get("benchmarks"), list):
+        raise InputError("not Google Benchmark JSON (no \"benchmarks\" list)")
+    cases = {}
+    for b in bench["benchmarks"]:
+        try:
+            # The run's settings are not the case's name: /repeats:5, /min_time:2.000, /real_time.
+            name = re.sub(r"/(repeats:\d+|min_time:[\d.]+s?|iterations:\d+|real_time|manual_time)", "",
+                          b.get("run_name") or b["name"])
+            t, unit = float(b["real_time"]), b["time_unit"]
+        except (KeyError, TypeError, ValueError) as e:
+            raise InputError("benchmark entry without name/real_time/time_unit: %s" % e)
+        c = cases.setdefault(name, {"unit": unit})
+        kind = b.get("aggregate_name") if b.get("run_type") == "aggregate" else "single"
+        c[kind] = t
+        if kind in ("single", "median") and "cpu_time" in b:
+            c["cpu"] = float(b["cpu_time"])
+        if "bytes_per_second" in b and kind in ("single", "median"):
+            c["bytes_per_second"] = float(b["bytes_per_second"])
+    if not cases:
+        raise InputError("no benchmarks in the JSON")
+    rows = []
+    for name, c in cases.items():
+        f = lambda k: num(c[k]) if k in c else "-"
+        median = f("median") if "median" in c else f("single")
+        rate = "%.0f MB/s" % (c["bytes_per_second"] / 1e6) if "bytes_per_second" in c else "-"
+        rows.append([name, c["unit"], f("mean"), median, f("stddev"), f("cpu"), rate])
+    return md_table(["case", "unit", "mean", "median", "stddev", "CPU time", "throughput"], rows)
+
+
+def latency_table(text):
+    """The latency suite's printed table as Markdown: two header lines (names, units), one row per run."""
+    lines = text.splitlines()
+    try:
+        start = next(i for i, l in enumerate(lines) if "[ latency ]" in l)
+    except StopIteration:
+        raise InputError("no \"[ latency ]\" table in the latency suite's output")
+    body = []
+    for l in lines[start + 1:]:
+        if l.startswith("per50/per99:") or not l.strip():
+            break
+        body.append(l)
+    if len(body) < 3:
+        raise InputError("the latency table has no runs")
+    split = lambda l: [t for t in l.split() if t != "|"]
+    names = split(body[0])
+    # The units line has blanks where a column has no unit, and a name may be wider than its
+    # column: a unit belongs to the name whose span holds the unit's last character.
+    spans = [(m.start(), m.end()) for m in re.finditer(r"\S+", body[0]) if m.group() != "|"]
+    header = list(names)
+    for m in re.finditer(r"\S+", body[1]):
+        if m.group() == "|":
+            continue
+        at = [i for i, (a, b) in enumerate(spans) if a < m.end() <= b]
+        if len(at) != 1:
+            raise InputError("latency table: unit %r under no column name" % m.group())
+        header[at[0]] += " " + m.group()
+    rows = [split(l) for l in body[2:]]
+    for r in rows:
+        if len(r) != len(header):
+            raise InputError("latency row with %d columns, header has %d: %r" % (len(r), len(header), " ".join(r)))
+    return md_table(header, rows)
+
+
+def markdown_rows(text):
+    """The Markdown tables in a script's output (runs of "|" lines), as they are, a blank line between."""
+    blocks, cur = [], []
+    for l in text.splitlines() + [""]:
+        if l.startswith("|"):
+            cur.append(l)
+        elif cur:
+            blocks.append(cur)
+            cur = []
+    blocks = [b for b in blocks if len(b) >= 3 and re.fullmatch(r"\|(\s*:?-+:?\s*\|)+", b[1].replace(" ", ""))]
+    if not blocks:
+        raise InputError("no Markdown table in the output")
+    return "\n\n".join("\n".join(b) for b in blocks) + "\n"
+
+
+def section(name, title, command, date, machine, condition, table=None, missing=None, note=None):
+    if not re.fullmatch(r"[a-z0-9-]+", name):
+        raise InputError("section name %r: lower-case letters, digits, '-'" % name)
+    out = [BEGIN.format(name), '<a id="%s"></a>' % name, "", "## " + title, ""]  # measurements.md#NAME
+    if missing is not None:
+        out += ["*Missing:* " + missing, ""]
+    else:
+        out += ["- command: `%s`" % command, "- date: %s" % date, "- machine: %s" % machine,
+                "- condition: %s" % condition, ""]
+        if note:
+            out += [note, ""]
+        out += [table.rstrip("\n"), ""]
+    out.append(END.format(name))
+    return "\n".join(out) + "\n"
+
+
+def split_sections(doc):
+    """{name: text} of the sections between markers in a document."""
+    found = {}
+    for m in re.finditer(r"<!-- report\.sh section: ([a-z0-9-]+) -->\n.*?<!-- report\.sh end: \1 -->\n?", doc, re.S):
+        found[m.group(1)] = m.group(0) if m.group(0).endswith("\n") else m.group(0) + "\n"
+    return found
+
+
+def merge(doc, new, order, titles):
+    """The document: HEADER, then for each name in order the new section, else the old one from doc,
+    else a section marked missing."""
+    old = split_sections(doc)
+    parts = [HEADER]
+    for name in order:
+        if name in new:
+            parts.append(new[name])
+        elif name in old:
+            parts.append(old[name])
+        else:
+            parts.append(section(name, titles.get(name, name), None, None, None, None,
+                                 missing="not produced yet (deploy/report.sh --only %s)." % name))
+        parts.append("\n")
+    return "".join(parts).rstrip("\n") + "\n"
+
+
+def main(argv):
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = p.add_subparsers(dest="cmd", required=True)
+    sub.add_parser("bench").add_argument("file")
+    sub.add_parser("latency").add_argument("file")
+    sub.add_parser("markdown-rows").add_argument("file")
+    s = sub.add_parser("section")
+    s.add_argument("name")
+    s.add_argument("title")
+    for k in ("command", "date", "machine", "condition", "table", "missing", "note"):
+        s.add_argument("--" + k)
+    m = sub.add_parser("merge")
+    m.add_argument("doc")
+    m.add_argument("sections", nargs="*")
+    m.add_argument("--order", required=True, action="append", help="NAME=TITLE, once per section, in order")
+    a = p.parse_args(argv)
+    try:
+        if a.cmd in ("bench", "latency", "markdown-rows"):
+            text = open(a.file, encoding="utf-8").read()
+            if a.cmd == "bench":
+                try:
+                    text = json.loads(text)
+                except ValueError as e:
+                    raise InputError("%s: not JSON: %s" % (a.file, e))
+            sys.stdout.write({"bench": bench_table, "latency": latency_table, "markdown-rows": markdown_rows}[a.cmd](text))
+        elif a.cmd == "section":
+            if a.missing is None and (a.table is None or None in (a.command, a.date, a.machine, a.condition)):
+                raise InputError("section: --table with --command, --date, --machine, --condition, or --missing")
+            table = open(a.table, encoding="utf-8").read() if a.missing is None else None
+            sys.stdout.write(section(a.name, a.title, a.command, a.date, a.machine, a.condition, table, a.missing, a.note))
+        else:
+            pairs = [x.split("=", 1) for x in a.order]
+            if any(len(x) != 2 for x in pairs):
+                raise InputError("--order: NAME=TITLE")
+            titles = dict(pairs)
+            try:
+                doc = open(a.doc, encoding="utf-8").read()
+            except FileNotFoundError:
+                doc = ""
+            new = {}
+            for f in a.sections:
+                got = split_sections(open(f, encoding="utf-8").read())
+                if len(got) != 1:
+                    raise InputError("%s: not one report.sh section" % f)
+                new.update(got)
+            sys.stdout.write(merge(doc, new, [x[0] for x in pairs], titles))
+    except (InputError, OSError) as e:
+        print("report_tables: %s" % e, file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))

@@ -1,0 +1,108 @@
+#!/usr/bin/python3
+"""deploy/report_tables.py: the tables of docs/measurements.md from the runs' outputs."""
+import json
+import os
+import sys
+import unittest
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "deploy"))
+import report_tables as rt  # noqa: E402
+
+# Two rows as tests/integration/latency/latency_suite_test.cpp prints them (print_table).
+LATENCY = """noise before
+[ latency ] round trip through hemm-relay (jitter +-10 % of one-way, >= 1 ms; 5 % loss each way)
+run                        rtt rtt_meas |   ticks  per50  per99 wake99 comp99 misses | |F|max  E_gen   E_ep | goal_p  goal_t t_goal contact guard |  dF_rms  dF_max  cF_rms  cF_max pose_e
+                            ms      ms |             ms     ms     us     us        |      N     mJ     mJ |      m       m      s   steps    st |       N       N       N       N      m
+nav-to-goal                  0     1.5 |   25050  1.000  1.132    242     10    167 |  0.000  0.000  0.000 |  0.046   0.075   16.7       0     0 |   0.000   0.000   0.000   0.000  0.037
+probe-cylinder             300   300.8 |   18150  1.000  1.289    384      6    134 |  0.258  0.000 -0.000 |      -       -      -       0     0 |   0.010   0.157   0.019   0.157  0.000
+per50/per99: servo period median/p99 from the 1 kHz log
+"""
+
+
+def cells(line):
+    return [c.strip() for c in line.strip().strip("|").split(" | ")]
+
+
+class LatencyTable(unittest.TestCase):
+    def test_header_takes_each_columns_unit_and_rows_keep_their_values(self):
+        lines = rt.latency_table(LATENCY).splitlines()
+        self.assertEqual(len(lines), 4)
+        head = cells(lines[0])
+        self.assertEqual(len(head), 22)
+        self.assertEqual(head[:4], ["run", "rtt ms", "rtt_meas ms", "ticks"])
+        self.assertIn("\\|F\\|max N", head)  # the pipe inside a name is escaped, its unit found by position
+        self.assertEqual(head[-1], "pose_e m")
+        row = cells(lines[3])
+        self.assertEqual(row[0], "probe-cylinder")
+        self.assertEqual(row[head.index("cF_rms N")], "0.019")
+        self.assertEqual(row[head.index("goal_t m")], "-")
+
+    def test_output_without_the_table_or_with_a_short_row_is_refused(self):
+        with self.assertRaises(rt.InputError):
+            rt.latency_table("no table here\n")
+        broken = LATENCY.replace("0.000  0.037", "0.037")
+        with self.assertRaises(rt.InputError):
+            rt.latency_table(broken)
+
+
+class BenchTable(unittest.TestCase):
+    def test_aggregates_per_case_and_single_runs(self):
+        bench = {"benchmarks": [
+            {"name": "BM_Seal/16/repeats:5_mean", "run_name": "BM_Seal/16/repeats:5", "run_type": "aggregate", "aggregate_name": "mean",
+             "real_time": 812.5, "time_unit": "ns"},
+            {"name": "BM_Seal/16_median", "run_name": "BM_Seal/16", "run_type": "aggregate",
+             "aggregate_name": "median", "real_time": 800.0, "cpu_time": 790.0, "time_unit": "ns",
+             "bytes_per_second": 2.0e7},
+            {"name": "BM_Seal/16_stddev", "run_name": "BM_Seal/16", "run_type": "aggregate",
+             "aggregate_name": "stddev", "real_time": 12.25, "time_unit": "ns"},
+            {"name": "BM_Replay/min_time:2.000/real_time", "run_name": "BM_Replay/min_time:2.000/real_time", "run_type": "iteration", "real_time": 3.5,
+             "cpu_time": 3.4, "time_unit": "ns"},
+        ]}
+        lines = rt.bench_table(bench).splitlines()
+        self.assertEqual(cells(lines[0]), ["case", "unit", "mean", "median", "stddev", "CPU time", "throughput"])
+        self.assertEqual(cells(lines[2]), ["BM_Seal/16", "ns", "812", "800", "12.2", "790", "20 MB/s"])
+        self.assertEqual(cells(lines[3]), ["BM_Replay", "ns", "-", "3.50", "-", "3.40", "-"])
+
+    def test_numbers_have_three_figures_and_no_exponent(self):
+        self.assertEqual([rt.num(v) for v in (141000.0, 1234.5, 98.76, 3.99, 0.012345, 0)],
+                         ["141000", "1234", "98.8", "3.99", "0.0123", "0"])
+
+    def test_not_benchmark_json_is_refused(self):
+        for bad in ({}, {"benchmarks": []}, {"benchmarks": [{"name": "x"}]}, []):
+            with self.assertRaises(rt.InputError):
+                rt.bench_table(bad)
+
+
+class Document(unittest.TestCase):
+    def sec(self, name, table="| a | b |\n|---|--:|\n| x | 1 |\n"):
+        return rt.section(name, "T " + name, "cmd " + name, "2026-01-01", "2 cores", "idle", table)
+
+    def test_markdown_rows_keeps_each_table_and_drops_the_rest(self):
+        text = "log\n| a | b |\n|---|--:|\n| x | 1 |\nmiddle\n| c |\n|---|\n| y |\nx\n|not a table|\nend\n"
+        self.assertEqual(rt.markdown_rows(text), "| a | b |\n|---|--:|\n| x | 1 |\n\n| c |\n|---|\n| y |\n")
+        with self.assertRaises(rt.InputError):
+            rt.markdown_rows("| only | a row |\n")
+
+    def test_merge_replaces_given_sections_keeps_others_and_marks_the_rest_missing(self):
+        order = ["latency", "link", "rt"]
+        titles = {n: "T " + n for n in order}
+        first = rt.merge("", {"latency": self.sec("latency"), "link": self.sec("link")}, order, titles)
+        self.assertIn("- command: `cmd link`", first)
+        self.assertIn("*Missing:* not produced yet", first)
+        new_link = self.sec("link", "| a |\n|---|\n| new |\n")
+        second = rt.merge(first, {"link": new_link}, order, titles)
+        parts = rt.split_sections(second)
+        self.assertEqual(list(parts), order)
+        self.assertEqual(parts["latency"], rt.split_sections(first)["latency"])
+        self.assertIn("| new |", parts["link"])
+        self.assertNotIn("| x | 1 |", parts["link"])
+        self.assertEqual(rt.merge(second, {}, order, titles), second)  # idempotent
+        self.assertTrue(second.startswith(rt.HEADER))
+
+    def test_section_names_are_checked(self):
+        with self.assertRaises(rt.InputError):
+            rt.section("Bad Name", "t", "c", "d", "m", "c", "| a |\n|---|\n| b |\n")
+
+
+if __name__ == "__main__":
+    unittest.main()
