@@ -6,9 +6,11 @@
 # driving at a wall in navigation mode (HEMM Fig. 8), probing the bin in
 # exploration mode (Fig. 9), and a closed-loop navigation to a goal at 300 ms
 # round trip; each compared with the scene's ground truth (hemm-truth) and
-# plotted to PNG in out/demo/<run>/, with pictures of both stations' live
-# views; each run's recording exported as MCAP (<run>/session.mcap) and
-# listed by deploy/mcap_reader.py.
+# plotted to PNG in out/demo/<run>/ (with the deadline histograms of the
+# operator's servo loop and the robot's control loop: timing.png,
+# robot_timing.png), with pictures of both stations' live views; each run's
+# recording exported as MCAP (<run>/session.mcap) and listed by
+# deploy/mcap_reader.py.
 # Usage: deploy/demo.sh BUILD_DIR [seconds-per-phase]
 set -euo pipefail
 build="${1:?usage: deploy/demo.sh BUILD_DIR [seconds]}"
@@ -93,8 +95,8 @@ haptic_run() {
   echo "== haptic run: $name (script $script, $secs_run s, simulated Omni, scripted hand${rtt:+, ${rtt} ms round trip through hemm-relay, 5 % loss})"
   mkdir -p "$dir"
   "$bin/hemm-robot" --config "$cfg/robot.pbtxt" --session-port 47100 --stream-port 47101 \
-    --duration $((secs_run + 6)) --stats-json "$dir/robot.json" --log-level warn \
-    "${robot_view[@]/VIEW_DIR/$dir}" >"$dir/robot.txt" 2>"$dir/robot.log" &
+    --duration $((secs_run + 6)) --stats-json "$dir/robot.json" --station-json "$dir/robot_station.json" \
+    --log-level warn "${robot_view[@]/VIEW_DIR/$dir}" >"$dir/robot.txt" 2>"$dir/robot.log" &
   local robot=$!
   pids+=("$robot")
   local port=47100 stream=47101 relay_pid=""
@@ -124,7 +126,7 @@ haptic_run() {
     kill -INT "$relay_pid" 2>/dev/null || true
     wait "$relay_pid" 2>/dev/null || true
   fi
-  tail -n 25 "$dir/operator.txt"
+  tail -n 26 "$dir/operator.txt"
   if ((rc != 0)); then
     echo "demo: hemm-operator exited with $rc; log: $dir/operator.log" >&2
     exit "$rc"
@@ -144,6 +146,11 @@ haptic_run() {
     --csv "$dir/truth.csv" --json "$dir/truth.json"
   /usr/bin/python3 "$root/deploy/plots/plot_run.py" "$dir/servo.csv" --out "$dir" --title "$name" \
     --truth "$dir/truth.csv"
+  # The deadline histograms of both 1 kHz loops (and the SIMULATED Omni's own thread).
+  /usr/bin/python3 "$root/deploy/plots/plot_timing.py" "$dir/station.json" --out "$dir/timing.png" \
+    --title "$name: operator servo loop"
+  /usr/bin/python3 "$root/deploy/plots/plot_timing.py" "$dir/robot_station.json" --out "$dir/robot_timing.png" \
+    --title "$name: robot control loop"
 }
 haptic_run nav-to-wall nav-to-wall 14              # HEMM Fig. 8
 haptic_run probe-cylinder probe-cylinder 19        # HEMM Fig. 9

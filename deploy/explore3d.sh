@@ -25,7 +25,7 @@ set -euo pipefail
 
 usage() {
   sed -n '/^# Usage:/s/^# //p' "${BASH_SOURCE[0]}"
-  echo "Writes DIR/<rtt>ms/{servo.csv*,truth.csv,truth.json,station.json}; DOC/explore3d_wrench.png and"
+  echo "Writes DIR/<rtt>ms/{servo.csv*,truth.csv,truth.json,station.json,timing.png,robot_timing.png}; DOC/explore3d_wrench.png and"
   echo "DOC/explore3d_voxmap.png (DOC default deploy/doc; sim-bimanual: DOC/explore3d_bimanual_wrench.png)."
 }
 build="${1:-}"
@@ -83,7 +83,8 @@ run() {  # RTT_MS
   fi
   echo "explore3d: ${rtt} ms round trip$( ((rtt > 0)) && echo ", 5 % loss each way") ($secs s) -> $dir" >&2
   "$bin/hemm-robot" --config "$cfg/robot_depth.pbtxt" --session-port "$base" --stream-port $((base + 1)) \
-    --duration $((secs + 10)) --log-level warn "${robot_view[@]}" >"$dir/robot.txt" 2>"$dir/robot.log" &
+    --duration $((secs + 10)) --log-level warn --station-json "$dir/robot_station.json" "${robot_view[@]}" \
+    >"$dir/robot.txt" 2>"$dir/robot.log" &
   local robot=$! relay="" port="$base" stream=$((base + 1))
   pids+=("$robot")
   if ((rtt > 0)); then
@@ -113,6 +114,11 @@ run() {  # RTT_MS
     echo "explore3d: hemm-operator exited with $rc ($dir/operator.log)" >&2
     return "$rc"
   fi
+  # The deadline histograms of the servo loop (and the SIMULATED device's own thread) and the robot's control loop.
+  /usr/bin/python3 "$root/deploy/plots/plot_timing.py" "$dir/station.json" --out "$dir/timing.png" \
+    --title "$tag, ${rtt} ms: operator servo loop" >&2
+  /usr/bin/python3 "$root/deploy/plots/plot_timing.py" "$dir/robot_station.json" --out "$dir/robot_timing.png" \
+    --title "$tag, ${rtt} ms: robot control loop" >&2
   echo "explore3d: truth replay (2.5 mm voxmap of the scene) for ${rtt} ms" >&2
   "$bin/hemm-truth" --scene "$root/deploy/scenes/home.xml" --log "$dir/servo.csv.world.csv" \
     --tool6 "$dir/servo.csv.tool6.txt" --csv "$dir/truth.csv" --json "$dir/truth.json" >"$dir/truth.txt"

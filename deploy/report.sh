@@ -12,13 +12,21 @@
 #   accuracy   the local model against the scene's truth on every scene (deploy/accuracy.sh; ~12 min)
 #   explore3d  the 6-DoF probe tool on the live voxmap against truth (deploy/explore3d.sh; ~2.5 min a round trip, 0 and 300 ms)
 #   vps        the Voxmap-PointShell engine report (hemm-vps report; ~3 min)
+#   vps-budget the time-critical VPS's force error against the full cycle at
+#              budgets from the smallest to the full cycle, on the shipped VPS
+#              configs' poses (vps_budget_bench; ~5 min), and its plot
 #   bimanual   the SIMULATED bimanual device's cost per tick (bimanual_bench; ~20 s)
 #   link       the link's hot paths: sealing, opening, replay window (bench_net; ~1 min)
-#   rt         real-time servo figures: imported from --rt-table FILE (a Markdown
-#              file deploy/rt_table.sh wrote), never run here
+#   rt         every shipped operator config for 60 s, its servo deadlines
+#              (deploy/rt_table.sh; ~12 min), and the histogram plot of the
+#              VPS peg-in-hole with the bimanual device; or, with --rt-table
+#              FILE, the table deploy/rt_table.sh wrote elsewhere, imported
+#   rt-compile the same with a compile running beside (deploy/rt_table.sh
+#              --beside-compile; ~12 min): figures reported, no target
 # --only: these sections are run and replaced; the others are kept as they are
 #   in the output file (or marked missing there). --quick: small runs of each
-#   section (one scene, one round trip, a short VPS trajectory), to check the
+#   section (one scene, one round trip, a short VPS trajectory, two configs
+#   for 3 s in the real-time sections), to check the
 #   script, written to WORK/measurements.md unless --out is given; the latency
 #   suite is left out (marked missing) in this mode. --out: default
 #   docs/measurements.md. --work: where the runs' outputs are kept (default
@@ -30,7 +38,7 @@ root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 build="${1:-}"
 if [[ -z "$build" || "$build" == -h || "$build" == --help ]]; then usage; [[ -n "$build" ]] && exit 0 || exit 2; fi
 shift
-all="latency,accuracy,explore3d,vps,bimanual,link,rt"
+all="latency,accuracy,explore3d,vps,vps-budget,bimanual,link,rt,rt-compile"
 only="$all" condition="" quick=0 rt_table="" out="" work=""
 while (($#)); do
   case "$1" in
@@ -61,6 +69,8 @@ work="${work:-$root/out/report-$(date -u +%Y%m%dT%H%M%SZ)}"
 mkdir -p "$work"
 work="$(cd "$work" && pwd)"
 if [[ -z "$out" ]]; then ((quick)) && out="$work/measurements.md" || out="$root/docs/measurements.md"; fi
+# The plots go beside the document (docs/img/ for docs/measurements.md).
+img="$(dirname "$out")/img"
 mkdir -p "$(dirname "$out")"
 
 machine="$(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2- | sed 's/^ *//'), Linux $(uname -r)"
@@ -71,7 +81,9 @@ declare -A titles=(
   [vps]="Voxmap-PointShell engine: cost per cycle against force error"
   [bimanual]="The SIMULATED bimanual device: cost per servo tick"
   [link]="Link: sealing and opening datagrams and frames"
-  [rt]="Real-time servo"
+  [vps-budget]="Time-critical VPS: force error against the full cycle at each budget"
+  [rt]="Real-time servo: every shipped operator configuration"
+  [rt-compile]="Real-time servo beside a compile"
 )
 order=()
 for s in ${all//,/ }; do order+=(--order "$s=${titles[$s]}"); done
@@ -158,15 +170,60 @@ for s in ${only//,/ }; do
     "$py" "$tables" bench "$work/$b.json" >"$work/$s.md"
     emit "$s" "$(rel "$bin")/bench/$b ${a[*]}" "$work/$s.md" "$note"
     ;;
-  rt)
-    if [[ -z "$rt_table" ]]; then missing rt "no --rt-table FILE given (the table deploy/rt_table.sh writes)."; continue; fi
-    step "rt: importing $rt_table"
-    # The file as deploy/rt_table.sh wrote it (its own command, date and
-    # machine lines kept), without its headings; it must hold a table.
-    "$py" "$tables" markdown-rows "$rt_table" >/dev/null
-    grep -v '^#' "$rt_table" >"$work/rt.md"
-    emit rt "deploy/rt_table.sh (imported by deploy/report.sh --rt-table $(rel "$(cd "$(dirname "$rt_table")" && pwd)/$(basename "$rt_table")"))" \
-      "$work/rt.md" "Imported from the file the real-time script wrote: the date above is the import's; the run's own are in the text below, if it gives them."
+  vps-budget)
+    need bench/vps_budget_bench
+    scenes=()
+    # --quick: the Omni's probe only (no meshes to make).
+    ((quick)) && scenes=("$root/deploy/configs/operator_vps_omni.pbtxt")
+    if ((!quick)) && [[ ! -f "$root/out/vps/assembly-scene.stl" ]]; then
+      step "vps-budget: making the VPS scenes (deploy/vps/make_scenes.sh)"
+      bash "$root/deploy/vps/make_scenes.sh" "$build" >"$work/make_scenes.log" 2>&1 \
+        || { tail -n 20 "$work/make_scenes.log" >&2; echo "report: make_scenes.sh failed" >&2; exit 1; }
+    fi
+    step "vps-budget: vps_budget_bench $(((quick)) && echo "(the Omni's probe only)")"
+    mkdir -p "$work/vps_budget"
+    "$bin/bench/vps_budget_bench" --out "$work/vps_budget" "${scenes[@]}" >"$work/vps_budget.txt" 2>&1 \
+      || { tail -n 20 "$work/vps_budget.txt" >&2; echo "report: vps_budget_bench failed" >&2; exit 1; }
+    "$py" "$tables" vps-budget "$work/vps_budget/vps_budget.csv" >"$work/vps-budget.md"
+    mkdir -p "$img"
+    "$py" "$root/deploy/plots/plot_vps_budget.py" "$work/vps_budget/vps_budget.csv" --out "$img/vps_budget.png" >/dev/null \
+      || { echo "report: plot_vps_budget.py failed" >&2; exit 1; }
+    emit vps-budget "$(rel "$bin")/bench/vps_budget_bench ${scenes[*]/#"$root/"/}" "$work/vps-budget.md" \
+      "Each shipped VPS config's device in lock step with the VPS task at the full cycle; then on the same poses the time-critical cycle at work budgets (units), at the task's time budgets (µs: calibrated on the model, then the measured cost per unit each tick) and the full cycle. Early: share of all ticks stopped before some pair's finest level. Error: |F - F_full| on each held object over the ticks the full cycle has a contact (RMS, max; RMS as a share of the RMS contact force). Work-budget rows are deterministic; time-budget rows and times are this machine's. Plot: ![force error and ticks stopped early against the VPS time per tick](img/vps_budget.png)"
+    ;;
+  rt|rt-compile)
+    if [[ "$s" == rt && -n "$rt_table" ]]; then
+      step "rt: importing $rt_table"
+      # The file as deploy/rt_table.sh wrote it (its own command, date and
+      # machine lines kept), without its headings; it must hold a table.
+      "$py" "$tables" markdown-rows "$rt_table" >/dev/null
+      grep -v '^#' "$rt_table" >"$work/rt.md"
+      emit rt "deploy/rt_table.sh (imported by deploy/report.sh --rt-table $(rel "$(cd "$(dirname "$rt_table")" && pwd)/$(basename "$rt_table")"))" \
+        "$work/rt.md" "Imported from the file the real-time script wrote: the date above is the import's; the run's own are in the text below, if it gives them."
+      continue
+    fi
+    need hemm-robot hemm-operator
+    a=()
+    ((quick)) && a=(--seconds 3 --only '^operator(_vps_omni)?\.pbtxt$')
+    [[ "$s" == rt-compile ]] && a+=(--beside-compile)
+    step "$s: deploy/rt_table.sh ${a[*]} (about 70 s a configuration)"
+    "$root/deploy/rt_table.sh" "$build" "${a[@]}" --out "$work/$s" --table "$work/$s-table.md" \
+      >"$work/$s.txt" 2>"$work/$s.log" || { tail -n 20 "$work/$s.log" >&2; echo "report: rt_table.sh failed" >&2; exit 1; }
+    # The script's own condition lines (load, RT throttling, pinning) above its table.
+    { grep '^- ' "$work/$s/condition.md" | grep -v '^- date:\|^- machine:'; echo; cat "$work/$s/table.md"; } >"$work/$s.md"
+    "$py" "$tables" markdown-rows "$work/$s.md" >/dev/null
+    note="Per configuration: its servo loop (misses: a wake more than 0.5 ms late or a tick's work past the next deadline; compute from the wake to the end of the tick's work), the SIMULATED hardware thread beside it, and the robot station's 1 kHz control loop for the networked ones. Each run's histograms: $(rel "$work")/$s/<config>/timing.png."
+    cond="$condition"
+    if [[ "$s" == rt-compile ]]; then
+      cond="$condition, then a compile started beside the runs by deploy/rt_table.sh --beside-compile (figures reported, no target)"
+    elif ((!quick)) && [[ -f "$work/$s/operator_vps_peg_bimanual/timing.png" ]]; then
+      mkdir -p "$img"
+      cp "$work/$s/operator_vps_peg_bimanual/timing.png" "$img/timing.png"
+      note+=" The histograms of the VPS peg-in-hole with the SIMULATED bimanual device: ![deadline histograms](img/timing.png)"
+    fi
+    saved="$condition"; condition="$cond"
+    emit "$s" "deploy/rt_table.sh $(rel "$build") ${a[*]}" "$work/$s.md" "$note"
+    condition="$saved"
     ;;
   esac
 done

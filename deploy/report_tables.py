@@ -7,6 +7,9 @@ Subcommands (each prints Markdown on stdout; a bad input exits 2 with a message)
                          mean / median / stddev of the wall-clock time and the CPU time per case
   latency TEST_OUTPUT    the latency suite's table (the text latency_suite_test prints
                          between "[ latency ]" and "per50/per99:") as a Markdown table
+  vps-budget CSV         vps_budget_bench's CSV: per config and budget the share of ticks
+                         stopped early, the force and torque error against the full cycle,
+                         the time per tick
   markdown-rows FILE     the Markdown table rows ("|" lines) of a script's output, as they are
   section NAME TITLE     one section of the document, with its heading, command, date, machine
                          and condition (--command, --date, --machine, --condition), the table
@@ -133,6 +136,46 @@ def latency_table(text):
     return md_table(header, rows)
 
 
+VPS_BUDGET_COLUMNS = ("config", "mode", "budget_units", "budget_us", "ticks", "contact_ticks", "stopped_early_share",
+                      "f_rms_N", "f_max_N", "f_rms_pct", "t_rms_Nm", "t_max_Nm", "cpu_median_us", "cpu_p99_us",
+                      "time_median_us", "time_p99_us", "ns_per_unit")
+
+
+def vps_budget_table(text):
+    """vps_budget_bench's CSV as one row per config and budget, in the file's order."""
+    import csv
+    import io
+    rows = list(csv.DictReader(io.StringIO(text)))
+    if not rows:
+        raise InputError("no rows in the vps_budget_bench CSV")
+    missing = [c for c in VPS_BUDGET_COLUMNS if c not in rows[0]]
+    if missing:
+        raise InputError("vps_budget_bench CSV: no column %s" % ", ".join(missing))
+    out = []
+    for r in rows:
+        try:
+            v = {k: float(r[k]) for k in VPS_BUDGET_COLUMNS[2:]}
+        except (TypeError, ValueError):
+            raise InputError("vps_budget_bench CSV: a non-numeric cell in %r" % r)
+        mode = r["mode"]
+        if mode == "work":
+            budget = "{:,} units".format(int(v["budget_units"]))
+        elif mode == "time":
+            budget = "%.0f µs (%s ns/unit)" % (v["budget_us"], num(v["ns_per_unit"]))
+        elif mode == "full":
+            budget = "full cycle"
+        else:
+            raise InputError("vps_budget_bench CSV: mode %r" % mode)
+        out.append([r["config"], budget, "%.1f %%" % (100 * v["stopped_early_share"]),
+                    "%.3f (%.1f %%)" % (v["f_rms_N"], v["f_rms_pct"]), "%.3f" % v["f_max_N"],
+                    "%.5f" % v["t_rms_Nm"], "%.5f" % v["t_max_Nm"],
+                    "%s / %s" % (num(v["cpu_median_us"]), num(v["cpu_p99_us"])),
+                    "%s / %s" % (num(v["time_median_us"]), num(v["time_p99_us"])), "%d" % v["contact_ticks"]])
+    return md_table(["config", "budget", "stopped early", "F error RMS N (% of RMS)", "F max N", "τ error RMS N m",
+                     "τ max N m", "CPU µs median / p99", "wall µs median / p99", "contact ticks"],
+                    out, ["l", "l"] + ["r"] * 8)
+
+
 def markdown_rows(text):
     """The Markdown tables in a script's output (runs of "|" lines), as they are, a blank line between."""
     blocks, cur = [], []
@@ -195,6 +238,7 @@ def main(argv):
     sub.add_parser("bench").add_argument("file")
     sub.add_parser("latency").add_argument("file")
     sub.add_parser("markdown-rows").add_argument("file")
+    sub.add_parser("vps-budget").add_argument("file")
     s = sub.add_parser("section")
     s.add_argument("name")
     s.add_argument("title")
@@ -206,14 +250,15 @@ def main(argv):
     m.add_argument("--order", required=True, action="append", help="NAME=TITLE, once per section, in order")
     a = p.parse_args(argv)
     try:
-        if a.cmd in ("bench", "latency", "markdown-rows"):
+        if a.cmd in ("bench", "latency", "markdown-rows", "vps-budget"):
             text = open(a.file, encoding="utf-8").read()
             if a.cmd == "bench":
                 try:
                     text = json.loads(text)
                 except ValueError as e:
                     raise InputError("%s: not JSON: %s" % (a.file, e))
-            sys.stdout.write({"bench": bench_table, "latency": latency_table, "markdown-rows": markdown_rows}[a.cmd](text))
+            sys.stdout.write({"bench": bench_table, "latency": latency_table, "markdown-rows": markdown_rows,
+                              "vps-budget": vps_budget_table}[a.cmd](text))
         elif a.cmd == "section":
             if a.missing is None and (a.table is None or None in (a.command, a.date, a.machine, a.condition)):
                 raise InputError("section: --table with --command, --date, --machine, --condition, or --missing")

@@ -33,6 +33,7 @@
 #include "common/config/config.h"
 #include "common/net/exit_codes.h"
 #include "common/net/station_cli.h"
+#include "common/realtime/realtime_setup.h"
 #include "config_operator.pb.h"
 #include "operator/bimanual/bimanual_config.h"
 #include "operator/bimanual/bimanual_scripts.h"
@@ -134,6 +135,13 @@ void add_options(CLI::App* app, OperatorArgs* a, RawArgs* raw) {
   app->add_option("--replay-json", a->replay_json,
                   "with --replay of a recording: write the replay's result (ticks, force error, times) as JSON here");
   net::add_station_control_options(*app, "hemm-operator", &a->control_options);
+  app->add_option("--servo-cpu", a->servo_cpu,
+                  "pin the 1 kHz servo thread to this CPU (overrides servo.cpu; -1: not pinned). Best an isolated one "
+                  "(isolcpus=): docs/realtime.md; a CPU this process may not run on is refused");
+  app->add_option("--simulated-hardware", a->simulated_hardware,
+                  "where a SIMULATED device's hardware runs (overrides servo.simulated_hardware): threaded (its own "
+                  "thread, as on its own board) or lock-step (inside the servo tick, deterministic)")
+      ->check(CLI::IsMember({"threaded", "lock-step"}));
   app->add_option("--device", a->device_type,
                   "device (overrides device.type): sim-omni, replay, sim-hand6 (a SIMULATED rigid 6-DoF scripted hand for "
                   "probe_3d.tool pointshell), or sim-bimanual (the SIMULATED bimanual "
@@ -205,6 +213,13 @@ bool load_config(OperatorArgs* a, config::OperatorConfig* cfg) {
     }
   }
   if (!a->device_type.empty()) cfg->mutable_device()->set_type(a->device_type);
+  if (a->servo_cpu_given) cfg->mutable_servo()->set_cpu(a->servo_cpu);
+  if (!a->simulated_hardware.empty()) cfg->mutable_servo()->set_simulated_hardware(a->simulated_hardware);
+  if (auto why = rt::check_cpu(cfg->servo().cpu())) {
+    std::cerr << "hemm-operator: " << (a->servo_cpu_given ? "--servo-cpu" : "servo.cpu") << " "
+              << cfg->servo().cpu() << ": " << *why << "\n";
+    return false;
+  }
   return true;
 }
 
@@ -266,6 +281,7 @@ int run(int argc, char** argv) {
     return rc == 0 ? net::kExitOk : net::kExitUsage;
   }
   a.script_given = app.count("--script") > 0;
+  a.servo_cpu_given = app.count("--servo-cpu") > 0;
   if (!a.control_options.command.empty()) return net::run_control_command("hemm-operator", a.control_options);
   if (!a.export_mcap.empty()) return op::runner::export_recording_as_mcap(a.export_mcap[0], a.export_mcap[1]);
 #ifdef HEMM_WITH_VIEW

@@ -66,6 +66,14 @@ int run(int argc, char** argv) {
   app.add_option("--scene", scene_path, "MJCF scene of the SIMULATED robot (overrides sim.scene)");
   app.add_flag("--no-realtime", no_realtime,
                "step the simulation as fast as possible instead of in real time (stamps are simulation time)");
+  int control_cpu = -1;
+  app.add_option("--control-cpu", control_cpu,
+                 "pin the 1 kHz control (simulation) thread to this CPU (overrides sim.control_cpu; -1: not pinned); "
+                 "a CPU this process may not run on is refused (docs/realtime.md)");
+  std::string station_json;
+  app.add_option("--station-json", station_json,
+                 "write the robot station's summary (the \"robot\" object of --stats-json: counters, the control "
+                 "loop's deadline histograms and worst ticks) as JSON to this file at exit");
   net::StationControlOptions control_options;
   net::add_station_control_options(app, "hemm-robot", &control_options);
 #ifdef HEMM_WITH_VIEW
@@ -116,6 +124,14 @@ int run(int argc, char** argv) {
   robot::RobotStationOptions so;
   so.realtime = cfg.sim().realtime() && !no_realtime;
   so.state_rate_hz = cfg.net().state_rate_hz();
+  so.control_thread.fifo = cfg.sim().control_fifo_priority() > 0;
+  so.control_thread.fifo_priority = cfg.sim().control_fifo_priority();
+  so.control_thread.cpu = app.count("--control-cpu") > 0 ? control_cpu : cfg.sim().control_cpu();
+  if (auto why = rt::check_cpu(so.control_thread.cpu)) {
+    std::cerr << "hemm-robot: " << (app.count("--control-cpu") > 0 ? "--control-cpu" : "sim.control_cpu") << " "
+              << so.control_thread.cpu << ": " << *why << "\n";
+    return net::kExitUsage;
+  }
 
   asio::io_context io;
   robot::RobotServer server(io, o);
@@ -239,6 +255,10 @@ int run(int argc, char** argv) {
   std::cout << net::to_summary(st) << robot::to_summary(rs) << std::flush;
   if (!stats_json.empty() && !net::write_text_file(stats_json, stats_json_text(st, rs), &error)) {
     std::cerr << "hemm-robot: " << error << "\n";
+    return net::kExitInternal;
+  }
+  if (!station_json.empty() && !net::write_text_file(station_json, config::to_json(robot::to_report(rs)), &error)) {
+    std::cerr << "hemm-robot: --station-json: " << error << "\n";
     return net::kExitInternal;
   }
   return net::kExitOk;

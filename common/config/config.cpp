@@ -199,6 +199,10 @@ std::vector<FieldIssue> validate_robot_config(const pb::Message& m) {
     out.push_back({"safety.guard_reaction_time_s", "must be within [0, 1]"});
   for (double v : {c.sim().start_x_m(), c.sim().start_y_m(), c.sim().start_theta_rad()})
     if (!(std::abs(v) <= 1000)) out.push_back({"sim.start_*", "must be finite, within 1000"});
+  if (c.sim().control_fifo_priority() < 0 || c.sim().control_fifo_priority() > 99)
+    out.push_back({"sim.control_fifo_priority", "must be 0 (a normal thread) or a SCHED_FIFO priority 1..99"});
+  if (c.sim().control_cpu() < -1 || c.sim().control_cpu() > 1023)
+    out.push_back({"sim.control_cpu", "must be -1 (not pinned) or a CPU number 0..1023"});
   if (c.sim().start_arm_q_size() != 0 && c.sim().start_arm_q_size() != 5)
     out.push_back({"sim.start_arm_q", "must be empty or 5 joint angles"});
   for (double q : c.sim().start_arm_q())
@@ -233,6 +237,10 @@ std::vector<FieldIssue> validate_operator_config(const pb::Message& m) {
   if (type == "replay" && c.device().replay_file().empty())
     out.push_back({"device.replay_file", "required when device.type is \"replay\""});
   if (!in_range(c.servo().rate_hz(), 100, 10000)) out.push_back({"servo.rate_hz", "must be 100..10000"});
+  if (c.servo().cpu() < -1 || c.servo().cpu() > 1023)
+    out.push_back({"servo.cpu", "must be -1 (not pinned) or a CPU number 0..1023"});
+  if (c.servo().simulated_hardware() != "threaded" && c.servo().simulated_hardware() != "lock-step")
+    out.push_back({"servo.simulated_hardware", "must be \"threaded\" or \"lock-step\""});
   const auto& p3 = c.probe_3d();
   if (!(p3.voxel_size_m() >= 0.003 && p3.voxel_size_m() <= 0.05))
     out.push_back({"probe_3d.voxel_size_m", "must be within [0.003, 0.05]"});
@@ -262,6 +270,10 @@ std::vector<FieldIssue> validate_operator_config(const pb::Message& m) {
                                   "\"pointshell\""});
   if (!(p3.tool_work_budget() >= 100 && p3.tool_work_budget() <= 1000000))
     out.push_back({"probe_3d.tool_work_budget", "must be within [100, 1000000]"});
+  if (!(p3.tool_tick_budget_us() >= 0 && p3.tool_tick_budget_us() <= 100000))
+    out.push_back({"probe_3d.tool_tick_budget_us", "must be within [0, 100000] (0: the work budget alone)"});
+  if (!(p3.tool_tick_margin_us() >= 0 && p3.tool_tick_margin_us() <= 100000))
+    out.push_back({"probe_3d.tool_tick_margin_us", "must be within [0, 100000]"});
   if (!(p3.tool_contact_stiffness() > 0 && p3.tool_contact_stiffness() <= 1e10))
     out.push_back({"probe_3d.tool_contact_stiffness", "must be within (0, 1e10] N/m^3"});
   if (p3.tool_hand_script() != "explore-table" && p3.tool_hand_script() != "explore-block")

@@ -3,7 +3,10 @@
 #include <GLFW/glfw3.h>
 #include <mujoco/mujoco.h>
 
+#include <algorithm>
+#include <cstdio>
 #include <cstring>
+#include <memory>
 #include <stdexcept>
 
 namespace hemm::view {
@@ -50,6 +53,7 @@ struct MujocoWindow::Impl {
   double last_x = 0, last_y = 0;
   std::vector<int> keys;
   int fb_w = 0, fb_h = 0;
+  std::unique_ptr<mjvFigure> figure;  // ~800 kB: made on the first plot
 
   ~Impl() {
     if (context_made) mjr_freeContext(&con);
@@ -222,6 +226,36 @@ std::size_t MujocoWindow::render(const std::vector<Primitive>& extra, const Over
   if (!overlay.left.empty() || !overlay.right.empty())
     mjr_overlay(mjFONT_NORMAL, mjGRID_TOPLEFT, vp, overlay.left.c_str(), overlay.right.c_str(), &s.con);
   if (!overlay.bottom.empty()) mjr_overlay(mjFONT_NORMAL, mjGRID_BOTTOMLEFT, vp, overlay.bottom.c_str(), nullptr, &s.con);
+  const bool has_points = std::any_of(overlay.plot.lines.begin(), overlay.plot.lines.end(),
+                                      [](const PlotLine& l) { return !l.x.empty(); });
+  if (has_points) {
+    if (!s.figure) s.figure = std::make_unique<mjvFigure>();
+    mjvFigure& f = *s.figure;
+    mjv_defaultFigure(&f);
+    std::snprintf(f.title, sizeof f.title, "%s", overlay.plot.title.c_str());
+    std::snprintf(f.xlabel, sizeof f.xlabel, "%s", overlay.plot.xlabel.c_str());
+    f.flg_legend = 1;
+    f.figurergba[3] = 0.6f;
+    f.range[0][0] = overlay.plot.x_min;
+    f.range[0][1] = overlay.plot.x_max;
+    const int n = std::min<int>(static_cast<int>(overlay.plot.lines.size()), 8);
+    for (int i = 0; i < n; ++i) {
+      const PlotLine& l = overlay.plot.lines[static_cast<std::size_t>(i)];
+      const int pts = std::min<int>(static_cast<int>(std::min(l.x.size(), l.y.size())), mjMAXLINEPNT);
+      std::snprintf(f.linename[i], sizeof f.linename[i], "%s", l.name.c_str());
+      f.linergb[i][0] = l.colour.r;
+      f.linergb[i][1] = l.colour.g;
+      f.linergb[i][2] = l.colour.b;
+      for (int k = 0; k < pts; ++k) {
+        f.linedata[i][2 * k] = l.x[static_cast<std::size_t>(k)];
+        f.linedata[i][2 * k + 1] = l.y[static_cast<std::size_t>(k)];
+      }
+      f.linepnt[i] = pts;
+    }
+    // The bottom right corner, small: the scene's middle stays in view.
+    const int w = std::max(200, s.fb_w * 8 / 25), h = std::max(130, s.fb_h * 7 / 25);
+    mjr_figure(mjrRect{s.fb_w - w, 30, w, h}, &f, &s.con);
+  }
   int top = s.fb_h;
   for (const Banner& b : overlay.banners) {
     const int w = 24 + 9 * static_cast<int>(b.text.size()), h = 26;

@@ -47,10 +47,24 @@ struct Banner {
   Rgba colour;
 };
 
+// A small plot in the bottom right corner (MuJoCo's mjr_figure): lines of
+// points, a title and an x label; the axes fit the data.
+struct PlotLine {
+  std::string name;
+  Rgba colour;
+  std::vector<float> x, y;  // equal lengths; at most 1000 points are drawn
+};
+struct OverlayPlot {
+  std::string title, xlabel;
+  std::vector<PlotLine> lines;  // at most 8 are drawn
+  float x_min = 0, x_max = 0;   // x_min >= x_max: fit the data
+};
+
 struct Overlay {
   std::string left, right;      // two columns, top left
   std::string bottom;           // one line, bottom left (key help)
   std::vector<Banner> banners;  // top right, one under the other
+  OverlayPlot plot;             // drawn when it has a line with points
 };
 
 class PrimitiveList {

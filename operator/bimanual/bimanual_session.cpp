@@ -17,6 +17,7 @@ namespace hb = hemm::device::bimanual;
 std::string to_string(const BimanualSessionSummary& s) {
   std::ostringstream o;
   o << "servo: " << servo::to_string(s.timing) << "\n"
+    << "servo worst ticks: " << rt::worst_ticks_text(s.timing.worst) << "\n"
     << "bimanual (SIMULATED, script " << s.script << "): sim_time_s=" << s.sim_time_s
     << " writes=" << s.counters.writes << " nonfinite=" << s.counters.nonfinite_commands
     << " missing_input=" << s.counters.missing_input_commands << " limited=" << s.counters.limited_commands

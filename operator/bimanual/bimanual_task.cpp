@@ -6,6 +6,8 @@ namespace hemm::op {
 
 void BimanualTask::tick(const device::DeviceSample& in, const servo::ModelSnapshot&, servo::TickOutput& out) noexcept {
   out.publish_setpoint = false;  // the bimanual station drives no robot yet
+  out.renderer = "planes";      // closed forms: a plane and two springs per hand, no work to count
+  out.work = 0;
   for (int k = 0; k < in.end_effectors && k < device::kMaxEndEffectors; ++k) {
     const auto i = static_cast<std::size_t>(k);
     const device::EndEffectorSample& e = in.ee[i];

@@ -1,7 +1,8 @@
 // Scripted targets for the simulated operator's hand: a function of time
 // giving where the hand wants the stylus to be and which buttons it holds.
-// at() is evaluated on the servo thread, so it is const, allocation-free and
-// O(log n). Scripts are built by code (tests, demos); constructors check their
+// at() is evaluated where the device's simulated hardware runs (the servo
+// thread in lock-step, its own thread when threaded: simulated_hardware.h),
+// so it is const, allocation-free and O(log n). Scripts are built by code (tests, demos); constructors check their
 // arguments and throw std::invalid_argument on nonsense.
 #pragma once
 

@@ -5,6 +5,8 @@
 
 namespace hemm::device {
 
+void HapticDevice::start(const HardwareStart&, std::vector<std::string>*) {}
+
 bool wrench_is_finite(const EndEffectorCommand& c) noexcept {
   return c.force_H.allFinite() && c.torque_H.allFinite() && std::isfinite(c.grip_force);
 }

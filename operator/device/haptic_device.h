@@ -17,9 +17,14 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <string>
 #include <string_view>
+#include <vector>
 
 namespace hemm::device {
+
+struct HardwareStart;           // simulated_hardware.h
+struct SimulatedHardwareStats;  // simulated_hardware.h
 
 inline constexpr int kMaxEndEffectors = 2;
 
@@ -73,6 +78,10 @@ struct EndEffectorSample {
 // One reading of the device.
 struct DeviceSample {
   std::int64_t t_ns = 0;  // steady-clock stamp; the servo loop sets it to the tick's wake time
+  // When the device measured this state (steady clock), if it says: a
+  // SIMULATED device's hardware thread stamps each sample it publishes;
+  // 0 when the state is the device's own at the read (lock-step, replay).
+  std::int64_t measured_ns = 0;
   int end_effectors = 1;  // valid entries of ee[]; the servo loop sets it to limits().end_effectors
   std::array<EndEffectorSample, kMaxEndEffectors> ee{};
 };
@@ -186,6 +195,19 @@ class HapticDevice {
 
   virtual const DeviceLimits& limits() const noexcept = 0;
   virtual std::string_view name() const noexcept = 0;
+
+  // Called by the servo loop, never on the servo thread: start() before its
+  // thread starts, stop() after it stopped. A real driver would open and
+  // close its connection here; a SIMULATED device asked for
+  // HardwareMode::kThreaded starts (and joins) the thread its simulated
+  // hardware runs on (simulated_hardware.h), appending to `warnings` what of
+  // that thread's real-time set-up was refused. Default: nothing (the device
+  // stays as it is, e.g. lock-step).
+  virtual void start(const HardwareStart& how, std::vector<std::string>* warnings);
+  virtual void stop() noexcept {}
+  // The simulated hardware thread's statistics once it has been started
+  // threaded (stay readable after stop()); null otherwise.
+  virtual const SimulatedHardwareStats* simulated_hardware() const noexcept { return nullptr; }
 };
 
 }  // namespace hemm::device

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "common/clock/steady_clock.h"
+
 namespace hemm::device {
 
 const char* check_model(const SimulatedOmniModel& m) {
@@ -89,30 +91,91 @@ SimulatedOmni::SimulatedOmni(const SimulatedOmniModel& model,
 }
 
 void SimulatedOmni::read(DeviceSample& out) noexcept {
+  const SimulatedOmniData* d = &data_;
+  out.measured_ns = 0;
+  if (threaded_) {
+    const Sample* s = samples_.take();
+    if (s == nullptr) s = samples_.latest();  // never null: start() published one
+    d = &s->data;
+    out.measured_ns = s->t_ns;
+    hardware_->stats().sample_age.record(steady_now_ns() - s->t_ns);
+  }
   out.end_effectors = 1;
   EndEffectorSample& e = out.ee[0];
-  e.position_H = data_.position_H;
-  e.orientation_H = data_.orientation_H;
-  e.velocity_H = data_.velocity_H;
+  e.position_H = d->position_H;
+  e.orientation_H = d->orientation_H;
+  e.velocity_H = d->velocity_H;
   e.angular_velocity_H.setZero();
   e.handle = HandleInputs{};
-  e.handle.buttons = data_.buttons;
+  e.handle.buttons = d->buttons;
   e.handle.has_deadman = true;
-  e.handle.deadman = data_.deadman;
+  e.handle.deadman = d->deadman;
   e.enabled = true;
 }
 
-void SimulatedOmni::write(const DeviceCommand& cmd) noexcept {
-  const EndEffectorCommand& c = cmd.ee[0];
-  Eigen::Vector3d force_H = Eigen::Vector3d::Zero();
+Eigen::Vector3d SimulatedOmni::accepted_force(const EndEffectorCommand& c, std::uint64_t* nonfinite,
+                                              std::uint64_t* ignored_grip) const noexcept {
   if (!wrench_is_finite(c)) {
-    ++data_.nonfinite_commands;
-  } else {
-    force_H = c.force_H;
-    if (c.grip_force != 0.0) ++data_.ignored_grip_commands;
+    ++*nonfinite;
+    return Eigen::Vector3d::Zero();
   }
+  if (c.grip_force != 0.0) ++*ignored_grip;
+  return c.force_H;
+}
+
+void SimulatedOmni::write(const DeviceCommand& cmd) noexcept {
+  if (threaded_) {
+    Command& c = commands_.back();
+    c.force_H = accepted_force(cmd.ee[0], &refused_nonfinite_, &refused_grip_);
+    c.t_ns = steady_now_ns();
+    commands_.publish();
+    return;
+  }
+  const Eigen::Vector3d force_H =
+      accepted_force(cmd.ee[0], &data_.nonfinite_commands, &data_.ignored_grip_commands);
   // The target at the end of the period: the hand reacts within the step.
   simulated_omni_step(model_, data_, script_->at(data_.t_s + model_.dt_s), force_H);
+}
+
+void SimulatedOmni::hardware_step() noexcept {
+  const Command* c = commands_.take();
+  hardware_->stats().took_command(c != nullptr);
+  if (c != nullptr) held_ = *c;
+  simulated_omni_step(model_, data_, script_->at(data_.t_s + model_.dt_s), held_.force_H);
+  Sample& s = samples_.back();
+  s.data = data_;
+  s.t_ns = steady_now_ns();
+  samples_.publish();
+}
+
+void SimulatedOmni::start(const HardwareStart& how, std::vector<std::string>* warnings) {
+  if (how.mode != HardwareMode::kThreaded || threaded_) return;
+  if (!hardware_) hardware_ = std::make_unique<SimulatedHardwareThread>();
+  // The first sample before the thread runs: read() always has one. The
+  // force in effect starts at zero, as after power-up.
+  samples_.publish(Sample{steady_now_ns(), data_});
+  commands_.take();  // a command left from an earlier run is not in force
+  held_ = Command{};
+  threaded_ = true;
+  try {
+    const rt::RealtimeStatus st =
+        hardware_->start(static_cast<std::int64_t>(model_.dt_s * 1e9 + 0.5), how.realtime, "omni-hand",
+                         [this](std::int64_t) { hardware_step(); });
+    if (warnings != nullptr)
+      for (const std::string& w : st.warnings) warnings->push_back("simulated Omni hardware thread: " + w);
+  } catch (...) {
+    threaded_ = false;
+    throw;
+  }
+}
+
+void SimulatedOmni::stop() noexcept {
+  if (!threaded_) return;
+  hardware_->stop();
+  threaded_ = false;
+  data_.nonfinite_commands += refused_nonfinite_;
+  data_.ignored_grip_commands += refused_grip_;
+  refused_nonfinite_ = refused_grip_ = 0;
 }
 
 }  // namespace hemm::device

@@ -29,13 +29,24 @@
 //    max_continuous_force once the budget is used up, after
 //    t_sat = -tau ln(1 - F_cont^2 / F^2).
 // Model/Data split as in MuJoCo: a const model, mutable data, free functions.
+//
+// Threads (simulated_hardware.h): in lock-step (the default, and always
+// before start() / after stop()) write() steps the mechanism and the hand one
+// period dt_s on the calling thread, so a run is deterministic tick for tick.
+// Started HardwareMode::kThreaded, the mechanism and the hand step on their
+// own thread every dt_s: each step applies the newest command written (or
+// holds the last) and publishes a timestamped sample, which read() takes
+// (newest wins); read() and write() then only copy through the mailboxes.
+// The script's at() is then called on that thread.
 #pragma once
 
 #include <cstdint>
 #include <memory>
 
+#include "common/concurrency/newest_mailbox.h"
 #include "operator/device/hand_script.h"
 #include "operator/device/haptic_device.h"
+#include "operator/device/simulated_hardware.h"
 
 namespace hemm::device {
 
@@ -89,21 +100,48 @@ class SimulatedOmni final : public HapticDevice {
   SimulatedOmni(const SimulatedOmniModel& model, std::shared_ptr<const HandScript> script);
 
   void read(DeviceSample& out) noexcept override;
-  // Applies end-effector 0's force for one period dt_s and steps the
-  // simulation (torque ignored, grip force ignored and counted).
+  // End-effector 0's force (torque ignored, grip force ignored and counted)
+  // for the next period: lock-step, applied for one period dt_s as the
+  // simulation steps; threaded, handed to the hardware thread.
   void write(const DeviceCommand& cmd) noexcept override;
   const DeviceLimits& limits() const noexcept override { return limits_; }
   std::string_view name() const noexcept override { return "simulated-phantom-omni"; }
+  void start(const HardwareStart& how, std::vector<std::string>* warnings) override;
+  void stop() noexcept override;
+  const SimulatedHardwareStats* simulated_hardware() const noexcept override {
+    return hardware_ ? &hardware_->stats() : nullptr;
+  }
 
   const SimulatedOmniModel& model() const { return model_; }
-  // Only from the thread that calls read/write (or after it stopped).
+  // Lock-step: only from the thread that calls read/write; threaded: only
+  // after stop() (its counters then include the commands write() refused).
   const SimulatedOmniData& data() const { return data_; }
 
  private:
+  struct Sample {  // hardware thread -> read()
+    std::int64_t t_ns = 0;  // steady clock when published
+    SimulatedOmniData data;
+  };
+  struct Command {  // write() -> hardware thread
+    std::int64_t t_ns = 0;
+    Eigen::Vector3d force_H = Eigen::Vector3d::Zero();
+  };
+  // The force of end-effector 0's command, counting what it ignores.
+  Eigen::Vector3d accepted_force(const EndEffectorCommand& c, std::uint64_t* nonfinite,
+                                 std::uint64_t* ignored_grip) const noexcept;
+  void hardware_step() noexcept;  // hardware thread
+
   SimulatedOmniModel model_;
   DeviceLimits limits_;  // one end-effector: model_.limits
-  SimulatedOmniData data_;
+  SimulatedOmniData data_;  // threaded: the hardware thread's
   std::shared_ptr<const HandScript> script_;
+  // Threaded mode (see the file comment).
+  bool threaded_ = false;
+  NewestMailbox<Sample> samples_;
+  NewestMailbox<Command> commands_;
+  Command held_;  // hardware thread: the command in force
+  std::uint64_t refused_nonfinite_ = 0, refused_grip_ = 0;  // servo thread, merged into data_ at stop()
+  std::unique_ptr<SimulatedHardwareThread> hardware_;
 };
 
 }  // namespace hemm::device

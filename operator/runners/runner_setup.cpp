@@ -11,6 +11,9 @@ servo::ServoConfig servo_config(const config::OperatorConfig& cfg) {
   c.period_ns = 1'000'000'000LL / cfg.servo().rate_hz();
   c.realtime = cfg.servo().realtime_priority();
   c.lock_memory = cfg.servo().realtime_priority();
+  c.cpu = cfg.servo().cpu();
+  c.simulated_hardware = cfg.servo().simulated_hardware() == "lock-step" ? device::HardwareMode::kLockStep
+                                                                         : device::HardwareMode::kThreaded;
   return c;
 }
 

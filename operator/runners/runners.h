@@ -47,6 +47,9 @@ struct OperatorArgs {
   std::vector<std::string> export_mcap;  // REC OUT, or empty
   net::StationControlOptions control_options;
   std::string device_type, bimanual_hands;
+  int servo_cpu = -1;              // --servo-cpu (overrides servo.cpu when given)
+  bool servo_cpu_given = false;
+  std::string simulated_hardware;  // --simulated-hardware, or empty
 #ifdef HEMM_WITH_VIEW
   view::ViewOptions view_opts;
 #endif
@@ -78,11 +81,12 @@ std::atomic<bool>* stop_local_run_on_signals();
 // (said on stderr) if the file cannot be written.
 bool write_station_json(const std::string& path, const std::string& json);
 
-// A local run's end: its summary on stdout and, if asked, as JSON.
+// A local run's end: its summary on stdout and, if asked, as JSON (the
+// summary's own, or `json` when given).
 template <typename Summary>
-int finish_local_run(const Summary& s, const std::string& station_json) {
+int finish_local_run(const Summary& s, const std::string& station_json, const std::string& json = {}) {
   std::cout << to_string(s) << std::flush;
-  return write_station_json(station_json, to_json(s)) ? net::kExitOk : net::kExitInternal;
+  return write_station_json(station_json, json.empty() ? to_json(s) : json) ? net::kExitOk : net::kExitInternal;
 }
 
 #ifdef HEMM_DEVICE_VIEW

@@ -1,30 +1,13 @@
 #include "operator/servo/servo_loop.h"
 
-#include <linux/capability.h>
 #include <pthread.h>
-#include <sched.h>
-#include <sys/mman.h>
-#include <sys/resource.h>
-#include <sys/syscall.h>
-#include <time.h>
-#include <unistd.h>
 
-#include <cerrno>
-#include <cstring>
 #include <stdexcept>
 
 #include "common/clock/steady_clock.h"
 
 namespace hemm::servo {
 namespace {
-
-void sleep_until(std::int64_t t_ns) noexcept {
-  timespec ts;
-  ts.tv_sec = static_cast<time_t>(t_ns / 1'000'000'000);
-  ts.tv_nsec = static_cast<long>(t_ns % 1'000'000'000);
-  while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
-  }
-}
 
 // Touches the stack pages the loop may use so the first ticks take no page
 // faults (with mlockall they then stay resident).
@@ -66,29 +49,6 @@ void log_end_effector(const device::EndEffectorSample& in, const RenderPoints& p
   e.joystick[1] = h.joystick.y();
 }
 
-std::string errno_text(int e) { return std::strerror(e); }
-
-#ifndef HEMM_SANITIZE
-// mlockall(MCL_FUTURE) under a finite RLIMIT_MEMLOCK is a trap: it succeeds
-// while the process is small and then makes later mappings (thread stacks,
-// large allocations anywhere in the process) fail. Lock only when nothing
-// limits it: CAP_IPC_LOCK in the calling thread's effective set, or an
-// unlimited RLIMIT_MEMLOCK.
-bool memory_lock_unlimited(std::string* why) {
-  __user_cap_header_struct hdr{_LINUX_CAPABILITY_VERSION_3, 0};
-  __user_cap_data_struct caps[2]{};
-  if (syscall(SYS_capget, &hdr, caps) == 0 &&
-      (caps[CAP_TO_INDEX(CAP_IPC_LOCK)].effective & CAP_TO_MASK(CAP_IPC_LOCK)) != 0)
-    return true;
-  rlimit lim{};
-  if (getrlimit(RLIMIT_MEMLOCK, &lim) == 0 && lim.rlim_cur == RLIM_INFINITY) return true;
-  *why = "mlockall skipped: no CAP_IPC_LOCK and RLIMIT_MEMLOCK is " +
-         std::to_string(static_cast<unsigned long long>(lim.rlim_cur)) +
-         " bytes (locking future memory would make later allocations fail)";
-  return false;
-}
-#endif
-
 }  // namespace
 
 ServoLoop::ServoLoop(device::HapticDevice& device, ServoTask& task, ModelChannel& snapshots,
@@ -104,6 +64,7 @@ ServoLoop::ServoLoop(device::HapticDevice& device, ServoTask& task, ModelChannel
     throw std::invalid_argument("ServoLoop: period_ns must be in [100 us, 1 s]");
   if (config_.late_wake_threshold_ns <= 0)
     throw std::invalid_argument("ServoLoop: late_wake_threshold_ns must be > 0");
+  if (auto why = rt::check_cpu(config_.cpu)) throw std::invalid_argument("ServoLoop: cpu: " + *why);
   if (const char* why = device::check_limits(device.limits()))
     throw std::invalid_argument(std::string("ServoLoop: device limits: ") + why);
   if (log_ != nullptr && log_->header() != servo_log_header(end_effectors_))
@@ -116,60 +77,38 @@ ServoLoop::~ServoLoop() { stop(); }
 RealtimeStatus ServoLoop::start() {
   if (thread_.joinable()) throw std::logic_error("ServoLoop: already running");
   RealtimeStatus status;
-  if (config_.lock_memory) {
-#ifdef HEMM_SANITIZE
-    // The sanitizers reserve terabytes of shadow memory: locking it all fails
-    // or takes the machine down.
-    status.warnings.push_back("mlockall skipped: sanitizer build");
-#else
-    std::string why;
-    if (!memory_lock_unlimited(&why)) {
-      status.warnings.push_back(why);
-    } else if (mlockall(MCL_CURRENT | MCL_FUTURE) == 0) {
-      status.memory_locked = true;
-      locked_memory_ = true;
-    } else {
-      status.warnings.push_back("mlockall failed (" + errno_text(errno) +
-                                "): servo memory may page out");
-    }
-#endif
+  if (config_.lock_memory) locked_memory_ = rt::lock_memory(&status);
+  auto undo_memory_lock = [this] {
+    if (locked_memory_) rt::unlock_memory();
+    locked_memory_ = false;
+  };
+  // The device first: a SIMULATED one may start its hardware thread (below
+  // the servo's priority, not pinned: the servo's CPU is the servo's).
+  device::HardwareStart how;
+  how.mode = config_.simulated_hardware;
+  how.realtime.fifo = config_.realtime;
+  how.realtime.fifo_priority = config_.fifo_priority > 1 ? config_.fifo_priority - 1 : 1;
+  try {
+    device_.start(how, &status.warnings);
+  } catch (...) {
+    undo_memory_lock();
+    throw;
   }
   stop_.store(false, std::memory_order_relaxed);
   go_.store(false, std::memory_order_relaxed);
   try {
     thread_ = std::thread([this] { thread_main(); });
   } catch (...) {
-    if (locked_memory_) {
-      munlockall();
-      locked_memory_ = false;
-    }
+    device_.stop();
+    undo_memory_lock();
     throw;
   }
   pthread_setname_np(thread_.native_handle(), "hemm-servo");
-  if (config_.realtime) {
-    sched_param sp{};
-    const int lo = sched_get_priority_min(SCHED_FIFO), hi = sched_get_priority_max(SCHED_FIFO);
-    sp.sched_priority = config_.fifo_priority < lo ? lo : (config_.fifo_priority > hi ? hi : config_.fifo_priority);
-    const int rc = pthread_setschedparam(thread_.native_handle(), SCHED_FIFO, &sp);
-    if (rc == 0) {
-      status.fifo = true;
-    } else {
-      status.warnings.push_back("SCHED_FIFO refused (" + errno_text(rc) +
-                                "): servo runs as a normal thread");
-    }
-  }
-  if (config_.cpu >= 0) {
-    cpu_set_t set;
-    CPU_ZERO(&set);
-    if (config_.cpu < CPU_SETSIZE) CPU_SET(config_.cpu, &set);
-    const int rc = pthread_setaffinity_np(thread_.native_handle(), sizeof set, &set);
-    if (rc == 0 && config_.cpu < CPU_SETSIZE) {
-      status.pinned = true;
-    } else {
-      status.warnings.push_back("pinning to CPU " + std::to_string(config_.cpu) + " failed (" +
-                                errno_text(rc == 0 ? EINVAL : rc) + ")");
-    }
-  }
+  rt::apply_thread_realtime(thread_, rt::RealtimeRequest{config_.realtime, config_.fifo_priority, config_.cpu},
+                            &status);
+  for (std::string& w : rt::system_checks(status.fifo, status.pinned ? status.cpu : -1))
+    status.warnings.push_back(std::move(w));
+  last_status_ = status;
   // Release the thread only once its scheduling is set up.
   go_.store(true, std::memory_order_release);
   go_.notify_one();
@@ -182,10 +121,31 @@ void ServoLoop::stop() {
   go_.store(true, std::memory_order_release);  // in case start() threw before releasing it
   go_.notify_one();
   thread_.join();
+  device_.stop();
   if (locked_memory_) {
-    munlockall();
+    rt::unlock_memory();
     locked_memory_ = false;
   }
+}
+
+TimingSummary ServoLoop::summary() const {
+  TimingSummary t = summarize(*stats_);
+  t.period_target_us = static_cast<double>(config_.period_ns) * 1e-3;
+  t.late_wake_threshold_us = static_cast<double>(config_.late_wake_threshold_ns) * 1e-3;
+  t.fifo = last_status_.fifo;
+  t.memory_locked = last_status_.memory_locked;
+  t.cpu = last_status_.pinned ? last_status_.cpu : -1;
+  if (const device::SimulatedHardwareStats* hw = device_.simulated_hardware()) {
+    SimulatedHardwareSummary h;
+    h.device = std::string(device_.name());
+    h.mode = device::to_string(device::HardwareMode::kThreaded);  // only a threaded start makes these
+    h.timing = summarize(hw->timing);
+    h.sample_age = summarize(hw->sample_age);
+    h.commands_new = hw->commands_new.load(std::memory_order_relaxed);
+    h.commands_held = hw->commands_held.load(std::memory_order_relaxed);
+    t.hardware = std::move(h);
+  }
+  return t;
 }
 
 void prepare_tick_output(const device::DeviceSample& sample, std::uint64_t tick, TickOutput& out) noexcept {
@@ -204,6 +164,8 @@ void prepare_tick_output(const device::DeviceSample& sample, std::uint64_t tick,
     out.points[static_cast<std::size_t>(i)] = RenderPoints{p, p};
   }
   out.mode = 0;
+  out.renderer = "";
+  out.work = 0;
 }
 
 void ServoLoop::thread_main() noexcept {
@@ -212,19 +174,15 @@ void ServoLoop::thread_main() noexcept {
   task_.on_servo_start();
 
   TimingStats& st = *stats_;
-  const std::int64_t period = config_.period_ns;
   device::DeviceSample sample;
   TickOutput out;
   ServoLogRecord rec;
-  std::int64_t deadline = steady_now_ns();
-  std::int64_t prev_wake = -1;
+  rt::DeadlineGrid grid(config_.period_ns, steady_now_ns());
   std::uint64_t tick = 0;
 
   while (!stop_.load(std::memory_order_acquire)) {
-    deadline += period;
-    sleep_until(deadline);
-    const std::int64_t wake = steady_now_ns();
-    const std::int64_t latency = wake - deadline;
+    const std::int64_t wake = grid.wait();
+    const std::int64_t latency = wake - grid.deadline();
 
     device_.read(sample);
     sample.t_ns = wake;
@@ -233,6 +191,7 @@ void ServoLoop::thread_main() noexcept {
     const ModelSnapshot& model = snap != nullptr ? *snap : empty_snapshot_;
 
     prepare_tick_output(sample, tick, out);
+    out.deadline_ns = grid.next_deadline();
     task_.tick(sample, model, out);
     device_.write(out.command);
     if (out.publish_setpoint) setpoints_.publish(out.setpoint);
@@ -256,27 +215,10 @@ void ServoLoop::thread_main() noexcept {
       log_->push(rec);
     }
 
-    // Timing: single writer, so plain load+store on the atomics.
-    st.wake_latency.record(latency);
-    st.compute.record(done - wake);
-    if (prev_wake >= 0) st.period.record(wake - prev_wake);
-    prev_wake = wake;
-    const bool late = latency > config_.late_wake_threshold_ns;
-    const bool overrun = done >= deadline + period;
-    if (late) st.late_wakes.store(st.late_wakes.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
-    if (overrun) {
-      st.overruns.store(st.overruns.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
-      // Skip the deadlines already past, staying on the grid.
-      const std::int64_t k = (done - deadline) / period;
-      deadline += k * period;
-      st.skipped_periods.store(st.skipped_periods.load(std::memory_order_relaxed) +
-                                   static_cast<std::uint64_t>(k),
-                               std::memory_order_relaxed);
-    }
-    if (late || overrun)
-      st.misses.store(st.misses.load(std::memory_order_relaxed) + 1, std::memory_order_relaxed);
+    // Timing (single writer): histograms, worst ticks, misses; skips the
+    // deadlines already past after an overrun.
+    grid.finish(st, wake, done, tick, out.renderer, out.work, config_.late_wake_threshold_ns);
     ++tick;
-    st.ticks.store(tick, std::memory_order_release);
   }
   task_.on_servo_stop();
 }

@@ -7,11 +7,20 @@
 //   pushes a log record into a ring -> records timing.
 // Inside the loop there is no allocation, no lock, no logging and no system
 // call but the sleep (clock_gettime goes through the vDSO). Real-time setup
-// (SCHED_FIFO, mlockall, CPU pinning) is tried in start() and reported in a
-// RealtimeStatus for the caller to log; anything refused falls back to a
-// normal thread. A tick that ends after the next deadline is an overrun: the
-// missed deadlines are skipped (counted), keeping the original grid, rather
-// than run back to back.
+// (SCHED_FIFO, mlockall, CPU pinning: common/realtime/realtime_setup.h) is
+// tried in start() and reported in a RealtimeStatus for the caller to log,
+// with the machine's checks (RT throttling, an unisolated pinned CPU, the
+// frequency governor); anything refused falls back to a normal thread. A
+// tick that ends after the next deadline is an overrun: the missed deadlines
+// are skipped (counted), keeping the original grid, rather than run back to
+// back. Every tick's wake lateness, compute and period go into log-spaced
+// histograms, and the ten worst ticks are kept with what ran in them (the
+// task's TickOutput::renderer and work).
+//
+// The device: start() starts it (HapticDevice::start) before the servo
+// thread, with ServoConfig::simulated_hardware: a SIMULATED device then runs
+// its hardware on a thread of its own (threaded) or inside write() (lock-step,
+// for deterministic tests); stop() stops it after the servo thread.
 #pragma once
 
 #include <array>
@@ -22,8 +31,10 @@
 #include <thread>
 #include <vector>
 
-#include "operator/device/haptic_device.h"
 #include "common/concurrency/newest_mailbox.h"
+#include "common/realtime/realtime_setup.h"
+#include "operator/device/haptic_device.h"
+#include "operator/device/simulated_hardware.h"
 #include "operator/servo/servo_log.h"
 #include "operator/servo/snapshot_channel.h"
 #include "operator/servo/timing_stats.h"
@@ -61,17 +72,25 @@ struct RenderPoints {
 // Filled by the task. Before tick() the loop resets it: a zero wrench on every
 // end-effector, the setpoint copied from end-effector 0 of the device sample,
 // proxy and interaction point of each end-effector at its position, mode 0,
-// publish_setpoint true.
+// publish_setpoint true, renderer "" and work 0; and it sets deadline_ns.
 struct TickOutput {
   device::DeviceCommand command;  // written to the device after the tick
   ServoSetpoint setpoint;
   bool publish_setpoint = true;
   std::array<RenderPoints, device::kMaxEndEffectors> points{};  // logged
   std::uint32_t mode = 0;                                       // logged
+  // What ran this tick, for the worst-ticks report: a static name of the
+  // renderer ("proxy2d", "point_probe", "tool6", "vps", ...; "" none) and
+  // the work units it spent (0: not measured).
+  const char* renderer = "";
+  std::int64_t work = 0;
+  // The next deadline (steady-clock ns): the tick's work must end before it.
+  std::int64_t deadline_ns = 0;
 };
 
 // The TickOutput the loop hands the task each tick, reset as described above
-// (replays of recorded sessions start each tick from the same).
+// (replays of recorded sessions start each tick from the same); deadline_ns
+// is left to the caller.
 void prepare_tick_output(const device::DeviceSample& sample, std::uint64_t tick, TickOutput& out) noexcept;
 
 class ServoTask {
@@ -96,41 +115,49 @@ struct ServoConfig {
   // RLIMIT_MEMLOCK (a finite limit would make later allocations fail);
   // skipped under sanitizers.
   bool lock_memory = true;
-  int cpu = -1;             // pin to this CPU if >= 0
+  // Pin the servo thread to this CPU if >= 0 (-1: not pinned); the loop's
+  // constructor refuses a CPU this process may not run on (rt::check_cpu).
+  int cpu = -1;
   bool prefault_stack = true;  // touch kStackPrefaultBytes of stack before the loop
   std::int64_t late_wake_threshold_ns = 500'000;  // a later wake is a deadline miss
+  // How a SIMULATED device runs its hardware (device/simulated_hardware.h):
+  // lock-step here (deterministic tests); hemm-operator's configs run it
+  // threaded (servo.simulated_hardware). Its thread gets SCHED_FIFO one
+  // priority below the servo's when realtime, and no pinning.
+  device::HardwareMode simulated_hardware = device::HardwareMode::kLockStep;
 };
 
 inline constexpr std::size_t kStackPrefaultBytes = 256 * 1024;
 
-struct RealtimeStatus {
-  bool fifo = false;
-  bool memory_locked = false;
-  bool pinned = false;
-  std::vector<std::string> warnings;  // one line each, for the caller to log
-};
+using RealtimeStatus = rt::RealtimeStatus;
 
 class ServoLoop {
  public:
   // All references must outlive the loop. `log` may be null (no log); it
   // must be made for the device's end-effector count (make_servo_logger).
-  // Throws std::invalid_argument on a bad config, bad device limits or a log
-  // for another end-effector count.
+  // Throws std::invalid_argument on a bad config (also a CPU to pin to that
+  // this process may not run on), bad device limits or a log for another
+  // end-effector count.
   ServoLoop(device::HapticDevice& device, ServoTask& task, ModelChannel& snapshots,
             const ServoConfig& config, ServoLogger* log = nullptr);
   ~ServoLoop();
   ServoLoop(const ServoLoop&) = delete;
   ServoLoop& operator=(const ServoLoop&) = delete;
 
-  // Starts the servo thread. Throws std::logic_error if already running.
-  // May be called again after stop(); statistics keep accumulating.
+  // Starts the device (HapticDevice::start) and the servo thread. Throws
+  // std::logic_error if already running. May be called again after stop();
+  // statistics keep accumulating.
   RealtimeStatus start();
-  // Stops and joins; undoes mlockall if start() did it. Idempotent.
+  // Stops and joins the servo thread, then stops the device; undoes mlockall
+  // if start() did it. Idempotent.
   void stop();
   bool running() const noexcept { return thread_.joinable(); }
 
   const TimingStats& stats() const noexcept { return *stats_; }
-  TimingSummary summary() const { return summarize(*stats_); }
+  // The loop's timing with its set-up (period, threshold, the real-time
+  // status of the last start) and, if the device ran its simulated hardware
+  // threaded, that thread's timing beside it.
+  TimingSummary summary() const;
   // Consumer side (one thread, e.g. the network thread).
   NewestMailbox<ServoSetpoint>& setpoints() noexcept { return setpoints_; }
   // From the network side: copied into each log record.
@@ -156,6 +183,7 @@ class ServoLoop {
   std::atomic<bool> stop_{false};
   std::atomic<bool> go_{false};
   bool locked_memory_ = false;
+  RealtimeStatus last_status_;  // of the last start()
   std::thread thread_;
 };
 

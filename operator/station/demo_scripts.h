@@ -100,9 +100,11 @@ NavHandTarget hand_target_for_goal(const OperatorView& view, const Eigen::Vector
 // (SAFETY_REARM: after an e-stop, a lost link, an expired watchdog) it lets
 // go for rearm_release_s and presses again, at most once per rearm_retry_s,
 // as a person would. at() keeps its state in mutable members: it is
-// called only on the servo thread (SimulatedOmni::write), right after the tick
-// that wrote the view (and once by SimulatedOmni's constructor before the
-// servo thread starts). The accessors are for that thread or after it
+// called only on the thread the SIMULATED Omni's hardware runs on (the servo
+// thread in lock-step, right after the tick that wrote the view; its own
+// thread when threaded, where the station hands it the newest view through a
+// mailbox: operator_station.cpp), and once by SimulatedOmni's constructor
+// before either starts. The accessors are for that thread or after it
 // stopped. Throws std::invalid_argument on an empty route, a non-finite goal,
 // bad params or a null view.
 class NavGoalHand final : public device::HandScript {

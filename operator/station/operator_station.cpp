@@ -44,6 +44,10 @@ void apply_probe3d_config(const config::Probe3dConfig& c, OperatorStationOptions
   if (c.tool() == "pointshell") {  // the 6-DoF tool in place of the point probe
     o->task.tool6.enabled = true;
     o->task.tool6.budget = c.tool_work_budget();
+    o->task.tool6.tick_budget_ns = std::llround(c.tool_tick_budget_us() * 1e3);
+    o->task.tool6.tick_margin_ns = std::llround(c.tool_tick_margin_us() * 1e3);
+    o->task.tool6.calibration_voxel = c.voxel_size_m();
+    o->task.tool6.calibration_layers = o->model.voxmap.layers;
     o->task.tool6.contact_stiffness = c.tool_contact_stiffness();
     o->task.tool6.origin_R = Eigen::Vector3d(c.origin_x_m(), 0.0, c.origin_z_m());
     o->hand6_script = c.tool_hand_script();
@@ -68,11 +72,50 @@ namespace {
 // allows for round trips of seconds (the link's own limit is 2 s).
 constexpr std::chrono::milliseconds kAckTimeout{5000};
 
+// The task hands the view it wrote (the task's own OperatorView) to the
+// closed-loop hand's mailbox right after each tick.
+class ViewPublishingTask final : public servo::ServoTask {
+ public:
+  ViewPublishingTask(servo::ServoTask& task, const OperatorView& written, NewestMailbox<OperatorView>& box)
+      : task_(task), written_(written), box_(box) {}
+  void on_servo_start() noexcept override { task_.on_servo_start(); }
+  void on_servo_stop() noexcept override { task_.on_servo_stop(); }
+  void tick(const device::DeviceSample& in, const servo::ModelSnapshot& model,
+            servo::TickOutput& out) noexcept override {
+    task_.tick(in, model, out);
+    box_.publish(written_);
+  }
+
+ private:
+  servo::ServoTask& task_;
+  const OperatorView& written_;
+  NewestMailbox<OperatorView>& box_;
+};
+
+// The closed-loop hand takes the newest view into its own copy (`seen`, the
+// one it was made with) right before it decides.
+class ViewTakingHand final : public device::HandScript {
+ public:
+  ViewTakingHand(std::shared_ptr<const device::HandScript> hand, std::shared_ptr<OperatorView> seen,
+                 std::shared_ptr<NewestMailbox<OperatorView>> box)
+      : hand_(std::move(hand)), seen_(std::move(seen)), box_(std::move(box)) {}
+  device::HandTarget at(double t_s) const noexcept override {
+    if (const OperatorView* v = box_->take()) *seen_ = *v;
+    return hand_->at(t_s);
+  }
+
+ private:
+  std::shared_ptr<const device::HandScript> hand_;
+  std::shared_ptr<OperatorView> seen_;
+  std::shared_ptr<NewestMailbox<OperatorView>> box_;
+};
+
 }  // namespace
 
 std::string to_string(const OperatorStationSummary& s) {
   std::ostringstream o;
   o << "servo: " << servo::to_string(s.timing) << "\n"
+    << "servo worst ticks: " << rt::worst_ticks_text(s.timing.worst) << "\n"
     << "model: scans_in=" << s.model.scans_in << " scans_rejected=" << s.model.scans_rejected
     << " scans_dropped=" << s.model.scans_dropped << " states_in=" << s.model.states_in
     << " states_rejected=" << s.model.states_rejected << " snapshots=" << s.model.snapshots
@@ -107,6 +150,7 @@ std::string to_string(const OperatorStationSummary& s) {
     o << "nav-to-goal: goal=(" << s.goal_W.x() << ", " << s.goal_W.y() << ") arrived=" << (s.arrived ? "yes" : "no")
       << " distance_m=" << s.goal_distance_m << " first_arrival_s=" << s.first_arrival_s
       << " arrivals=" << s.arrivals << " goal " << s.goal_index + 1 << "/" << s.route_size << "\n";
+  if (s.has_tool6) o << "tool6 budget: " << to_string(s.tool6_budget) << "\n";
   return o.str();
 }
 
@@ -192,6 +236,7 @@ report::OperatorStation to_report(const OperatorStationSummary& s) {
   ar.set_last_reason(short_name(s.arm_refusals.last_reason));
   ar.set_last_seq(s.arm_refusals.last_seq);
   ar.set_bad_reports(s.arm_refusals.errors);
+  if (s.has_tool6) to_report(s.tool6_budget, r.mutable_tool6_budget());
   report::Logs& l = *r.mutable_logs();
   l.set_servo_written(s.servo_log_written);
   l.set_servo_dropped(s.servo_log_dropped);
@@ -241,16 +286,27 @@ OperatorStation::OperatorStation(asio::io_context& io, OperatorClient& client, c
     throw std::invalid_argument("a goal route needs the sim-omni device with --script nav-to-goal or nav-to-wall");
   if (!o.probe_line.empty() && (o.device != "sim-omni" || o.hand || o.script != "probe-cylinder"))
     throw std::invalid_argument("a probe line needs the sim-omni device with --script probe-cylinder");
+  // A closed-loop SIMULATED hand (nav-to-goal) watches the display the task
+  // writes each tick (OperatorView). It runs where the Omni's simulated
+  // hardware runs, on its own thread when threaded: the task writes its own
+  // view, which crosses to the hand's copy through a newest-wins mailbox
+  // (published after each tick, taken as the hand decides). In lock-step both
+  // happen on the servo thread in that order: the hand sees what it always did.
+  auto closed_loop = [this](std::shared_ptr<const device::HandScript> hand, std::shared_ptr<OperatorView> seen) {
+    if (!seen) return hand;
+    view_box_ = std::make_shared<NewestMailbox<OperatorView>>();
+    view_ = std::make_shared<OperatorView>(*seen);
+    return std::shared_ptr<const device::HandScript>(
+        std::make_shared<ViewTakingHand>(std::move(hand), std::move(seen), view_box_));
+  };
   if (o.device == "sim-omni" && o.hand) {
-    view_ = o.view;
-    device_ = std::make_unique<device::SimulatedOmni>(device::SimulatedOmniModel{}, o.hand);
+    device_ = std::make_unique<device::SimulatedOmni>(device::SimulatedOmniModel{}, closed_loop(o.hand, o.view));
   } else if (o.device == "sim-omni") {
     DemoScript d = make_demo_script(o.script, DemoScriptOptions{o.goal_route, o.probe_line});
     if (!d.hand) throw std::invalid_argument("unknown --script '" + o.script + "'");
     tp.initial_mode = d.mode;
-    view_ = d.view;
     nav_goal_ = d.nav_goal;
-    device_ = std::make_unique<device::SimulatedOmni>(device::SimulatedOmniModel{}, d.hand);
+    device_ = std::make_unique<device::SimulatedOmni>(device::SimulatedOmniModel{}, closed_loop(d.hand, d.view));
   } else if (o.device == "replay") {
     device::Trajectory traj;
     if (auto e = device::load_trajectory_csv(o.replay_file, device::phantom_omni_limits(), &traj))
@@ -290,7 +346,9 @@ OperatorStation::OperatorStation(asio::io_context& io, OperatorClient& client, c
   if (!view_) view_ = std::make_shared<OperatorView>();  // the summary's final pose comes from it
   task_ = std::make_unique<OperatorServoTask>(tp, world_log_.get(), view_.get());
   if (o.model.live_voxmap) task_->set_probe_output(&model_->probe_positions());
-  loop_ = std::make_unique<servo::ServoLoop>(*device_, *task_, channel_, o.servo, servo_log_.get());
+  if (view_box_) view_task_ = std::make_unique<ViewPublishingTask>(*task_, *view_, *view_box_);
+  loop_ = std::make_unique<servo::ServoLoop>(*device_, view_task_ ? *view_task_ : static_cast<servo::ServoTask&>(*task_),
+                                             channel_, o.servo, servo_log_.get());
   sender_ = std::make_unique<CommandSender>(
       io_, task_->setpoints(),
       [this](const wire::StreamMessage& m) {
@@ -511,6 +569,12 @@ OperatorStationSummary OperatorStation::summary() const {
     s.route_size = nav_goal_->route().size();
     if (s.robot_pose_valid)
       s.goal_distance_m = (s.goal_W - Eigen::Vector2d(s.robot_pose.x, s.robot_pose.y)).norm();
+  }
+  if (const Tool6Explorer* t = task_->tool6(); t != nullptr) {
+    s.has_tool6 = true;
+    s.tool6_budget.params = t->budget().params();
+    s.tool6_budget.calibration = t->calibration();
+    s.tool6_budget.stats = t->budget().stats();
   }
   return s;
 }

@@ -20,6 +20,7 @@
 #include <string>
 #include <vector>
 
+#include "operator/budget/work_budget_report.h"
 #include "operator/client/operator_client.h"
 #include "operator/device/hand_script.h"
 #include "operator/device/haptic_device.h"
@@ -94,6 +95,9 @@ struct OperatorStationSummary {
   std::uint64_t arrivals = 0;
   std::size_t goal_index = 0, route_size = 0;
   double goal_distance_m = -1.0;
+  // The 6-DoF tool's time-critical budget (probe_3d tool "pointshell").
+  bool has_tool6 = false;
+  WorkBudgetSummary tool6_budget;
 };
 std::string to_string(const OperatorStationSummary& s);
 // The summary as a report message (proto/report.proto: units in the keys;
@@ -168,9 +172,11 @@ class OperatorStation {
   std::unique_ptr<ModelThread> model_;
   std::unique_ptr<servo::ServoLogger> servo_log_;
   std::unique_ptr<StationLogger> world_log_;
-  std::shared_ptr<OperatorView> view_;                 // closed-loop hands: written by the task
+  std::shared_ptr<OperatorView> view_;                 // written by the task
+  std::shared_ptr<NewestMailbox<OperatorView>> view_box_;  // closed-loop hands: view_ -> the hand's copy
   std::shared_ptr<const NavGoalHand> nav_goal_;       // script nav-to-goal
   std::unique_ptr<OperatorServoTask> task_;
+  std::unique_ptr<servo::ServoTask> view_task_;       // closed-loop hands: task_, then publishes view_
   std::unique_ptr<servo::ServoLoop> loop_;
   std::unique_ptr<CommandSender> sender_;
   asio::steady_timer link_timer_;

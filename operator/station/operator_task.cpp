@@ -235,7 +235,8 @@ void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelS
   const bool tool6 = tool6_ != nullptr && mode_ == math::Mode::kExploration;
   if (tool6) {
     const bool live = snap != nullptr && snap->have_state && !snap->resyncing;
-    tool6_->tick(in.ee[0], T_W_R_, live ? snap->voxmap.get() : nullptr, live ? snap->voxmap_builds : 0);
+    tool6_->tick(in.ee[0], T_W_R_, live ? snap->voxmap.get() : nullptr, live ? snap->voxmap_builds : 0,
+                 out.deadline_ns);
   }
 
   // Manipulation through the model (issue 13): the point probe at the tool
@@ -290,6 +291,18 @@ void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelS
   out.points[0].proxy_position_H = R.transpose() * proxy_B;
   out.points[0].interaction_point_H = R.transpose() * (p_B + anchor_.offset_B);
   out.mode = static_cast<std::uint32_t>(to_wire_mode(mode_));
+  // The renderer whose force is displayed and its work (the 2D proxy runs
+  // every tick beside the others, bounded by its caps).
+  if (tool6) {
+    out.renderer = "tool6";
+    out.work = tool6_->work();
+  } else if (probe3 || tool3) {
+    out.renderer = "point_probe";
+    out.work = static_cast<std::int64_t>(probe3 ? probe3d_.work : tool_probe_.work);
+  } else {
+    out.renderer = "proxy2d";
+    out.work = static_cast<std::int64_t>(proxy_.work);
+  }
 
   if (view_ != nullptr) {
     view_->T_W_R = T_W_R_;

@@ -5,8 +5,10 @@
 #include <stdexcept>
 #include <vector>
 
+#include "common/clock/steady_clock.h"
 #include "common/haptics/vps/cache.h"
 #include "common/haptics/vps/voxmap.h"
+#include "common/mesh/primitives.h"
 #include "operator/station/operator_task.h"
 
 namespace hemm::op {
@@ -16,6 +18,12 @@ std::string validate(const Tool6Params& p) {
   if (!(std::isfinite(p.contact_stiffness) && p.contact_stiffness > 0 && p.contact_stiffness <= 1e10))
     return "contact stiffness must be in (0, 1e10] N/m^3";
   if (p.budget < 1) return "work budget must be >= 1";
+  if (p.tick_budget_ns < 0 || p.tick_budget_ns > 100'000'000 || p.tick_margin_ns < 0 ||
+      p.tick_margin_ns > 100'000'000)
+    return "tick budget and margin must be in [0, 100 ms]";
+  if (!(p.calibration_voxel >= 1e-3 && p.calibration_voxel <= 0.1) || p.calibration_layers < 1 ||
+      p.calibration_layers > 20)
+    return "calibration voxel must be in [1, 100] mm, layers in [1, 20]";
   if (!p.origin_R.allFinite() || p.origin_R.norm() > 5.0) return "origin must be finite, within 5 m of the robot";
   if (!(p.period_s > 0 && p.period_s <= 0.01)) return "period must be in (0, 10 ms]";
   if (!(p.limits.peak_force > 0 && p.limits.max_stiffness > 0))
@@ -50,10 +58,26 @@ Tool6Explorer::Tool6Explorer(const Tool6Params& p) : p_(p) {
   params_.contact.stiffness = p.contact_stiffness;
   params_.budget = p.budget;
   vps::init_tool_state(tool_, &state_);
+  vps::TimeBudgetParams tb;
+  tb.tick_ns = p.tick_budget_ns;
+  tb.margin_ns = p.tick_margin_ns;
+  tb.max_work = p.budget;
+  if (tb.tick_ns > 0) {
+    // No live voxmap yet: the tool against a table-sized box of the live
+    // voxmap's resolution stands in for it until the ticks measure their own.
+    vps::VoxmapParams vp;
+    vp.voxel_size = p.calibration_voxel;
+    vp.layers_in = vp.layers_out = p.calibration_layers;
+    vps::Voxmap box;
+    if (auto e = vps::build_voxmap(mesh::make_box({0.3, 0.3, 0.1}, 4), vp, &box, nullptr))
+      throw std::invalid_argument("tool6: calibration voxmap: " + e->message);
+    calibration_ = vps::calibrate_work_rate({{&box, &tool_.shell}}, params_.contact, tb.rate, 24, &steady_now_ns);
+  }
+  budget_ = vps::TickWorkBudget(tb, calibration_.rate);
 }
 
 void Tool6Explorer::tick(const device::EndEffectorSample& s, const math::Pose2& T_W_R, const vps::Voxmap* vm,
-                         std::uint64_t voxmap_build) noexcept {
+                         std::uint64_t voxmap_build, std::int64_t deadline_ns) noexcept {
   valid_ = s.position_H.allFinite() && s.orientation_H.coeffs().allFinite() && s.orientation_H.norm() > 0.5;
   // The sample is in the device's frame (D, the HapticDevice API's "H").
   const Eigen::Isometry3d T_W_D = robot_pose3(T_W_R) * Eigen::Translation3d(p_.origin_R) * p_.T_H_D;
@@ -71,7 +95,14 @@ void Tool6Explorer::tick(const device::EndEffectorSample& s, const math::Pose2& 
   voxmap_build_ = voxmap_build;
   Eigen::Isometry3d goal = goal_W_;
   if (!valid_) goal.translation().x() = NAN;  // the tool keeps its pose, zero wrench
+  if (vm == nullptr || !valid_) {  // nothing evaluated
+    vps::probe_tool_tick(params_, tool_, vm, goal, &state_);
+    return;
+  }
+  params_.budget = budget_.begin(steady_now_ns(), deadline_ns);
   vps::probe_tool_tick(params_, tool_, vm, goal, &state_);
+  const int levels = state_.contact.levels_completed;
+  budget_.end(steady_now_ns(), work(), levels, levels >= tool_.shell.levels);
 }
 
 void Tool6Explorer::write(double gain, device::EndEffectorCommand& c) const noexcept {
@@ -116,8 +147,9 @@ bool write_tool6_params(const Tool6Explorer& t, const std::string& path, std::st
   const vps::CouplingParams& c = p.coupling;
   std::fprintf(f, "tip_radius %.17g\nrod_radius %.17g\nrod_length %.17g\ntip_mass %.17g\nrod_mass %.17g\n",
                g.tip_radius, g.rod_radius, g.rod_length, g.tip_mass, g.rod_mass);
+  // The work-unit budget (the time budget's cap: the truth replays at it).
   std::fprintf(f, "spacing %.17g\nlevels %d\nstiffness %.17g\nbudget %lld\n", g.spacing, g.levels,
-               p.contact.stiffness, static_cast<long long>(p.budget));
+               p.contact.stiffness, static_cast<long long>(t.params().budget));
   std::fprintf(f, "dt %.17g\nmass %.17g\nixx %.17g\niyy %.17g\nizz %.17g\n", c.dt, c.mass, c.inertia_body(0, 0),
                c.inertia_body(1, 1), c.inertia_body(2, 2));
   std::fprintf(f, "k_lin %.17g\nb_lin %.17g\nk_rot %.17g\nb_rot %.17g\nlinear_damping %.17g\nangular_damping %.17g\n",

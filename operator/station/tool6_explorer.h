@@ -24,7 +24,11 @@
 // "explore-block" the block's top (pressed, slid, tilted) and front side.
 //
 // Real time: tick() allocates nothing and takes no lock; the VPS work per
-// tick is bounded by `budget` (time-critical mode); the pair state belongs to
+// tick is bounded in time (time-critical mode, common/haptics/vps/
+// work_budget.h: tick_budget_ns, never past the tick's deadline less
+// tick_margin_ns, over the measured cost of a work unit: calibrated here on
+// a box voxmap of the live voxmap's resolution, then updated every tick on
+// the live one) and capped by `budget` in units; the pair state belongs to
 // one voxmap build (the snapshot's voxmap_builds) and is reset when another
 // build comes, even one published at the address of the old (freed) one;
 // no voxmap -> zero wrench.
@@ -34,6 +38,7 @@
 #include <string>
 
 #include "common/haptics/vps/probe_tool.h"
+#include "common/haptics/vps/work_budget.h"
 #include "common/math/workspace_maps.h"
 #include "operator/device/haptic_device.h"
 #include "operator/device/trajectory_csv.h"
@@ -50,6 +55,13 @@ struct Tool6Params {
   // a quarter of the 1 cm live voxmap's voxel.
   double contact_stiffness = 3e7;
   std::int64_t budget = 4000;  // VPS work per tick (sphere nodes + points): time-critical mode
+  // ... and in time (0: none): at most this per tick, ending tick_margin_ns
+  // before the tick's deadline; the cost per unit calibrated on a box voxmap
+  // of the live voxmap's voxel size and layers.
+  std::int64_t tick_budget_ns = 200'000;
+  std::int64_t tick_margin_ns = 100'000;
+  double calibration_voxel = 0.01;
+  int calibration_layers = 4;
   Eigen::Vector3d origin_R{0.85, 0.0, 0.95};  // H's origin in R
   device::EndEffectorLimits limits = device::rigid_hand_limits(1).ee[0];  // end-effector 0 (the station sets it)
   // The device's frame (D) in H, and the tool frame P in the end-effector
@@ -70,9 +82,10 @@ class Tool6Explorer {
   explicit Tool6Explorer(const Tool6Params& p);
 
   // Servo thread: one tick for the end-effector sample s (H), the robot pose
-  // (W) and the snapshot's voxmap (null: none yet) with its build number.
+  // (W) and the snapshot's voxmap (null: none yet) with its build number;
+  // deadline_ns: the tick's (TickOutput::deadline_ns; 0: unknown).
   void tick(const device::EndEffectorSample& s, const math::Pose2& T_W_R, const vps::Voxmap* vm,
-            std::uint64_t voxmap_build) noexcept;
+            std::uint64_t voxmap_build, std::int64_t deadline_ns = 0) noexcept;
   // The wrench to display, scaled by gain (the stale-model fade), into c.
   void write(double gain, device::EndEffectorCommand& c) const noexcept;
   // The tick's goal pose, tool pose, displayed wrench (W) into the log record.
@@ -83,12 +96,19 @@ class Tool6Explorer {
   const vps::ToolState& state() const noexcept { return state_; }
   const Eigen::Isometry3d& goal_W() const noexcept { return goal_W_; }
   const Tool6Params& params() const noexcept { return p_; }
+  // The time-critical budget: calibration at start and what it did.
+  const vps::WorkRateCalibration& calibration() const noexcept { return calibration_; }
+  const vps::TickWorkBudget& budget() const noexcept { return budget_; }
+  // The work of the last tick (0 without a voxmap).
+  std::int64_t work() const noexcept { return state_.contact.nodes_visited + state_.contact.points_tested; }
 
  private:
   Tool6Params p_;
   vps::ProbeTool tool_;
   vps::ToolParams params_;
   vps::ToolState state_;
+  vps::WorkRateCalibration calibration_;
+  vps::TickWorkBudget budget_;
   Eigen::Isometry3d goal_W_ = Eigen::Isometry3d::Identity();
   Eigen::Matrix3d R_W_D_ = Eigen::Matrix3d::Identity();
   std::uint64_t voxmap_build_ = 0;  // the build the pair state belongs to

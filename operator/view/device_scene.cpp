@@ -171,10 +171,13 @@ view::Overlay make_device_overlay(const DeviceSceneSetup& s, const DeviceViewRec
     o.right += v + "\n";
   };
   row("device", s.device + (s.objects.empty() ? "" : overlay_text("  (%zu VPS objects)", s.objects.size())));
-  if (servo != nullptr)
+  if (servo != nullptr) {
     row("servo loop", overlay_text("period %.3f ms (p99 %.3f)  misses %" PRIu64 " (+%" PRIu64 " in %.1f s)  ticks %" PRIu64,
                           servo->period_median_ms, servo->period_p99_ms, servo->misses, servo->window_misses,
                           servo->window_s, servo->ticks));
+    row("servo tick", servo_figures_text(*servo));
+    o.plot = servo->histogram;
+  }
   if (t == nullptr) {
     row("tick", "(none yet)");
   } else {

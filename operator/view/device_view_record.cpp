@@ -22,7 +22,7 @@ void fill_device_view(const device::DeviceSample& in, const servo::TickOutput& o
   }
   r.has_arms = arms != nullptr;
   if (arms != nullptr)
-    for (int a = 0; a < hb::kArms; ++a) r.q[static_cast<std::size_t>(a)] = arms->simulation().reading(static_cast<hb::ArmSide>(a)).q;
+    for (int a = 0; a < hb::kArms; ++a) r.q[static_cast<std::size_t>(a)] = arms->reading(static_cast<hb::ArmSide>(a)).q;
 }
 
 }  // namespace hemm::op

@@ -134,6 +134,8 @@ view::Overlay make_operator_overlay(const OverlayInputs& in) {
     const ServoHealth& h = *in.servo;
     row("servo loop", overlay_text("period %.3f ms (p99 %.3f)  misses %" PRIu64 " (+%" PRIu64 " in %.1f s)  ticks %" PRIu64,
                           h.period_median_ms, h.period_p99_ms, h.misses, h.window_misses, h.window_s, h.ticks));
+    // No compute row or histogram plot here (the device views have them): a
+    // ninth row and the corner plot hid the robot and the map's walls.
   }
   if (!l.empty()) l.pop_back();
   if (!r.empty()) r.pop_back();

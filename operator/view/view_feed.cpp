@@ -1,6 +1,8 @@
 #include "operator/view/view_feed.h"
 
 #include <algorithm>
+#include <cmath>
+#include <cstdio>
 
 namespace hemm::op {
 
@@ -47,20 +49,24 @@ void update_voxmap_cubes(ViewModel& model, std::size_t budget) {
 namespace {
 // The q-quantile of a histogram given as per-bin counts (bin i = [i, i+1) us),
 // as the bin's centre in ms.
+// The centre of the bin holding the q-quantile of a window's counts, in ms
+// (the overflow bin: its lower edge).
 double quantile_ms(const std::vector<std::uint64_t>& bins, std::uint64_t total, double q) {
+  using H = servo::LatencyHistogram;
   if (total == 0) return 0.0;
   const auto target = static_cast<std::uint64_t>(q * static_cast<double>(total - 1)) + 1;
   std::uint64_t seen = 0;
   for (std::size_t i = 0; i < bins.size(); ++i) {
     seen += bins[i];
-    if (seen >= target) return (static_cast<double>(i) + 0.5) * 1e-3;
+    const int b = static_cast<int>(i);
+    if (seen >= target) return (b == H::kBins - 1 ? H::lower_ns(b) : 0.5 * (H::lower_ns(b) + H::upper_ns(b))) * 1e-6;
   }
-  return static_cast<double>(bins.size()) * 1e-3;
+  return H::lower_ns(H::kBins - 1) * 1e-6;
 }
 }  // namespace
 
 ServoHealth ServoHealthMeter::update(const servo::TimingStats& t, std::int64_t now_ns) {
-  constexpr int kBins = servo::LatencyHistogram::kBins + 1;
+  constexpr int kBins = servo::LatencyHistogram::kBins;
   if (prev_bins_.empty()) prev_bins_.assign(kBins, 0);
   ServoHealth h;
   h.ticks = t.ticks.load(std::memory_order_relaxed);
@@ -75,6 +81,12 @@ ServoHealth ServoHealthMeter::update(const servo::TimingStats& t, std::int64_t n
   }
   h.period_median_ms = quantile_ms(delta, total, 0.5);
   h.period_p99_ms = quantile_ms(delta, total, 0.99);
+  h.compute_median_us = t.compute.quantile_ns(0.5) * 1e-3;
+  h.compute_p99_us = t.compute.quantile_ns(0.99) * 1e-3;
+  h.compute_max_us = static_cast<double>(t.compute.max_ns()) * 1e-3;
+  h.wake_p99_us = t.wake_latency.quantile_ns(0.99) * 1e-3;
+  h.wake_max_us = static_cast<double>(t.wake_latency.max_ns()) * 1e-3;
+  h.histogram = servo_histogram_plot(t);
   h.window_ticks = h.ticks - std::min(h.ticks, prev_ticks_);
   h.window_misses = h.misses - std::min(h.misses, prev_misses_);
   h.window_s = prev_ns_ != 0 ? static_cast<double>(now_ns - prev_ns_) * 1e-9 : 0.0;
@@ -82,6 +94,48 @@ ServoHealth ServoHealthMeter::update(const servo::TimingStats& t, std::int64_t n
   prev_misses_ = h.misses;
   prev_ns_ = now_ns;
   return h;
+}
+
+view::OverlayPlot servo_histogram_plot(const servo::TimingStats& t) {
+  using H = servo::LatencyHistogram;
+  view::OverlayPlot p;
+  p.title = "servo: log10(1+ticks)";
+  p.xlabel = "log10 us (3: 1 ms)";
+  p.x_min = 0.0f;  // 1 us .. 10 ms
+  p.x_max = 4.0f;
+  struct Curve {
+    const H* h;
+    const char* name;
+    view::Rgba colour;
+  };
+  const Curve curves[3] = {{&t.compute, "compute", {0.3f, 0.6f, 1.0f, 1.0f}},
+                           {&t.wake_latency, "wake", {1.0f, 0.4f, 0.3f, 1.0f}},
+                           {&t.period, "period", {0.4f, 0.9f, 0.4f, 1.0f}}};
+  for (const Curve& c : curves) {
+    int first = -1, last = -1;
+    for (int i = 0; i < H::kBins; ++i) {
+      if (c.h->bin(i) == 0) continue;
+      if (first < 0) first = i;
+      last = i;
+    }
+    view::PlotLine l;
+    l.name = c.name;
+    l.colour = c.colour;
+    for (int i = first; first >= 0 && i <= last; ++i) {
+      const double centre_us = i == H::kBins - 1 ? H::lower_ns(i) * 1e-3 : 0.5e-3 * (H::lower_ns(i) + H::upper_ns(i));
+      l.x.push_back(static_cast<float>(std::log10(centre_us)));
+      l.y.push_back(static_cast<float>(std::log10(1.0 + static_cast<double>(c.h->bin(i)))));
+    }
+    p.lines.push_back(std::move(l));
+  }
+  return p;
+}
+
+std::string servo_figures_text(const ServoHealth& h) {
+  char buf[200];
+  std::snprintf(buf, sizeof buf, "compute median %.1f  p99 %.1f  max %.0f us   wake p99 %.1f  max %.0f us",
+                h.compute_median_us, h.compute_p99_us, h.compute_max_us, h.wake_p99_us, h.wake_max_us);
+  return buf;
 }
 
 }  // namespace hemm::op

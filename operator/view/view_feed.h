@@ -19,9 +19,11 @@
 #include <cstdint>
 #include <memory>
 #include <mutex>
+#include <string>
 #include <vector>
 
 #include "common/mapping/local_map.h"
+#include "common/view/primitives.h"
 #include "operator/model/model_thread.h"
 #include "common/concurrency/newest_mailbox.h"
 #include "operator/servo/timing_stats.h"
@@ -89,7 +91,23 @@ struct ServoHealth {
   std::uint64_t window_ticks = 0, window_misses = 0;
   double window_s = 0.0;
   double period_median_ms = 0.0, period_p99_ms = 0.0;  // over the window
+  // Since the start: the tick's compute and wake lateness, and the
+  // log-spaced histograms of compute, wake lateness and period as a plot
+  // (servo_histogram_plot).
+  double compute_median_us = 0.0, compute_p99_us = 0.0, compute_max_us = 0.0;
+  double wake_p99_us = 0.0, wake_max_us = 0.0;
+  view::OverlayPlot histogram;
 };
+
+// The servo loop's histograms (compute, wake lateness, period) since the
+// start as one plot: x = log10 of each bin's centre in us (0 to 4: 1 us to
+// 10 ms), y = log10(1 + ticks in it), from the first to the last non-empty
+// bin of each.
+view::OverlayPlot servo_histogram_plot(const servo::TimingStats& t);
+
+// The servo loop's figures as one overlay line: "compute median/p99/max ...
+// wake p99/max ...".
+std::string servo_figures_text(const ServoHealth& h);
 
 class ServoHealthMeter {
  public:

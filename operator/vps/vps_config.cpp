@@ -79,6 +79,11 @@ VpsSetup vps_setup(const config::OperatorConfig& cfg, const std::string& config_
   s.model.contact.stiffness = v.contact_stiffness();
   if (v.work_budget() < 0) fail("vps.work_budget", "must be >= 0 (0: the full cycle)");
   s.task.budget = v.work_budget() == 0 ? vps::kUnlimitedWork : v.work_budget();
+  if (!(v.tick_budget_us() >= 0 && v.tick_budget_us() <= 100'000))
+    fail("vps.tick_budget_us", "must be in [0, 100000] (0: no time budget)");
+  if (!(v.tick_margin_us() >= 0 && v.tick_margin_us() <= 100'000)) fail("vps.tick_margin_us", "must be in [0, 100000]");
+  s.task.tick_budget_ns = std::llround(v.tick_budget_us() * 1e3);
+  s.task.tick_margin_ns = std::llround(v.tick_margin_us() * 1e3);
   if (!v.hands().empty() && v.hands() != "peg-in-hole" && v.hands() != "assembly")
     fail("vps.hands", "must be \"\", \"peg-in-hole\" or \"assembly\"");
   if (!v.hands().empty() && !v.has_left()) fail("vps.left", "required with scripted hands (two end-effectors)");

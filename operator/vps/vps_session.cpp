@@ -52,6 +52,11 @@ VpsSessionSummary run_vps_session(device::HapticDevice& device, std::shared_ptr<
   s.timing = loop.summary();
   s.vps_compute = servo::summarize(task.vps_compute());
   s.stats = task.stats();
+  s.budget.params.tick_ns = tp.tick_budget_ns;
+  s.budget.params.margin_ns = tp.tick_margin_ns;
+  s.budget.params.max_work = tp.budget;
+  s.budget.calibration = task.calibration();
+  s.budget.stats = task.budget_stats();
   for (int k = 0; k < s.objects; ++k) {
     const vps::CouplingDesign& d = task.coupling(k);
     s.coupling_k[k] = d.params.k_lin;
@@ -75,6 +80,7 @@ std::string to_string(const VpsSessionSummary& s) {
   o << "  servo: " << servo::to_string(s.timing) << "\n";
   o << "  vps work per tick: median " << s.vps_compute.median_us << " us, p99 " << s.vps_compute.p99_us << " us, max "
     << s.vps_compute.max_us << " us; max work " << s.stats.max_work << "\n";
+  o << "  vps budget: " << to_string(s.budget) << "\n";
   const char* pair[3] = {"right-scene", "left-scene", "right-left"};
   o << "  max penetration:";
   for (int i = 0; i < 3; ++i) o << " " << pair[i] << " " << s.stats.max_penetration[i] * 1e3 << " mm";
@@ -121,6 +127,7 @@ report::VpsSession to_report(const VpsSessionSummary& s) {
   r.set_log_written(s.log_written);
   r.set_log_dropped(s.log_dropped);
   r.set_log_failed(s.log_failed);
+  to_report(s.budget, r.mutable_budget());
   return r;
 }
 

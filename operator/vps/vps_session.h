@@ -11,6 +11,7 @@
 
 #include "common/haptics/vps/scenes.h"
 #include "operator/device/haptic_device.h"
+#include "operator/budget/work_budget_report.h"
 #include "operator/device/trajectory_csv.h"
 #include "operator/servo/servo_loop.h"
 #include "operator/vps/vps_task.h"
@@ -36,6 +37,7 @@ struct VpsSessionSummary {
   servo::TimingSummary timing;             // the loop's (period, wake, compute, misses)
   servo::HistogramSummary vps_compute;     // the task's VPS work per tick
   VpsTaskStats stats;
+  WorkBudgetSummary budget;                // the pairs' time-critical budget
   double coupling_k[2] = {}, coupling_b[2] = {}, coupling_k_rot[2] = {};
   double passivity_lhs[2] = {}, passivity_bound[2] = {};
   Eigen::Vector3d final_rel_01 = Eigen::Vector3d::Zero();  // object 0's origin in object 1's frame

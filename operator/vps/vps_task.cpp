@@ -4,6 +4,8 @@
 #include <cmath>
 #include <cstdio>
 #include <stdexcept>
+#include <string>
+#include <vector>
 
 #include "common/clock/steady_clock.h"
 
@@ -85,6 +87,25 @@ VpsServoTask::VpsServoTask(std::shared_ptr<const VpsLocalModel> model, const dev
     vps::init_bimanual_state(model_->bimanual, &bimanual_state_);
   else
     vps::init_pair_state(model_->objects[0].shell, &single_state_);
+  vps::TimeBudgetParams tb;
+  tb.tick_ns = p_.tick_budget_ns;
+  tb.margin_ns = p_.tick_margin_ns;
+  tb.max_work = p_.budget;
+  if (std::string e = vps::validate(tb); !e.empty()) throw std::invalid_argument("VPS task: " + e);
+  if (p_.calibration_poses < 1 || p_.calibration_poses > 10000)
+    throw std::invalid_argument("VPS task: calibration poses must be in [1, 10000]");
+  // The cost of a work unit on this machine, on this model: the pairs the
+  // ticks will run, timed here (off the servo thread) before the first tick.
+  if (tb.tick_ns > 0) {
+    const VpsLocalModel& m = *model_;
+    std::vector<vps::CalibrationPair> pairs{{&m.scene, &m.objects[0].shell}};
+    if (objects_ == 2) {
+      pairs.push_back({&m.scene, &m.objects[1].shell});
+      pairs.push_back({&m.objects[1].voxmap, &m.objects[0].shell});
+    }
+    calibration_ = vps::calibrate_work_rate(pairs, m.bimanual.params, tb.rate, p_.calibration_poses, &steady_now_ns);
+  }
+  budget_ = vps::TickWorkBudget(tb, calibration_.rate);
 }
 
 Eigen::Isometry3d VpsServoTask::object_pose(int k) const {
@@ -120,27 +141,37 @@ void VpsServoTask::tick(const device::DeviceSample& in, const servo::ModelSnapsh
     }
   }
   // The pairs, on the objects' present poses.
+  // In the time-critical order (coarse to fine, all pairs per level) within
+  // the tick's budget; the full cycle when there is none.
   const VpsLocalModel& m = *model_;
   vps::Wrench contact[device::kMaxEndEffectors];
-  if (objects_ == 2) {
+  data_.work = 0;
+  if (objects_ == 2 && started_[0] && started_[1]) {
     const Eigen::Isometry3d T_W_R = object_pose(0), T_W_L = object_pose(1);
-    if (started_[0] && started_[1]) {
-      if (p_.budget == vps::kUnlimitedWork)
-        vps::evaluate_bimanual(m.bimanual, Eigen::Isometry3d::Identity(), T_W_R, T_W_L, &bimanual_state_, &data_);
-      else
-        vps::evaluate_bimanual_budgeted(m.bimanual, Eigen::Isometry3d::Identity(), T_W_R, T_W_L, p_.budget,
-                                        &bimanual_state_, &data_);
-      contact[0] = data_.right_total;
-      contact[1] = data_.left_total;
-    }
-  } else if (started_[0]) {
-    data_.work = 0;
-    vps::evaluate_pair(m.scene, Eigen::Isometry3d::Identity(), Eigen::Vector3d::Zero(), m.objects[0].shell,
-                       object_pose(0), m.bimanual.params, &single_state_, &data_.right_scene);
+    const std::int64_t units = budget_.begin(steady_now_ns(), out.deadline_ns);
+    if (units == vps::kUnlimitedWork)
+      vps::evaluate_bimanual(m.bimanual, Eigen::Isometry3d::Identity(), T_W_R, T_W_L, &bimanual_state_, &data_);
+    else
+      vps::evaluate_bimanual_budgeted(m.bimanual, Eigen::Isometry3d::Identity(), T_W_R, T_W_L, units,
+                                      &bimanual_state_, &data_);
+    const int lr = m.objects[0].shell.levels, ll = m.objects[1].shell.levels;
+    const bool complete = data_.right_scene.levels_completed >= lr && data_.left_scene.levels_completed >= ll &&
+                          data_.right_left.levels_completed >= lr;
+    budget_.end(steady_now_ns(), data_.work, data_.levels_completed, complete);
+    contact[0] = data_.right_total;
+    contact[1] = data_.left_total;
+  } else if (objects_ == 1 && started_[0]) {
+    const std::int64_t units = budget_.begin(steady_now_ns(), out.deadline_ns);
+    vps::evaluate_pair_budgeted(m.scene, Eigen::Isometry3d::Identity(), Eigen::Vector3d::Zero(), m.objects[0].shell,
+                                object_pose(0), m.bimanual.params, units, &single_state_, &data_.right_scene);
     data_.work = data_.right_scene.points_tested + data_.right_scene.nodes_visited;
     data_.levels_completed = data_.right_scene.levels_completed;
+    budget_.end(steady_now_ns(), data_.work, data_.levels_completed,
+                data_.levels_completed >= m.objects[0].shell.levels);
     contact[0] = data_.right_scene.on_shell;
   }
+  out.renderer = "vps";
+  out.work = data_.work;
   // The couplings, and their reactions to the device at the end-effector point.
   VpsLogRecord rec;
   rec.t_ns = in.t_ns;

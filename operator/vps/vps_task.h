@@ -20,9 +20,13 @@
 // the channel for other readers; the snapshot handed to tick() is not used);
 // every per-pair state is sized at construction. tick() allocates nothing,
 // takes no lock and makes no system call (the steady clock is read through
-// the vDSO). The three pairs run within the tick; with a work budget they run
-// in the time-critical mode (coarse to fine until the budget is spent), which
-// bounds the tick's VPS work whatever the contact state.
+// the vDSO). The three pairs run within the tick in the time-critical mode
+// (coarse to fine, all pairs per level, until the budget is spent), which
+// bounds the tick's VPS work whatever the contact state. The budget is time
+// (tick_budget_ns, and never past the tick's deadline less tick_margin_ns)
+// turned into work units with the cost per unit measured on this machine:
+// a calibration on the loaded model in the constructor, then every tick's
+// own time (common/haptics/vps/work_budget.h); `budget` caps it in units.
 #pragma once
 
 #include <array>
@@ -31,6 +35,7 @@
 #include <memory>
 
 #include "common/haptics/vps/coupling.h"
+#include "common/haptics/vps/work_budget.h"
 #include "operator/servo/csv_logger.h"
 #include "operator/servo/servo_loop.h"
 #include "operator/servo/timing_stats.h"
@@ -60,8 +65,14 @@ struct VpsTaskParams {
   std::array<VpsEndEffectorParams, device::kMaxEndEffectors> ee{};
   double period_s = 1e-3;
   // Work budget per tick (sphere nodes + points, all pairs); kUnlimitedWork:
-  // the full three-pair cycle.
+  // no cap in units.
   std::int64_t budget = vps::kUnlimitedWork;
+  // Time budget per tick of the pairs (0: none; with no work budget either,
+  // the full three-pair cycle), and how long before the tick's deadline
+  // (TickOutput::deadline_ns, when the loop gives one) they must end.
+  std::int64_t tick_budget_ns = 200'000;
+  std::int64_t tick_margin_ns = 100'000;
+  int calibration_poses = 24;  // per pair, for the cost per unit at start
   vps::CouplingDesignOptions design;
   // Hand speeds the damping budget is checked at (device limits' max speed
   // when it has one).
@@ -116,6 +127,10 @@ class VpsServoTask final : public servo::ServoTask {
             servo::TickOutput& out) noexcept override;
 
   const VpsTaskStats& stats() const noexcept { return stats_; }
+  // The time-critical budget: how often it stopped early, the levels
+  // completed, the measured cost per unit (and the calibration at start).
+  const vps::WorkBudgetStats& budget_stats() const noexcept { return budget_.stats(); }
+  const vps::WorkRateCalibration& calibration() const noexcept { return calibration_; }
   const servo::LatencyHistogram& vps_compute() const noexcept { return vps_ns_; }
   const vps::CouplingDesign& coupling(int k) const { return design_[static_cast<std::size_t>(k)]; }
   // Servo thread (or after the loop stopped): object k's mesh-frame pose in W.
@@ -140,6 +155,8 @@ class VpsServoTask final : public servo::ServoTask {
   vps::BimanualState bimanual_state_;
   vps::PairState single_state_;
   vps::BimanualData data_;
+  vps::WorkRateCalibration calibration_;
+  vps::TickWorkBudget budget_;
   VpsTaskStats stats_;
   servo::LatencyHistogram vps_ns_;
   VpsLogger* log_;

@@ -6,6 +6,7 @@
 #include <cstdint>
 
 #include "common/clock/steady_clock.h"
+#include "common/realtime/timing_stats.h"
 #include "robot_side/sim/simulated_robot.h"
 
 namespace hemm::robot {
@@ -20,7 +21,9 @@ struct PacingStats {
 
 // Steps `n_steps` steps, step k no earlier than start_ns + k * timestep, where
 // start_ns is the steady clock at the call. The robot's clock is aligned to
-// the steady clock first, so its time stamps are station time.
-PacingStats step_realtime(SimulatedRobot& robot, int n_steps);
+// the steady clock first, so its time stamps are station time. With
+// `timing`, each step's wake lateness, compute and period go into it too
+// (common/realtime; the robot station's loop keeps the same).
+PacingStats step_realtime(SimulatedRobot& robot, int n_steps, rt::TimingStats* timing = nullptr);
 
 }  // namespace hemm::robot

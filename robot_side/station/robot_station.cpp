@@ -81,6 +81,8 @@ struct RobotStation::Shared {
   std::atomic<bool> estop{false}, estop_local{false};
   std::atomic<int> mode{0};
   std::atomic<uint32_t> safety{0};
+  rt::TimingStats timing;        // the control loop's (simulation thread)
+  rt::RealtimeStatus rt_status;  // set before the thread is released
 };
 
 namespace {
@@ -168,6 +170,7 @@ report::RobotStation to_report(const RobotStationStatistics& s) {
   r.set_estop_local(s.estop_local);
   r.set_mode(s.mode);
   r.set_safety(s.safety);
+  rt::fill(r.mutable_control_timing(), s.control_timing);
   return r;
 }
 
@@ -201,6 +204,8 @@ std::string to_summary(const RobotStationStatistics& s) {
   os << "robot (SIMULATED): " << s.sim_steps << " sim steps, " << s.late_steps << " late (>1 period), "
      << s.resyncs << " resyncs, lateness mean " << s.mean_lateness_ns / 1000.0 << " us max "
      << s.max_lateness_ns / 1000 << " us\n"
+     << "  control loop: " << rt::to_string(s.control_timing) << "\n"
+     << "  control loop worst ticks: " << rt::worst_ticks_text(s.control_timing.worst) << "\n"
      << "  safety: " << s.contact_steps << " steps touching the scene, " << s.guard_states
      << " states with the collision guard limiting the base\n"
      << "  commands: " << s.commands_received << " received, " << s.commands_applied << " applied, "
@@ -252,6 +257,10 @@ bool RobotStation::start(std::string* error) {
   }
   if (running() || attached_) {
     *error = "robot station: already started";
+    return false;
+  }
+  if (auto why = rt::check_cpu(o_.control_thread.cpu)) {
+    *error = "robot station: control thread cpu: " + *why;
     return false;
   }
   attached_ = true;
@@ -328,7 +337,14 @@ bool RobotStation::start(std::string* error) {
   });
 
   shared_->stop.store(false, std::memory_order_release);
+  shared_->rt_status = rt::RealtimeStatus{};
   thread_ = std::thread([this] { run(); });
+  rt::apply_thread_realtime(thread_, o_.control_thread, &shared_->rt_status);
+  for (std::string& w : rt::system_checks(shared_->rt_status.fifo, shared_->rt_status.pinned ? o_.control_thread.cpu : -1))
+    shared_->rt_status.warnings.push_back(std::move(w));
+  for (const std::string& w : shared_->rt_status.warnings) spdlog::warn("event=control_realtime warning=\"{}\"", w);
+  spdlog::info("event=control_thread fifo={} cpu={}", shared_->rt_status.fifo,
+               shared_->rt_status.pinned ? shared_->rt_status.cpu : -1);
   return true;
 }
 
@@ -392,6 +408,11 @@ RobotStationStatistics RobotStation::statistics() const {
   s.estop_local = sh.estop_local.load();
   s.mode = sh.mode.load();
   s.safety = sh.safety.load();
+  s.control_timing = rt::summarize(sh.timing);
+  s.control_timing.period_target_us = static_cast<double>(robot_.timestep_ns()) * 1e-3;
+  s.control_timing.late_wake_threshold_us = static_cast<double>(o_.late_wake_threshold_ns) * 1e-3;
+  s.control_timing.fifo = sh.rt_status.fifo;
+  s.control_timing.cpu = sh.rt_status.pinned ? sh.rt_status.cpu : -1;
   return s;
 }
 
@@ -436,13 +457,19 @@ void RobotStation::run() {
   };
   SimViewFrame view_frame;  // the live view's buffers (swapped with the feed's)
 
+  rt::TickTiming tick;  // the control loop's timing (realtime pacing)
+  tick.period_ns = dt;
+  tick.late_wake_threshold_ns = o_.late_wake_threshold_ns;
   while (!sh.stop.load(std::memory_order_acquire)) {
+    tick.what = "step";
     if (o_.realtime) {
       // Step k simulates [anchor + k dt, anchor + (k+1) dt]: it runs once that
       // interval is over, so no state is stamped later than it is sent.
       const int64_t deadline = anchor + (k + 1) * dt;
-      std::this_thread::sleep_until(std::chrono::steady_clock::time_point(std::chrono::nanoseconds(deadline)));
-      int64_t late = steady_now_ns() - deadline;
+      rt::sleep_until_ns(deadline);
+      tick.deadline_ns = deadline;
+      tick.wake_ns = steady_now_ns();
+      int64_t late = tick.wake_ns - deadline;
       if (late > o_.max_catch_up_ns) {
         // A long stall: catching up step by step would only replay the past
         // faster than real time. Skip ahead; the clock jumps forward.
@@ -565,6 +592,7 @@ void RobotStation::run() {
         sh.arm_refused_last_seq = st.last_refused_seq;
       }
       sh.safety.store(st.safety);
+      tick.what = "state";
       if (view_ && view_->due(now)) {
         robot_.view_frame_sim(&view_frame);
         view_frame.state = st;
@@ -590,6 +618,7 @@ void RobotStation::run() {
     }
 
     std::vector<RangeScanData> scans = robot_.take_scans();
+    if (!scans.empty()) tick.what = "scan";
     if (view_) view_->publish_scans(scans);
     if (streaming) {
       for (const RangeScanData& scan : scans) {
@@ -646,6 +675,12 @@ void RobotStation::run() {
           if (all) ++s.depth_frames_sent;
         });
       }
+    }
+    if (o_.realtime) {
+      tick.done_ns = steady_now_ns();
+      rt::record_tick(sh.timing, tick);
+      tick.prev_wake_ns = tick.wake_ns;
+      ++tick.tick;
     }
   }
 }

@@ -47,6 +47,8 @@
 #include <string>
 #include <thread>
 
+#include "common/realtime/realtime_setup.h"
+#include "common/realtime/timing_stats.h"
 #include "robot_side/server/robot_server.h"
 #include "robot_side/sim/sim_types.h"
 #include "robot_side/sim/simulated_robot.h"
@@ -70,6 +72,11 @@ struct RobotStationOptions {
   // Further behind schedule than this (a stall of the VM): skip ahead instead
   // of catching up step by step; the robot's clock jumps with the wall clock.
   int64_t max_catch_up_ns = 100'000'000;
+  // The 1 kHz control (simulation) thread's real-time set-up (SCHED_FIFO,
+  // pinning: common/realtime/realtime_setup.h); start() refuses a CPU this
+  // process may not run on and logs what else is refused or risky.
+  rt::RealtimeRequest control_thread{};
+  int64_t late_wake_threshold_ns = 500'000;  // a later wake is a miss in control_timing
 };
 
 struct RobotStationStatistics {
@@ -118,6 +125,10 @@ struct RobotStationStatistics {
   bool estop_local = false;              // engaged at the robot (local_estop), not by the operator
   int mode = 0;                          // session mode (wire::Mode; 0: commands choose)
   uint32_t safety = 0;                   // newest state's SafetyFlags
+  // The control loop's deadline histograms (wake lateness, compute, period:
+  // log-spaced) and its ten worst steps ("step", "state" when it published a
+  // robot state, "scan" when also a scan); realtime pacing only.
+  rt::TimingSummary control_timing;
 };
 
 // The statistics as a report message (proto/report.proto); hemm-robot's
@@ -139,8 +150,10 @@ class RobotStation {
   std::optional<std::string> load(const config::RobotConfig& config, const std::string& scene_path);
 
   // Registers the station's handlers on the server and starts the simulation
-  // thread. Call before the io_context runs or on its thread. False with
-  // *error if not loaded or already started.
+  // thread with options().control_thread's real-time set-up (refused parts and
+  // the machine's checks logged as warnings). Call before the io_context
+  // runs or on its thread. False with *error if not loaded, already started,
+  // or the CPU to pin to is not one this process may run on (nothing changed).
   bool start(std::string* error);
   // The robot's own e-stop (a key, a signal or a control command at the
   // robot station; any thread). While engaged the robot is stopped whatever

@@ -17,14 +17,14 @@ grep -q '^| servo | 42 |$' "$doc" || fail "the imported table is not in the docu
 grep -q '^command: rt_table.sh$' "$doc" || fail "the imported file's own text is not kept"
 grep -q '^- condition: test$' "$doc" || fail "no condition line"
 grep -q '^- machine: [0-9]* cores, .*, Linux ' "$doc" || fail "no machine line"
-for s in latency accuracy explore3d vps bimanual link; do
+for s in latency accuracy explore3d vps vps-budget bimanual link rt-compile; do
   awk "/report.sh section: $s -->/,/report.sh end: $s -->/" "$doc" | grep -q '^\*Missing:\*' || fail "section $s not marked missing"
 done
 printf '| case | p99 us |\n|---|--:|\n| servo | 43 |\n' >"$tmp/rt2.md"
 bash "$root/deploy/report.sh" "$build" --only rt --rt-table "$tmp/rt2.md" --condition "test" --out "$doc" \
   --work "$tmp/w2" 2>/dev/null
 grep -q '^| servo | 43 |$' "$doc" && ! grep -q '^| servo | 42 |$' "$doc" || fail "the section was not replaced"
-[[ "$(grep -c 'report.sh section:' "$doc")" == 7 ]] || fail "sections duplicated or lost"
+[[ "$(grep -c 'report.sh section:' "$doc")" == 9 ]] || fail "sections duplicated or lost"
 cp "$doc" "$tmp/before.md"
 for bad in "--only nope --condition x" "--only rt --condition x --rt-table $tmp/none.md" "--only rt" \
            "--only rt --condition x --rt-table $tmp/w1/section-rt.md.none"; do

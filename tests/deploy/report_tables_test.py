@@ -73,6 +73,33 @@ class BenchTable(unittest.TestCase):
                 rt.bench_table(bad)
 
 
+VPS_BUDGET = """config,mode,budget_units,budget_us,ticks,contact_ticks,stopped_early_share,f_rms_N,f_max_N,f_rms_pct,t_rms_Nm,t_max_Nm,t_rms_pct,cpu_median_us,cpu_p99_us,time_median_us,time_p99_us,time_max_us,work_median,work_max,over_time,ns_per_unit
+operator_vps_peg,work,2048,0.0,4300,1589,1.000000,0.113,0.146,4.7000,0.00193,0.00262,2.1,41.3,249,40.7,4468,9000,2048,2048,0,0.000
+operator_vps_peg,time,0,200.0,4300,1589,0.782000,0.115,0.276,4.7200,0.00213,0.00825,2.2,67.0,348,70.1,300,900,1800,4000,3,41.250
+operator_vps_peg,full,0,0.0,4300,1589,0.000000,0,0,0.0000,0,0,0,232,641,240,700,900,8562,9114,0,0.000
+"""
+
+
+class VpsBudgetTable(unittest.TestCase):
+    def test_one_row_per_budget_with_its_kind_early_share_and_error(self):
+        lines = rt.vps_budget_table(VPS_BUDGET).splitlines()
+        self.assertEqual(len(lines), 5)
+        head = cells(lines[0])
+        rows = [cells(l) for l in lines[2:]]
+        self.assertEqual([r[head.index("budget")] for r in rows], ["2,048 units", "200 µs (41.2 ns/unit)", "full cycle"])
+        self.assertEqual(rows[1][head.index("stopped early")], "78.2 %")
+        self.assertEqual(rows[0][head.index("F error RMS N (% of RMS)")], "0.113 (4.7 %)")
+        self.assertEqual(rows[2][head.index("CPU µs median / p99")], "232 / 641")
+
+    def test_a_csv_without_its_columns_or_with_an_unknown_mode_is_refused(self):
+        with self.assertRaises(rt.InputError):
+            rt.vps_budget_table("config,mode\nx,work\n")
+        with self.assertRaises(rt.InputError):
+            rt.vps_budget_table(VPS_BUDGET.replace(",full,", ",half,"))
+        with self.assertRaises(rt.InputError):
+            rt.vps_budget_table(VPS_BUDGET.splitlines()[0] + "\n")
+
+
 class Document(unittest.TestCase):
     def sec(self, name, table="| a | b |\n|---|--:|\n| x | 1 |\n"):
         return rt.section(name, "T " + name, "cmd " + name, "2026-01-01", "2 cores", "idle", table)

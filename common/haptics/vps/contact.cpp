@@ -493,6 +493,19 @@ class PairEval {
   std::vector<std::uint32_t>* marks_ = nullptr;
 };
 
+// The coarsest level, whatever the budget (its work is then taken from the
+// budget, down to none): below it the force is a partial sum over whichever
+// nodes came first, which can be worse than no force at all (more than 100 %
+// off on the SIMULATED Omni's probe, docs/realtime.md), and alternating with
+// complete forces it shakes an object at rest. Its work is small and fixed
+// per pointshell, so the tick stays bounded.
+bool run_coarsest(PairEval& e, std::int64_t* budget) {
+  std::int64_t unlimited = kUnlimitedWork;
+  e.run_level(0, &unlimited);
+  *budget = std::max<std::int64_t>(0, *budget - (kUnlimitedWork - unlimited));
+  return true;
+}
+
 void sum_bimanual(const BimanualModel& model, BimanualData* data) {
   (void)model;
   data->right_total.force = data->right_scene.on_shell.force + data->right_left.on_shell.force;
@@ -542,7 +555,7 @@ void evaluate_pair_budgeted(const Voxmap& vm, const Eigen::Isometry3d& T_W_V, co
   PairEval e(vm, T_W_V, ref_V, ps, T_W_P, params, state, true);
   int done = -1;
   for (int l = 0; l < e.levels(); ++l) {
-    if (!e.run_level(l, &budget)) break;
+    if (!(l == 0 ? run_coarsest(e, &budget) : e.run_level(l, &budget))) break;
     done = l;
   }
   e.finish(std::max(done, 0), out);
@@ -588,7 +601,7 @@ void evaluate_bimanual_budgeted(const BimanualModel& model, const Eigen::Isometr
   for (; round < rounds && !out_of_budget; ++round) {
     for (int p = 0; p < 3 && !out_of_budget; ++p) {
       if (round >= pairs[p].levels()) continue;
-      if (pairs[p].run_level(round, &budget)) {
+      if (round == 0 ? run_coarsest(pairs[p], &budget) : pairs[p].run_level(round, &budget)) {
         done[p] = round;
       } else {
         out_of_budget = true;

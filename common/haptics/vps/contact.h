@@ -121,8 +121,15 @@ void evaluate_pair(const Voxmap& vm, const Eigen::Isometry3d& T_W_V, const Eigen
 // One pair in the time-critical mode (Barbic & James): the pointshell's
 // levels coarse to fine until `budget` work units (sphere nodes visited +
 // points tested) are spent; the wrench is that of the deepest complete level
-// (levels_completed), so the call never exceeds its budget. With an
-// unlimited budget it equals evaluate_pair.
+// (levels_completed). The coarsest level always completes (a partial sum can
+// be worse than no force), so the call's work is at most the larger of its
+// budget and the coarsest level's. With an unlimited budget it equals
+// evaluate_pair.
+// The most work the coarsest level can take (each of its sphere nodes visited
+// and each of its points tested once): what a budgeted call always affords.
+inline std::int64_t coarsest_level_work(const PointShell& ps) {
+  return ps.levels > 0 ? static_cast<std::int64_t>(ps.level[0].count) + ps.level[0].node_count : 0;
+}
 void evaluate_pair_budgeted(const Voxmap& vm, const Eigen::Isometry3d& T_W_V, const Eigen::Vector3d& ref_V,
                             const PointShell& ps, const Eigen::Isometry3d& T_W_P, const ContactParams& params,
                             std::int64_t budget, PairState* state, PairResult* out);
@@ -167,10 +174,11 @@ void evaluate_bimanual(const BimanualModel& model, const Eigen::Isometry3d& T_W_
 // Time-critical cycle (Barbic & James): the pointshells' levels coarse to
 // fine, each level for all three pairs in turn, until `budget` work units
 // (sphere nodes visited + points tested) are spent; each pair's wrench is that
-// of its deepest complete level, so the cycle never exceeds its budget and
-// the force degrades gracefully as the budget shrinks. With an unlimited
-// budget it equals the full cycle. If even level 0 cannot complete, the
-// partial level-0 sums are returned (levels_completed = 0).
+// of its deepest complete level, and the force degrades gracefully as the
+// budget shrinks. Level 0 of every pair always completes, its work taken from
+// the budget (a partial level-0 sum can be worse than no force): the work is
+// at most the larger of the budget and the coarsest round's. With an
+// unlimited budget it equals the full cycle.
 void evaluate_bimanual_budgeted(const BimanualModel& model, const Eigen::Isometry3d& T_W_S,
                                 const Eigen::Isometry3d& T_W_R, const Eigen::Isometry3d& T_W_L, std::int64_t budget,
                                 BimanualState* state, BimanualData* data);

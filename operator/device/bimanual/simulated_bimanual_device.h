@@ -7,13 +7,21 @@
 // inertia reduction, collision avoidance, the device's limits) and the MuJoCo
 // plant with the simulated human hands following scripts (simulation.h).
 //
-// Threading: write() runs both controllers and steps the plant one servo
-// period on the calling (servo) thread. Why not a plant thread of its own:
-// the real arms take one command per 1 kHz cycle and report the state the
-// next cycle, which is exactly this; one thread keeps the simulation
-// deterministic and tick-locked (tests replay it exactly); and it needs no
-// second clock or lock-free exchange. It costs ~0.1 ms of the 1 ms period
-// (bimanual_bench); read() and write() allocate nothing (tested).
+// Threading (simulated_hardware.h): the controllers are the device
+// backend's (hemm's work) and always run in write() on the servo thread;
+// what stands in for hardware, the MuJoCo plant and the simulated human
+// hands, runs
+//  - in lock-step (the default, and before start() / after stop()): stepped
+//    one servo period inside write() too, deterministic and tick-locked
+//    (tests replay it exactly; the tick then pays the plant's ~45 us);
+//  - threaded (start() with HardwareMode::kThreaded, as the shipped configs
+//    run): on a thread of its own at the plant's period, as the real arms'
+//    joint controllers run on their own boards. Each plant step applies the
+//    newest joint torques write() published (or holds the last) and
+//    publishes the timestamped joint readings; read() takes the newest
+//    (newest wins) and runs the backend's forward kinematics on it. The
+//    hands' scripts are then called on that thread.
+// read() and write() allocate nothing, lock nothing and never wait (tested).
 //
 // write() enforces, per end-effector: non-finite force, torque or grip force
 // -> zero wrench (counted); peak force and torque (clamp_to_peak); a grip
@@ -27,8 +35,10 @@
 #include <cstdint>
 #include <memory>
 
+#include "common/concurrency/newest_mailbox.h"
 #include "operator/device/bimanual/simulation.h"
 #include "operator/device/haptic_device.h"
+#include "operator/device/simulated_hardware.h"
 
 namespace hemm::device::bimanual {
 
@@ -54,24 +64,52 @@ class SimulatedBimanualDevice final : public HapticDevice {
   void write(const DeviceCommand& cmd) noexcept override;
   const DeviceLimits& limits() const noexcept override { return limits_; }
   std::string_view name() const noexcept override { return "simulated-bimanual-lwr"; }
+  void start(const HardwareStart& how, std::vector<std::string>* warnings) override;
+  void stop() noexcept override;
+  const SimulatedHardwareStats* simulated_hardware() const noexcept override {
+    return hardware_ ? &hardware_->stats() : nullptr;
+  }
 
-  // Only from the thread that calls read/write (or after it stopped).
+  // The joint readings the backend works from (the thread that calls
+  // read/write): lock-step, the plant's; threaded, the newest sample read()
+  // took from the plant's thread.
+  const ArmReading& reading(ArmSide s) const noexcept;
+  // Lock-step: only from the thread that calls read/write; threaded: only
+  // after stop() (the plant is the hardware thread's while it runs).
   const BimanualSimulation& simulation() const noexcept { return sim_; }
   BimanualSimulation& simulation() noexcept { return sim_; }
   const BimanualDeviceCounters& counters() const noexcept { return counters_; }
   // The SIMULATED human's script of arm s (what it asks of its hand).
   const HumanScript& hand(ArmSide s) const noexcept { return *hands_[static_cast<std::size_t>(index(s))]; }
   // Smallest gaps over the run so far (the controller's and MuJoCo's), and
-  // MuJoCo's contact substeps (SIMULATION truth).
+  // MuJoCo's contact substeps (SIMULATION truth). Threaded: after stop().
   double min_arm_arm_m() const noexcept { return min_arm_arm_m_; }
   double min_arm_table_m() const noexcept { return min_arm_table_m_; }
 
  private:
+  struct Sample {  // plant thread -> read()
+    std::int64_t t_ns = 0;  // steady clock when published
+    ArmReadings readings{};
+  };
+  struct Command {  // write() -> plant thread
+    std::int64_t t_ns = 0;
+    std::array<ArmActuation, kArms> act{};
+  };
+  void hardware_step() noexcept;  // plant thread
+
   BimanualSimulation sim_;
   std::array<std::shared_ptr<const HumanScript>, kArms> hands_;
   DeviceLimits limits_;
   BimanualDeviceCounters counters_;
   double min_arm_arm_m_, min_arm_table_m_;
+  // Threaded mode (see the file comment).
+  bool threaded_ = false;
+  ArmReadings readings_{};  // servo thread: the newest sample taken
+  NewestMailbox<Sample> samples_;
+  NewestMailbox<Command> commands_;
+  std::array<ArmActuation, kArms> held_{};         // plant thread: the torques in force
+  double plant_min_arm_arm_m_, plant_min_arm_table_m_;  // plant thread, merged at stop()
+  std::unique_ptr<SimulatedHardwareThread> hardware_;
 };
 
 }  // namespace hemm::device::bimanual

@@ -31,14 +31,14 @@ BimanualSimulation::BimanualSimulation(const SimulationConfig& config)
     in_[static_cast<std::size_t>(a)].qd = r.qd;
   }
   controller_.update(in_, out_);
-  update_end_effectors();
+  sense(readings());
 }
 
-void BimanualSimulation::update_end_effectors() noexcept {
+void BimanualSimulation::sense(const ArmReadings& rd) noexcept {
   for (int a = 0; a < kArms; ++a) {
     const auto k = static_cast<std::size_t>(a);
     const ArmSide side = static_cast<ArmSide>(a);
-    const ArmReading& r = plant_.reading(side);
+    const ArmReading& r = rd[k];
     const kinematics::Arm7Model& m = controller_.nominal(side);
     kinematics::Arm7Frames f;
     kinematics::forward_kinematics(m, r.q, f);
@@ -69,9 +69,17 @@ void BimanualSimulation::step(const std::array<kinematics::Wrench6, kArms>& w_en
                               const std::array<double, kArms>& grip_force,
                               const std::array<HumanTarget, kArms>& human) noexcept {
   std::array<ArmActuation, kArms> act;
+  control(readings(), w_env_D, grip_force, act);
+  plant_.step(act, human);
+  sense(readings());
+}
+
+void BimanualSimulation::control(const ArmReadings& rd, const std::array<kinematics::Wrench6, kArms>& w_env_D,
+                                 const std::array<double, kArms>& grip_force,
+                                 std::array<ArmActuation, kArms>& act) noexcept {
   for (int a = 0; a < kArms; ++a) {
     const auto k = static_cast<std::size_t>(a);
-    const ArmReading& r = plant_.reading(static_cast<ArmSide>(a));
+    const ArmReading& r = rd[k];
     ArmInput& in = in_[k];
     in.q = r.q;
     in.qd = r.qd;
@@ -87,8 +95,6 @@ void BimanualSimulation::step(const std::array<kinematics::Wrench6, kArms>& w_en
     act[k].grip_force = std::isfinite(grip_force[k]) ? grip_force[k] : 0.0;
     act[k].power = true;  // the hardware interlock (dead-man, clutch) cuts it
   }
-  plant_.step(act, human);
-  update_end_effectors();
 }
 
 }  // namespace hemm::device::bimanual

@@ -29,14 +29,31 @@ struct SimulationConfig {
 // Empty when usable.
 std::optional<std::string> validate(const SimulationConfig& c);
 
+using ArmReadings = std::array<ArmReading, kArms>;
+
 class BimanualSimulation {
  public:
   // Throws std::invalid_argument on a bad config.
   explicit BimanualSimulation(const SimulationConfig& config);
 
-  // One servo period. Allocation-free.
+  // One servo period: control() on the plant's readings, the plant steps
+  // one period with those torques, sense() on its new readings.
+  // Allocation-free.
   void step(const std::array<kinematics::Wrench6, kArms>& w_env_D, const std::array<double, kArms>& grip_force,
             const std::array<HumanTarget, kArms>& human) noexcept;
+  // The two halves of a period apart, for a plant stepped on a thread of its
+  // own (simulated_bimanual_device.h, threaded): the device backend's work
+  // (hemm's) is control() and sense(); the plant's is plant().step().
+  // control(): both controllers' joint torques into `act` (motors powered:
+  // the handles' interlocks cut them in the plant) from joint readings `r`
+  // and the wrench and grip force the renderer asks; output() holds the
+  // controllers' view. sense(): end_effector() from readings `r` (nominal
+  // forward kinematics). Both allocation-free.
+  void control(const ArmReadings& r, const std::array<kinematics::Wrench6, kArms>& w_env_D,
+               const std::array<double, kArms>& grip_force, std::array<ArmActuation, kArms>& act) noexcept;
+  void sense(const ArmReadings& r) noexcept;
+  // The plant's readings now, both arms.
+  ArmReadings readings() const noexcept { return {plant_.reading(ArmSide::kRight), plant_.reading(ArmSide::kLeft)}; }
   // One servo period with nothing rendered (free space, no grip force).
   void step(const std::array<HumanTarget, kArms>& human) noexcept;
 
@@ -64,8 +81,6 @@ class BimanualSimulation {
   std::array<ArmInput, kArms> in_{};
   std::array<ArmOutput, kArms> out_{};
   std::array<EndEffectorState, kArms> ee_{};
-
-  void update_end_effectors() noexcept;
 };
 
 }  // namespace hemm::device::bimanual

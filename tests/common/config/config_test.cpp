@@ -159,6 +159,22 @@ TEST(ConfigTest, ShippedExplore3dConfigLoadsAndTheToolNeedsItsDevice) {
       &validate_operator_config, &ob);
   ASSERT_TRUE(e3);
   EXPECT_EQ(e3->field, "probe_3d.tool_work_budget");
+  // The 6-DoF tool's time budget: the shipped configs set it; negative or
+  // absurd values are refused.
+  EXPECT_EQ(os.probe_3d().tool_tick_budget_us(), 200.0);
+  EXPECT_TRUE(os.probe_3d().has_tool_tick_budget_us());
+  for (const char* bad : {"tool_tick_budget_us: -1", "tool_tick_budget_us: nan", "tool_tick_budget_us: 1e9"}) {
+    auto e4 = parse_text_config(std::string("device { type: \"sim-hand6\" } probe_3d { enabled: true tool: "
+                                            "\"pointshell\" ") + bad + " }",
+                                "o.pbtxt", &validate_operator_config, &ob);
+    ASSERT_TRUE(e4) << bad;
+    EXPECT_EQ(e4->field, "probe_3d.tool_tick_budget_us") << bad;
+  }
+  auto e4m = parse_text_config(
+      "device { type: \"sim-hand6\" } probe_3d { enabled: true tool: \"pointshell\" tool_tick_margin_us: -3 }",
+      "o.pbtxt", &validate_operator_config, &ob);
+  ASSERT_TRUE(e4m);
+  EXPECT_EQ(e4m->field, "probe_3d.tool_tick_margin_us");
   // SIMULATION ONLY start arm pose: five finite angles or none.
   RobotConfig ra;
   auto e5 = parse_text_config("sim { start_arm_q: [0, 1.2, -0.8, 0] }", "r.pbtxt", &validate_robot_config, &ra);

@@ -2,7 +2,6 @@
 // independent reference for the arm's kinematics and dynamics.
 #pragma once
 
-#include <memory>
 #include <stdexcept>
 #include <string>
 
@@ -10,12 +9,13 @@
 
 #include "common/kinematics/arm7.h"
 #include "common/kinematics/arm7_mjcf.h"
+#include "common/sim/mujoco_owner.h"
 
 namespace hemm::test {
 
 struct MjArm7 {
-  std::unique_ptr<mjModel, void (*)(mjModel*)> m{nullptr, mj_deleteModel};
-  std::unique_ptr<mjData, void (*)(mjData*)> d{nullptr, mj_deleteData};
+  sim::MjModelPtr m;
+  sim::MjDataPtr d;
   int link[kinematics::kArm7Dof] = {};
 
   void set(const kinematics::Arm7Vector& q, const kinematics::Arm7Vector& qd) {
@@ -27,21 +27,6 @@ struct MjArm7 {
   }
 };
 
-// Loads MJCF text from memory (a one-file virtual file system).
-inline mjModel* load_mjcf_text(const std::string& xml) {
-  auto vfs = std::make_unique<mjVFS>();
-  mj_defaultVFS(vfs.get());
-  if (mj_makeEmptyFileVFS(vfs.get(), "model.xml", static_cast<int>(xml.size())) != 0)
-    throw std::runtime_error("VFS full");
-  const int i = mj_findFileVFS(vfs.get(), "model.xml");
-  std::memcpy(vfs->filedata[i], xml.data(), xml.size());
-  char err[1000] = "";
-  mjModel* m = mj_loadXML("model.xml", vfs.get(), err, sizeof err);
-  mj_deleteVFS(vfs.get());
-  if (!m) throw std::runtime_error(std::string("MJCF: ") + err + "\n" + xml);
-  return m;
-}
-
 // The arm with frame A at `base_pos` / `base_quat` (w x y z) in the world,
 // gravity (0, 0, -9.81) in the world, and `extra` inside link 7.
 inline MjArm7 make_mj_arm7(const kinematics::Arm7Model& model, const std::string& base_pos = "0 0 0",
@@ -52,8 +37,8 @@ inline MjArm7 make_mj_arm7(const kinematics::Arm7Model& model, const std::string
                           "<body name=\"base\" pos=\"" + base_pos + "\" quat=\"" + base_quat + "\">\n" +
                           kinematics::arm7_mjcf_chain(model, options) + "</body></worldbody></mujoco>";
   MjArm7 a;
-  a.m.reset(load_mjcf_text(xml));
-  a.d.reset(mj_makeData(a.m.get()));
+  a.m = sim::load_model_xml("model.xml", xml);
+  a.d = sim::make_data(a.m.get());
   for (int i = 0; i < kinematics::kArm7Dof; ++i) {
     a.link[i] = mj_name2id(a.m.get(), mjOBJ_BODY, (options.prefix + "link" + std::to_string(i + 1)).c_str());
     if (a.link[i] < 0) throw std::runtime_error("missing link body");

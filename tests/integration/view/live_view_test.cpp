@@ -35,6 +35,7 @@
 #include <string>
 #include <vector>
 
+#include "common/sim/mujoco_owner.h"
 #include "common/view/png_io.h"
 #include "tests/integration/view/view_test_support.h"
 #include "tests/integration/latency/csv_columns.h"
@@ -71,13 +72,15 @@ struct SceneFaces {
 };
 SceneFaces scene_faces() {
   SceneFaces f;
-  char err[1000] = "";
-  mjModel* m = mj_loadXML(kScene.c_str(), nullptr, err, sizeof err);
-  if (m == nullptr) {
-    ADD_FAILURE() << "cannot load " << kScene << ": " << err;
+  hemm::sim::MujocoOwner mj;
+  try {
+    mj = hemm::sim::MujocoOwner::from_file(kScene);
+  } catch (const std::exception& e) {
+    ADD_FAILURE() << "cannot load the scene: " << e.what();
     return f;
   }
-  mjData* d = mj_makeData(m);
+  mjModel* m = mj.m();
+  mjData* d = mj.d();
   mj_forward(m, d);
   auto geom = [&](const char* name) {
     const int g = mj_name2id(m, mjOBJ_GEOM, name);
@@ -98,8 +101,6 @@ SceneFaces scene_faces() {
     f.bin_r = m->geom_size[3 * b];
     f.start = Eigen::Vector2d(d->site_xpos[3 * site], d->site_xpos[3 * site + 1]);
   }
-  mj_deleteData(d);
-  mj_deleteModel(m);
   return f;
 }
 

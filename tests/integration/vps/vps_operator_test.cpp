@@ -12,6 +12,7 @@
 //    same paths mapped into the device frame and yield to the rendered wrench.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -43,6 +44,7 @@ struct PegRun {
   std::string json;
   double max_lateral = 0, max_pen = 0, max_e[2] = {0, 0};
   double drift = 0;  // over the last 200 ticks
+  int coarse_at_rest = 0;  // ... those that stopped before the finest level (time-critical budget)
   std::size_t last = 0;
 };
 
@@ -91,15 +93,19 @@ bool run_peg(const std::string& config, std::size_t min_rows, PegRun* r,
     r->max_e[1] = std::max(r->max_e[1], c["energy1"][i]);
   }
   r->last = c.rows - 1;
-  for (std::size_t i = r->last - 200; i <= r->last; ++i)
+  const auto& levels = c["levels"];
+  const double finest = *std::max_element(levels.begin(), levels.end());
+  for (std::size_t i = r->last - 200; i <= r->last; ++i) {
     r->drift = std::max(r->drift, std::abs(rz[i] - rz[r->last]) + std::abs(rx[i] - rx[r->last]) +
                                       std::abs(ry[i] - ry[r->last]));
+    if (levels[i] < finest) ++r->coarse_at_rest;
+  }
   const std::size_t l = r->last;
   std::printf("%s: pins at %.3f %.3f %.3f mm in the holes frame, lateral <= %.3f mm while inserted, max penetration "
-              "%.3f mm, energy to the hands max %.2g / %.2g J, end %.3g / %.3g J, drift over the last 0.2 s %.4f mm; "
-              "right end-effector at z %.3f mm (W); misses %.0f, VPS p99 %.0f us\n",
+              "%.3f mm, energy to the hands max %.2g / %.2g J, end %.3g / %.3g J, drift over the last 0.2 s %.4f mm "
+              "(%d of its ticks stopped before the finest level); right end-effector at z %.3f mm (W); misses %.0f, VPS p99 %.0f us\n",
               config.c_str(), rx[l] / mm, ry[l] / mm, rz[l] / mm, r->max_lateral / mm, r->max_pen / mm, r->max_e[0],
-              r->max_e[1], c["energy0"][l], c["energy1"][l], r->drift / mm, c["dev0_z"][l] / mm,
+              r->max_e[1], c["energy0"][l], c["energy1"][l], r->drift / mm, r->coarse_at_rest, c["dev0_z"][l] / mm,
               json_number(r->json, "misses").value_or(-1), json_number(r->json, "vps_p99_us").value_or(-1));
   return true;
 }

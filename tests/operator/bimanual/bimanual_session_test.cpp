@@ -5,6 +5,7 @@
 // (exit 2) with the field named. Its --station-json is proto/report.proto's
 // BimanualSession and reads back into it.
 #include <gtest/gtest.h>
+#include <sched.h>
 
 #include <cmath>
 #include <limits>
@@ -69,6 +70,16 @@ TEST(BimanualSession, HoldsOneKilohertzWithTheDeviceInTheLoop) {
 #endif
   EXPECT_EQ(json_number(j, "nonfinite_commands").value_or(-1), 0);
   EXPECT_EQ(json_number(j, "arm_arm_contact_steps").value_or(-1), 0);
+  // As shipped, the plant and the humans ran on their own thread, reported
+  // beside the servo loop with their own histograms.
+  const auto rep = hemm::test::read_report_json<hemm::report::BimanualSession>(j);
+  ASSERT_TRUE(rep.timing().has_simulated_hardware()) << j.substr(0, 2000);
+  EXPECT_EQ(rep.timing().simulated_hardware().mode(), "threaded");
+  EXPECT_EQ(rep.timing().simulated_hardware().device(), "simulated-bimanual-lwr");
+  EXPECT_GT(rep.timing().simulated_hardware().timing().ticks(), 0.5 * ticks);
+  EXPECT_GT(rep.timing().compute_us().bin_count_size(), 0);
+  EXPECT_EQ(rep.timing().worst_ticks_size(), 10);
+  EXPECT_EQ(rep.timing().period_target_us(), 1000.0);
   // The log has both end-effectors.
   const std::string header = read_file(d + "/servo.csv").substr(0, 4000);
   EXPECT_NE(header.find("ee1_dev_x"), std::string::npos);
@@ -95,6 +106,33 @@ TEST(BimanualSession, BadConfigsAreUsageErrors) {
   r = run(d, {"--device", "sim-bimanual", "--script", "idle", "--duration", "1"});
   EXPECT_EQ(r.rc, 2);
   EXPECT_NE(r.err.find("takes --hands"), std::string::npos) << r.err;
+}
+
+// --servo-cpu: a CPU this process may run on pins the servo thread (the
+// report says which); any other is a usage error naming the allowed CPUs,
+// before anything runs.
+TEST(BimanualSession, ServoCpuIsAcceptedOrRefused) {
+  const std::string d = hemm::test::make_temp_dir();
+  RunResult r = run(d, {"--device", "sim-bimanual", "--hands", "idle", "--duration", "1", "--servo-cpu", "4096"});
+  EXPECT_EQ(r.rc, 2);
+  EXPECT_NE(r.err.find("--servo-cpu 4096: CPU 4096 does not exist"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("this process may run on CPUs"), std::string::npos) << r.err;
+  std::ofstream(d + "/bad_cpu.pbtxt") << "servo { cpu: -3 }\n";
+  r = run(d, {"--config", d + "/bad_cpu.pbtxt", "--device", "sim-bimanual", "--duration", "1"});
+  EXPECT_EQ(r.rc, 2);
+  EXPECT_NE(r.err.find("servo.cpu: must be -1 (not pinned) or a CPU number"), std::string::npos) << r.err;
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  ASSERT_EQ(sched_getaffinity(0, sizeof set, &set), 0);
+  int cpu = 0;
+  while (!CPU_ISSET(cpu, &set)) ++cpu;
+  r = run(d, {"--device", "sim-bimanual", "--hands", "idle", "--duration", "1", "--servo-cpu", std::to_string(cpu),
+              "--simulated-hardware", "lock-step", "--station-json", d + "/pinned.json", "--log-level", "warn"});
+  ASSERT_EQ(r.rc, 0) << r.err;
+  const auto rep = hemm::test::read_report_json<hemm::report::BimanualSession>(read_file(d + "/pinned.json"));
+  EXPECT_EQ(rep.timing().cpu(), cpu);
+  EXPECT_FALSE(rep.timing().has_simulated_hardware());  // lock-step: stepped in the servo tick
+  EXPECT_GT(rep.timing().ticks(), 100u);
 }
 
 TEST(BimanualSessionJson, ReadsBackIntoTheBimanualSessionReport) {

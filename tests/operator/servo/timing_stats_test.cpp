@@ -1,32 +1,14 @@
+// The servo loop's timing summary: the loop's figures (common/realtime, tested
+// there against closed forms) and, beside them, a SIMULATED device's hardware
+// thread's, in the log line and in proto/report.proto's ServoTiming.
 #include "operator/servo/timing_stats.h"
 
 #include <gtest/gtest.h>
 
+#include "report.pb.h"
+
 namespace hemm::servo {
 namespace {
-
-TEST(LatencyHistogram, QuantilesAreBinCentresOfTheRankedSample) {
-  LatencyHistogram h;
-  EXPECT_EQ(h.quantile_ns(0.5), 0.0);
-  // 100 samples: 1..100 us (each in bin i = value/1us).
-  for (int i = 1; i <= 100; ++i) h.record(i * 1000 + 300);
-  EXPECT_EQ(h.count(), 100u);
-  EXPECT_DOUBLE_EQ(h.quantile_ns(0.5), 50'500.0);   // 50th smallest: 50.3 us -> bin 50
-  EXPECT_DOUBLE_EQ(h.quantile_ns(0.99), 99'500.0);  // 99th smallest
-  EXPECT_DOUBLE_EQ(h.quantile_ns(0.0), 1'500.0);
-  EXPECT_EQ(h.max_ns(), 100'300);
-  EXPECT_DOUBLE_EQ(h.mean_ns(), 50'500.0 + 300.0);
-}
-
-TEST(LatencyHistogram, OverflowReportsExactMaxAndNegativesCountAsZero) {
-  LatencyHistogram h;
-  h.record(-5);
-  h.record(7'000'000);  // 7 ms: beyond the 5 ms range
-  EXPECT_EQ(h.bin(0), 1u);
-  EXPECT_EQ(h.bin(LatencyHistogram::kBins), 1u);
-  EXPECT_DOUBLE_EQ(h.quantile_ns(1.0), 7'000'000.0);
-  EXPECT_DOUBLE_EQ(h.quantile_ns(0.5), 500.0);
-}
 
 TEST(TimingStats, SummaryCopiesCountersAndConvertsToMicroseconds) {
   TimingStats s;
@@ -40,9 +22,50 @@ TEST(TimingStats, SummaryCopiesCountersAndConvertsToMicroseconds) {
   EXPECT_EQ(t.ticks, 10u);
   EXPECT_EQ(t.misses, 2u);
   EXPECT_EQ(t.skipped_periods, 3u);
-  EXPECT_DOUBLE_EQ(t.period.median_us, 1000.5);
+  // 1 ms lies in the log-spaced bin [992, 1008) us, whose centre it is.
+  EXPECT_DOUBLE_EQ(t.period.median_us, 1000.0);
   EXPECT_DOUBLE_EQ(t.period.max_us, 1000.0);
+  ASSERT_EQ(t.period.bins.size(), 1u);
+  EXPECT_EQ(t.period.bins[0].lower_us, 992.0);
+  EXPECT_EQ(t.period.bins[0].upper_us, 1008.0);
+  EXPECT_EQ(t.period.bins[0].count, 10u);
   EXPECT_NE(to_string(t).find("misses=2"), std::string::npos);
+  EXPECT_EQ(to_string(t).find("simulated hardware"), std::string::npos);
+  EXPECT_FALSE(t.hardware);
+}
+
+TEST(TimingStats, TheSimulatedHardwareIsReportedBesideTheLoop) {
+  TimingStats loop, hw;
+  for (int i = 0; i < 4; ++i) loop.compute.record(20'000);
+  loop.ticks = 4;
+  for (int i = 0; i < 3; ++i) hw.compute.record(45'000);
+  hw.ticks = 3;
+  hw.misses = 1;
+  TimingSummary t = summarize(loop);
+  SimulatedHardwareSummary h;
+  h.device = "simulated-bimanual-lwr";
+  h.mode = "threaded";
+  h.timing = summarize(hw);
+  h.commands_new = 2;
+  h.commands_held = 1;
+  t.hardware = h;
+  const std::string line = to_string(t);
+  EXPECT_NE(line.find("simulated hardware (simulated-bimanual-lwr, threaded): steps=3 misses=1"), std::string::npos)
+      << line;
+  report::ServoTiming r;
+  fill(&r, t);
+  EXPECT_EQ(r.ticks(), 4u);
+  ASSERT_TRUE(r.has_simulated_hardware());
+  EXPECT_EQ(r.simulated_hardware().device(), "simulated-bimanual-lwr");
+  EXPECT_EQ(r.simulated_hardware().mode(), "threaded");
+  EXPECT_EQ(r.simulated_hardware().timing().ticks(), 3u);
+  EXPECT_EQ(r.simulated_hardware().timing().misses(), 1u);
+  EXPECT_EQ(r.simulated_hardware().timing().compute_us().max(), 45.0);
+  EXPECT_EQ(r.simulated_hardware().commands_new(), 2u);
+  EXPECT_EQ(r.simulated_hardware().commands_held(), 1u);
+  report::ServoTiming none;
+  fill(&none, summarize(loop));
+  EXPECT_FALSE(none.has_simulated_hardware());
 }
 
 }  // namespace

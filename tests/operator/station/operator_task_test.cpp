@@ -41,6 +41,25 @@ std::unique_ptr<ho::OperatorModelSnapshot> wall_snapshot(Eigen::Vector2d a, Eige
   return snap;
 }
 
+// A snapshot with no 2D map and a live voxmap (1 cm voxels, `layers` each
+// side) of a 0.6 x 0.6 x 0.2 m box centred at `centre_W`; null if the
+// voxmap cannot be built.
+std::unique_ptr<ho::OperatorModelSnapshot> box_voxmap_snapshot(const Eigen::Vector3d& centre_W, int layers) {
+  hemm::mesh::TriangleMesh m = hemm::mesh::make_box({0.3, 0.3, 0.1}, 4);
+  for (auto& v : m.vertices) v += centre_W;
+  hemm::vps::VoxmapParams vp;
+  vp.voxel_size = 0.01;
+  vp.layers_in = vp.layers_out = layers;
+  auto vm = std::make_shared<hemm::vps::Voxmap>();
+  if (hemm::vps::build_voxmap(m, vp, vm.get(), nullptr)) return nullptr;
+  auto snap = std::make_unique<ho::OperatorModelSnapshot>();
+  snap->map = hmap::build_snapshot(hmap::MapParams{}, hmap::LocalMap{});
+  snap->have_state = true;
+  snap->version = 1;
+  snap->voxmap = vm;
+  return snap;
+}
+
 // H position for a B position (x forward, y left, z up).
 Eigen::Vector3d H(double xb, double yb, double zb) { return ho::R_B_H().transpose() * Eigen::Vector3d(xb, yb, zb); }
 
@@ -477,18 +496,8 @@ TEST(Manipulation, WithTheVoxmapTheArmTargetIsTheToolProbesProxyOnTheSurface) {
   p.arm_reach = 0.44;
   Runner r(p);
   // A seat 0.6 x 0.6 m, top at z 0.46 under the tool (robot at the origin of W).
-  hemm::mesh::TriangleMesh m = hemm::mesh::make_box({0.3, 0.3, 0.1}, 4);
-  for (auto& v : m.vertices) v += Eigen::Vector3d(0.5, 0.0, 0.36);
-  hemm::vps::VoxmapParams vp;
-  vp.voxel_size = 0.01;
-  vp.layers_in = vp.layers_out = 7;
-  auto vm = std::make_shared<hemm::vps::Voxmap>();
-  ASSERT_FALSE(hemm::vps::build_voxmap(m, vp, vm.get(), nullptr));
-  auto snap = std::make_unique<ho::OperatorModelSnapshot>();
-  snap->map = hmap::build_snapshot(hmap::MapParams{}, hmap::LocalMap{});
-  snap->have_state = true;
-  snap->version = 1;
-  snap->voxmap = vm;
+  const auto snap = box_voxmap_snapshot(Eigen::Vector3d(0.5, 0.0, 0.36), 7);
+  ASSERT_TRUE(snap);
   const double scale = r.task.map_of(hm::Mode::kManipulation).scale;
   const double z_goal = 0.46 + p.tool_probe_radius - 0.02;  // 2 cm (W) into the tool's cushion
   const Eigen::Vector3d press_B(0, 0, (z_goal - 0.56) / scale);
@@ -508,6 +517,62 @@ TEST(Manipulation, WithTheVoxmapTheArmTargetIsTheToolProbesProxyOnTheSurface) {
   hemm::test::count_allocations_on_this_thread(false);
   EXPECT_EQ(allocs, 0u);
   EXPECT_NEAR(r.task.last_setpoint().arm_target_R.z(), 0.46 + p.tool_probe_radius, 0.002);
+  const hs::TickOutput last = r.tick(*snap, H(press_B.x(), press_B.y() - 0.02, press_B.z()));
+  EXPECT_STREQ(last.renderer, "point_probe");
+  EXPECT_EQ(last.work, static_cast<std::int64_t>(r.task.tool_probe().work));
+  EXPECT_GT(last.work, 0);
+}
+
+// The 6-DoF tool on a voxmap: its VPS work in the tick is bounded by the
+// time budget (the cost per unit measured at start), reported as the tick's
+// renderer and work; with the deadline already gone it does an eighth of
+// the budget's work, not none; no allocation.
+TEST(Tool6, TheTimeBudgetBoundsTheToolsWorkAndTheTickNamesIt) {
+  ho::OperatorTaskParams p;
+  p.tool6.enabled = true;
+  p.tool6.tick_budget_ns = 100'000;
+  ho::OperatorServoTask task(p);
+  const ho::Tool6Explorer& tool = *task.tool6();
+  ASSERT_GT(tool.calibration().samples, 0);
+  ASSERT_GT(tool.budget().stats().calibrated_ns_per_unit, 0.0);
+  // A block whose top is at z 0.85 under H's origin (R x 0.85, z 0.95).
+  const auto snap = box_voxmap_snapshot(Eigen::Vector3d(0.85, 0.0, 0.75), 4);
+  ASSERT_TRUE(snap);
+  hd::DeviceSample s;
+  s.end_effectors = 1;
+  s.ee[0].enabled = true;
+  s.ee[0].position_H = Eigen::Vector3d(0, 0, 0.87 - 0.95);  // the tip (radius 20 mm) 2 cm above the top
+  hs::TickOutput out;
+  for (int i = 0; i < 50; ++i) {  // warm up, the tool lowered 25 mm: 5 mm into the top
+    s.t_ns += 1'000'000;
+    s.ee[0].position_H.z() -= 0.0005;
+    out = hs::TickOutput{};
+    task.tick(s, *snap, out);
+  }
+  hemm::test::count_allocations_on_this_thread(true);
+  const std::uint64_t before = hemm::test::counted_allocations();
+  for (int i = 0; i < 200; ++i) {
+    s.t_ns += 1'000'000;
+    out = hs::TickOutput{};
+    task.tick(s, *snap, out);
+  }
+  const std::uint64_t allocs = hemm::test::counted_allocations() - before;
+  hemm::test::count_allocations_on_this_thread(false);
+  EXPECT_EQ(allocs, 0u);
+  EXPECT_STREQ(out.renderer, "tool6");
+  EXPECT_EQ(out.work, tool.work());
+  EXPECT_GT(tool.state().contact.contacts, 0);
+  EXPECT_GT(out.work, 0);
+  const double c = tool.budget().stats().ns_per_unit;
+  // No tick had more than its time at the lowest cost per unit the run saw.
+  EXPECT_LE(out.work, std::min<std::int64_t>(p.tool6.budget,
+                                             static_cast<std::int64_t>(100'000 / tool.budget().stats().min_ns_per_unit) + 1));
+  EXPECT_EQ(tool.budget().stats().ticks, 250u);
+  out = hs::TickOutput{};
+  out.deadline_ns = 1;  // long gone
+  task.tick(s, *snap, out);
+  EXPECT_GT(out.work, 0);
+  EXPECT_LE(out.work, std::max(static_cast<std::int64_t>(12'500 / c) + 1, hemm::vps::coarsest_level_work(tool.tool().shell)));
 }
 
 // Issue 23 item 7: the 6-DoF tool's contact state belongs to one voxmap
@@ -566,6 +631,11 @@ TEST(Tick, NeverAllocatesOrFrees) {
   hemm::test::count_allocations_on_this_thread(false);
   EXPECT_EQ(allocs, 0u);
   EXPECT_EQ(frees, 0u);
+  // What rendered the tick, and its work (the proxy's surface evaluations).
+  const hs::TickOutput out = r.tick(*snap, H(0, 0, 0));
+  EXPECT_STREQ(out.renderer, "proxy2d");
+  EXPECT_EQ(out.work, static_cast<std::int64_t>(r.task.proxy().work));
+  EXPECT_GT(out.work, 0);
   EXPECT_GE(r.task.mode_switches(), 2u);
   EXPECT_GE(r.task.estop_presses(), 2u);
 }
@@ -591,6 +661,7 @@ TEST(Probe3d, PublishesWhereTheProbeIsWithoutAllocating) {
   const ho::ProbePosition* pos = box.take();
   ASSERT_NE(pos, nullptr);
   EXPECT_TRUE(pos->active);
+  EXPECT_STREQ(r.tick(*snap, H(0.01, -0.01, 0.005)).renderer, "point_probe");
   EXPECT_TRUE(pos->p_W.isApprox(r.task.probe3d().proxy_W, 1e-12));
   // No voxmap: the proxy is at the goal, the stylus mapped around the robot
   // at W (1.5, 1.0) facing +y (centred: 0.9 m ahead, 0.85 m high).

@@ -11,6 +11,7 @@
 
 #include <gtest/gtest.h>
 
+#include "common/sim/mujoco_owner.h"
 #include "robot_side/sim/mujoco_ray_caster.h"
 #include "tests/temp_dir.h"
 
@@ -20,21 +21,17 @@ namespace hm = hemm::mapping;
 namespace {
 
 struct Sim {
+  hemm::sim::MujocoOwner mj;  // throws (failing the test) if the scene does not load
   mjModel* m = nullptr;
   mjData* d = nullptr;
   explicit Sim(const std::string& body) {
     static const std::string dir = hemm::test::make_temp_dir();  // one per test process
     const std::string path = dir + "/depth_camera_test.xml";
     std::ofstream(path) << "<mujoco><worldbody>" << body << "</worldbody></mujoco>";
-    char err[512] = "";
-    m = mj_loadXML(path.c_str(), nullptr, err, sizeof err);
-    EXPECT_NE(m, nullptr) << err;
-    d = mj_makeData(m);
+    mj = hemm::sim::MujocoOwner::from_file(path);
+    m = mj.m();
+    d = mj.d();
     mj_forward(m, d);
-  }
-  ~Sim() {
-    mj_deleteData(d);
-    mj_deleteModel(m);
   }
 };
 

@@ -253,9 +253,16 @@ TEST(SimulatedRobot, PacedSteppingNeverRunsAheadOfTheClock) {
   hr::SimulatedRobot r;
   ASSERT_FALSE(r.load(hemm::config::RobotConfig(), kScene));
   const int64_t t0 = hr::steady_now_ns();
-  const hr::PacingStats st = hr::step_realtime(r, 100);
+  hemm::rt::TimingStats timing;
+  const hr::PacingStats st = hr::step_realtime(r, 100, &timing);
   const int64_t wall = hr::steady_now_ns() - t0;
   EXPECT_EQ(st.steps, 100);
+  // Every step is in the deadline histograms; none woke early.
+  EXPECT_EQ(timing.ticks.load(), 100u);
+  EXPECT_EQ(timing.compute.count(), 100u);
+  EXPECT_EQ(timing.period.count(), 99u);
+  EXPECT_EQ(timing.wake_latency.max_ns(), st.max_lateness_ns);
+  EXPECT_EQ(timing.worst.sorted().size(), 10u);
   // 100 steps at 1 kHz: step 99 starts no earlier than 99 ms after the first
   // (a lower bound only: the shared machine may stall us for longer).
   EXPECT_GE(wall, 99'000'000);

@@ -27,7 +27,8 @@ struct RobotSide {
   config::RobotConfig cfg;
   std::string scene;
 
-  RobotSide(const config::RobotConfig& c, const net::Key& key, std::string scene_path)
+  // control_cpu: pin the station's control thread there (-1: not pinned).
+  RobotSide(const config::RobotConfig& c, const net::Key& key, std::string scene_path, int control_cpu = -1)
       : cfg(c), scene(std::move(scene_path)) {
     robot::RobotServerOptions o;
     o.session_port = 0;
@@ -37,6 +38,7 @@ struct RobotSide {
     server = std::make_unique<robot::RobotServer>(io, o);
     robot::RobotStationOptions so;
     so.state_rate_hz = cfg.net().state_rate_hz();
+    so.control_thread.cpu = control_cpu;
     station = std::make_unique<robot::RobotStation>(io, *server, so);
   }
   void start() {

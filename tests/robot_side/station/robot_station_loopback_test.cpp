@@ -17,6 +17,7 @@
 #include <vector>
 
 #include <gtest/gtest.h>
+#include <sched.h>
 #include <spdlog/spdlog.h>
 
 #include "config_robot.pb.h"
@@ -57,7 +58,8 @@ bool wait_until(const std::function<bool()>& pred, double timeout_s) {
 
 // The robot station: server + station on one network thread.
 struct RobotSide : hemm::test::RobotSide {
-  explicit RobotSide(const hemm::config::RobotConfig& c) : hemm::test::RobotSide(c, test_key(), kScene) {}
+  explicit RobotSide(const hemm::config::RobotConfig& c, int control_cpu = -1)
+      : hemm::test::RobotSide(c, test_key(), kScene, control_cpu) {}
 };
 
 struct StateRec {
@@ -433,6 +435,52 @@ TEST(RobotStationLoopback, StreamsStateAtRateAndChunkedScans) {
   const auto st = robot.station->statistics();
   EXPECT_EQ(st.send_failures, 0u);
   EXPECT_GT(st.states_sent, 0u);
+
+  // The 1 kHz control loop's deadline histograms: every step is in them, and
+  // the worst steps say what ran (a state at 250 Hz, a scan at 30 + 10 Hz).
+  const hemm::rt::TimingSummary& ct = st.control_timing;
+  std::printf("control loop: %s\n  worst: %s\n", hemm::rt::to_string(ct).c_str(),
+              hemm::rt::worst_ticks_text(ct.worst).c_str());
+  EXPECT_EQ(ct.ticks, st.sim_steps);
+  EXPECT_EQ(ct.compute.count, ct.ticks);
+  EXPECT_EQ(ct.period.count + 1, ct.ticks);
+  EXPECT_EQ(ct.period_target_us, 1000.0);
+  // (No figure is asserted: the control thread is a normal one here, and on
+  // a loaded machine it falls behind and catches up with steps back to back.)
+  EXPECT_LE(ct.misses, ct.ticks);
+  std::uint64_t binned = 0;
+  for (const auto& b : ct.compute.bins) binned += b.count;
+  EXPECT_EQ(binned, ct.compute.count);
+  ASSERT_EQ(ct.worst.size(), 10u);
+  for (const auto& w : ct.worst) {
+    const std::string what = w.what;
+    EXPECT_TRUE(what == "step" || what == "state" || what == "scan") << what;
+  }
+}
+
+// The control thread pinned to a CPU this process may run on; a CPU it may
+// not is refused by start() with the reason, and nothing starts.
+TEST(RobotStationLoopback, ControlThreadPinningIsAcceptedOrRefused) {
+  {
+    RobotSide bad(test_config(), 4096);
+    std::string err;
+    ASSERT_TRUE(bad.server->start(&err)) << err;
+    ASSERT_FALSE(bad.station->load(bad.cfg, bad.scene));
+    EXPECT_FALSE(bad.station->start(&err));
+    EXPECT_NE(err.find("control thread cpu: CPU 4096 does not exist"), std::string::npos) << err;
+    EXPECT_FALSE(bad.station->running());
+  }
+  cpu_set_t set;
+  CPU_ZERO(&set);
+  ASSERT_EQ(sched_getaffinity(0, sizeof set, &set), 0);
+  int cpu = 0;
+  while (!CPU_ISSET(cpu, &set)) ++cpu;
+  RobotSide robot(test_config(), cpu);
+  robot.start();
+  sleep_s(0.3);
+  const auto st = robot.station->statistics();
+  EXPECT_EQ(st.control_timing.cpu, cpu);
+  EXPECT_GT(st.control_timing.ticks, 100u);
 }
 
 // v = 0.3 m/s at 100 Hz moves the base at ~v (odometry and ground truth); each

@@ -7,6 +7,8 @@
 #include <gtest/gtest.h>
 #include <mujoco/mujoco.h>
 
+#include "common/sim/mujoco_owner.h"
+
 #include <cmath>
 
 #include "config_robot.pb.h"
@@ -29,10 +31,9 @@ TEST(SimViewFrame, PosesTheSceneAndCarriesTheWeightInItsContacts) {
   EXPECT_EQ(f.t_ns, robot.time_ns());
 
   // MuJoCo's own copy of the scene, posed from the frame.
-  char err[1000] = "";
-  mjModel* m = mj_loadXML(kScene.c_str(), nullptr, err, sizeof err);
-  ASSERT_NE(m, nullptr) << err;
-  mjData* d = mj_makeData(m);
+  const hemm::sim::MujocoOwner mj = hemm::sim::MujocoOwner::from_file(kScene);
+  mjModel* m = mj.m();
+  mjData* d = mj.d();
   ASSERT_EQ(f.qpos.size(), static_cast<std::size_t>(m->nq));
   std::copy(f.qpos.begin(), f.qpos.end(), d->qpos);
   mj_kinematics(m, d);
@@ -55,8 +56,6 @@ TEST(SimViewFrame, PosesTheSceneAndCarriesTheWeightInItsContacts) {
   const double weight = m->body_subtreemass[base] * -m->opt.gravity[2];
   EXPECT_GE(floor_contacts, 4);
   EXPECT_NEAR(fz, weight, 0.02 * weight) << "mass " << m->body_subtreemass[base];
-  mj_deleteData(d);
-  mj_deleteModel(m);
 }
 
 hr::RangeScanData scan(const char* name, std::int64_t stamp) {

@@ -6,7 +6,9 @@
 // the rendered wrench reaches the hand, and read/write allocate nothing.
 #include "operator/device/bimanual/simulated_bimanual_device.h"
 
+#include <chrono>
 #include <cmath>
+#include <thread>
 
 #include <gtest/gtest.h>
 
@@ -134,4 +136,104 @@ TEST(SimulatedBimanualDevice, ReadAndWriteAllocateNothing) {
 TEST(SimulatedBimanualDevice, RejectsNullScripts) {
   hb::SimulationConfig c;
   EXPECT_THROW(hb::SimulatedBimanualDevice(c, {nullptr, nullptr}), std::invalid_argument);
+}
+
+// Lock-step (the default) is the period as it always was: the controllers on
+// the plant's readings, the plant one period with their torques, the
+// hands where their scripts want them at the period's end. Written out here
+// from the controller and the plant alone, bit for bit.
+TEST(SimulatedBimanualDevice, LockStepIsTheControllersThenThePlantTickForTick) {
+  hb::SimulationConfig c;
+  c.plant.handles = {hb::HandleKind::kGripForce, hb::HandleKind::kMagneticClutch};
+  const auto hands = holding(c);
+  hb::SimulatedBimanualDevice dev(c, hands);
+  hb::BimanualPlant plant(c.plant);
+  hb::BimanualController ctrl(c.plant.rig, c.plant.handles, c.control, c.plant.control_period_s);
+  std::array<hb::ArmInput, 2> in{};
+  std::array<hb::ArmOutput, 2> out{};
+  for (std::size_t a = 0; a < 2; ++a) {
+    in[a].q = plant.reading(static_cast<hb::ArmSide>(a)).q;
+    in[a].qd = plant.reading(static_cast<hb::ArmSide>(a)).qd;
+  }
+  ctrl.update(in, out);
+  hd::DeviceSample s;
+  for (int k = 0; k < 400; ++k) {
+    hd::DeviceCommand cmd;
+    cmd.ee[0].force_H = Vector3d(3.0 * std::sin(0.01 * k), 2.0, -1.0);
+    cmd.ee[1].torque_H = Vector3d(0.0, 0.3 * std::cos(0.02 * k), 0.0);
+    cmd.ee[0].grip_force = 0.5;
+    dev.read(s);
+    dev.write(cmd);
+    std::array<hb::ArmActuation, 2> act;
+    for (std::size_t a = 0; a < 2; ++a) {
+      const hb::ArmReading& r = plant.reading(static_cast<hb::ArmSide>(a));
+      in[a].q = r.q;
+      in[a].qd = r.qd;
+      in[a].ft_J7 = r.ft_J7;
+      in[a].w_env_D << cmd.ee[a].force_H, cmd.ee[a].torque_H;
+      if (in[a].enabled != r.powered) ctrl.reset();
+      in[a].enabled = r.powered;
+    }
+    ctrl.update(in, out);
+    for (std::size_t a = 0; a < 2; ++a) {
+      act[a].tau = out[a].tau;
+      act[a].grip_force = cmd.ee[a].grip_force;
+      act[a].power = true;
+    }
+    const double t = plant.time_s() + c.plant.control_period_s;
+    plant.step(act, {hands[0]->at(t), hands[1]->at(t)});
+    for (std::size_t a = 0; a < 2; ++a) {
+      const auto side = static_cast<hb::ArmSide>(a);
+      ASSERT_EQ(dev.simulation().output(side).tau, out[a].tau) << "tick " << k;
+      ASSERT_EQ(dev.simulation().reading(side).q, plant.reading(side).q) << "tick " << k;
+      ASSERT_EQ(dev.simulation().reading(side).qd, plant.reading(side).qd) << "tick " << k;
+      ASSERT_EQ(dev.reading(side).ft_J7, plant.reading(side).ft_J7) << "tick " << k;
+    }
+  }
+  EXPECT_EQ(dev.simulated_hardware(), nullptr);
+}
+
+// Threaded: the plant and the hands on their own thread; the servo side's
+// read()/write() take the newest timestamped readings and hand over joint
+// torques without allocating; the arms hold where the humans hold them.
+TEST(SimulatedBimanualDevice, ThreadedThePlantStepsApartAndTheServoSideAllocatesNothing) {
+  hb::SimulationConfig c;
+  hb::SimulatedBimanualDevice dev(c, holding(c));
+  hd::DeviceSample s0, s;
+  dev.read(s0);
+  hd::HardwareStart how;
+  how.mode = hd::HardwareMode::kThreaded;
+  std::vector<std::string> warnings;
+  dev.start(how, &warnings);
+  ASSERT_NE(dev.simulated_hardware(), nullptr);
+  hd::DeviceCommand none;
+  const auto before = hemm::test::counted_allocations();
+  std::int64_t last = 0;
+  int newer = 0;
+  for (int k = 0; k < 600; ++k) {
+    hemm::test::count_allocations_on_this_thread(true);
+    dev.read(s);
+    dev.write(none);
+    hemm::test::count_allocations_on_this_thread(false);
+    ASSERT_GE(s.measured_ns, last);
+    if (s.measured_ns > last) ++newer;
+    last = s.measured_ns;
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  dev.stop();
+  EXPECT_EQ(hemm::test::counted_allocations() - before, 0u);
+  EXPECT_GT(newer, 50);  // new samples keep coming (one per plant period; fewer on a loaded machine)
+  const hd::SimulatedHardwareStats& hw = *dev.simulated_hardware();
+  EXPECT_GT(hw.commands_new.load(), 50u);
+  EXPECT_NEAR(dev.simulation().time_s(), static_cast<double>(hw.timing.ticks.load()) * c.plant.control_period_s,
+              1e-9);
+  for (std::size_t a = 0; a < 2; ++a) {
+    EXPECT_TRUE(s.ee[a].enabled);
+    EXPECT_LT((s.ee[a].position_H - s0.ee[a].position_H).norm(), 0.005) << "arm " << a;
+  }
+  EXPECT_TRUE(std::isfinite(dev.min_arm_arm_m()));
+  // Lock-step again after stop(): a write steps the plant once more.
+  const double t = dev.simulation().time_s();
+  dev.write(none);
+  EXPECT_NEAR(dev.simulation().time_s(), t + c.plant.control_period_s, 1e-12);
 }
