@@ -4,7 +4,7 @@
 Input: a --station-json of hemm-operator (any run: the networked station, the
 bimanual device, a VPS scene: its "timing" object) or of hemm-robot (its
 "control_timing"), or hemm-robot's --stats-json (robot.control_timing). They
-hold proto/report.proto's ServoTiming: log-spaced histograms (32 bins per
+hold proto/report.proto's ServoTiming: log-spaced histograms (128 bins per
 octave of microseconds) of the loop's wake lateness, compute and period, the
 ten worst ticks with what ran in them, and, beside a servo loop, the
 SIMULATED hardware thread's own timing.
@@ -65,7 +65,7 @@ def panel(ax, t, title):
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("us")
-    ax.set_ylabel("ticks per bin (bins: 1/32 octave)")
+    ax.set_ylabel("ticks per bin (bins: 1/128 octave)")
     ax.axvline(period, color="k", linestyle="--", linewidth=0.8, label=f"period {period:.0f} us")
     ax.axvline(late, color="tab:red", linestyle=":", linewidth=0.8, label=f"late wake > {late:.0f} us")
     ticks = int(num(t.get("ticks")))

@@ -18,36 +18,41 @@ namespace {
 
 using H = LogHistogram;
 
-TEST(LogHistogram, BinsAreThirtyTwoPerOctaveOfMicroseconds) {
-  EXPECT_EQ(H::kBins, 2 + 20 * 32);
+TEST(LogHistogram, BinsAreOneHundredTwentyEightPerOctaveOfMicroseconds) {
+  EXPECT_EQ(H::kBins, 2 + 20 * 128);
   EXPECT_EQ(H::bin_of(-5), 0);
   EXPECT_EQ(H::bin_of(0), 0);
   EXPECT_EQ(H::bin_of(999), 0);
   EXPECT_EQ(H::bin_of(1000), 1);
-  // [1, 2) us in 32 bins of 31.25 ns: the second starts at 1031.25 ns.
-  EXPECT_EQ(H::bin_of(1031), 1);
-  EXPECT_EQ(H::bin_of(1032), 2);
-  EXPECT_DOUBLE_EQ(H::lower_ns(2), 1031.25);
-  EXPECT_EQ(H::bin_of(1999), 32);
-  EXPECT_EQ(H::bin_of(2000), 33);
-  // 1 ms: octave [512, 1024) us of 16 us bins; 1000 us is in [992, 1008).
-  EXPECT_EQ(H::bin_of(1'000'000), 1 + 9 * 32 + 30);
-  EXPECT_DOUBLE_EQ(H::lower_ns(1 + 9 * 32 + 30), 992'000.0);
-  EXPECT_DOUBLE_EQ(H::upper_ns(1 + 9 * 32 + 30), 1'008'000.0);
+  // [1, 2) us in 128 bins of 7.8125 ns: the second starts at 1007.8125 ns.
+  EXPECT_EQ(H::bin_of(1007), 1);
+  EXPECT_EQ(H::bin_of(1008), 2);
+  EXPECT_DOUBLE_EQ(H::lower_ns(2), 1007.8125);
+  EXPECT_EQ(H::bin_of(1999), 128);
+  EXPECT_EQ(H::bin_of(2000), 129);
+  // 1 ms: octave [512, 1024) us of 4 us bins; 1000 us is in [1000, 1004).
+  EXPECT_EQ(H::bin_of(1'000'000), 1 + 9 * 128 + 122);
+  EXPECT_DOUBLE_EQ(H::lower_ns(1 + 9 * 128 + 122), 1'000'000.0);
+  EXPECT_DOUBLE_EQ(H::upper_ns(1 + 9 * 128 + 122), 1'004'000.0);
+  // 1.1 ms (the period target): octave [1024, 2048) us of 8 us bins, so
+  // 1095.999 us and 1.1 ms fall in neighbouring bins [1088, 1096), [1096, 1104).
+  EXPECT_EQ(H::bin_of(1'095'999), 1 + 10 * 128 + 8);
+  EXPECT_EQ(H::bin_of(1'100'000), 1 + 10 * 128 + 9);
+  EXPECT_DOUBLE_EQ(H::lower_ns(1 + 10 * 128 + 9), 1'096'000.0);
   // The last regular bin ends at 2^20 us; then the overflow bin.
   EXPECT_EQ(H::bin_of((1000LL << 20) - 1), H::kBins - 2);
   EXPECT_EQ(H::bin_of(1000LL << 20), H::kBins - 1);
   EXPECT_EQ(H::bin_of(1'000'000'000'000LL), H::kBins - 1);
   EXPECT_TRUE(std::isinf(H::upper_ns(H::kBins - 1)));
-  // Every bin from 4 us up has integer edges, holds its lower edge and the
-  // nanosecond before its upper one, and is 1/64 to 1/32 of its value wide.
-  for (int i = 1 + 2 * 32; i < H::kBins - 1; ++i) {
+  // Every bin from 16 us up has integer edges, holds its lower edge and the
+  // nanosecond before its upper one, and is 1/256 to 1/128 of its value wide.
+  for (int i = 1 + 4 * 128; i < H::kBins - 1; ++i) {
     const double lo = H::lower_ns(i), hi = H::upper_ns(i);
     ASSERT_EQ(lo, std::floor(lo)) << i;
     EXPECT_EQ(H::bin_of(static_cast<std::int64_t>(lo)), i);
     EXPECT_EQ(H::bin_of(static_cast<std::int64_t>(hi) - 1), i);
-    EXPECT_GE((hi - lo) / lo, 1.0 / 64 - 1e-12);
-    EXPECT_LE((hi - lo) / lo, 1.0 / 32 + 1e-12);
+    EXPECT_GE((hi - lo) / lo, 1.0 / 256 - 1e-12);
+    EXPECT_LE((hi - lo) / lo, 1.0 / 128 + 1e-12);
   }
 }
 
@@ -56,13 +61,14 @@ TEST(LogHistogram, QuantilesOfAKnownSampleAreTheirBinsCentres) {
   EXPECT_EQ(h.quantile_ns(0.5), 0.0);
   for (int i = 1; i <= 1000; ++i) h.record(i * 1000LL);  // 1 us .. 1 ms
   EXPECT_EQ(h.count(), 1000u);
-  // 500th smallest = 500 us, in [496, 504) us.
-  EXPECT_DOUBLE_EQ(h.quantile_ns(0.5), 500'000.0);
-  // 990th smallest = 990 us, in [976, 992) us.
-  EXPECT_DOUBLE_EQ(h.quantile_ns(0.99), 984'000.0);
-  // The smallest: 1 us, in [1, 1.03125) us.
-  EXPECT_DOUBLE_EQ(h.quantile_ns(0.0), 1015.625);
-  // The largest, 1 ms, in [992, 1008) us: the centre is 1 ms itself.
+  // 500th smallest = 500 us, in [500, 502) us.
+  EXPECT_DOUBLE_EQ(h.quantile_ns(0.5), 501'000.0);
+  // 990th smallest = 990 us, in [988, 992) us.
+  EXPECT_DOUBLE_EQ(h.quantile_ns(0.99), 990'000.0);
+  // The smallest: 1 us, in [1, 1.0078125) us.
+  EXPECT_DOUBLE_EQ(h.quantile_ns(0.0), 1003.90625);
+  // The largest, 1 ms, in [1000, 1004) us: the centre would be above the
+  // maximum, so the maximum.
   EXPECT_DOUBLE_EQ(h.quantile_ns(1.0), 1'000'000.0);
   EXPECT_EQ(h.max_ns(), 1'000'000);
   EXPECT_DOUBLE_EQ(h.mean_ns(), 500'500.0);
@@ -70,7 +76,7 @@ TEST(LogHistogram, QuantilesOfAKnownSampleAreTheirBinsCentres) {
 
 TEST(LogHistogram, AQuantileIsNeverAboveTheMaximumAndOverflowIsTheMaximum) {
   H h;
-  h.record(5000);  // in [5000, 5125): the centre would be 5062.5
+  h.record(5000);  // in [5000, 5031.25): the centre would be 5015.625
   EXPECT_DOUBLE_EQ(h.quantile_ns(0.5), 5000.0);
   H o;
   o.record(100);

@@ -148,16 +148,16 @@ TEST(ServoHealth, QuantilesOfTheWindowOnly) {
   t.ticks.store(1010);
   t.misses.store(10);
   ho::ServoHealth h = meter.update(t, 1'000'000'000);
-  EXPECT_NEAR(h.period_median_ms, 1.0, 1e-9);  // the log-spaced bin [992, 1008) us, centre
-  EXPECT_NEAR(h.period_p99_ms, 1.0, 1e-9);     // 10 of 1010 is under 1 %
+  EXPECT_NEAR(h.period_median_ms, 1.002, 1e-9);  // the log-spaced bin [1000, 1004) us, centre
+  EXPECT_NEAR(h.period_p99_ms, 1.002, 1e-9);     // 10 of 1010 is under 1 %
   // The plot: the period's bins from 1 ms to 3 ms, log10 of the counts.
   ASSERT_EQ(h.histogram.lines.size(), 3u);
   EXPECT_TRUE(h.histogram.lines[0].x.empty());  // no compute recorded
   const auto& period = h.histogram.lines[2];
   ASSERT_FALSE(period.x.empty());
-  EXPECT_NEAR(period.x.front(), 3.0, 1e-6);                       // log10(1000 us)
+  EXPECT_NEAR(period.x.front(), std::log10(1002.0), 1e-6);        // [1000, 1004) us, centre
   EXPECT_NEAR(period.y.front(), std::log10(1001.0), 1e-5);        // 1000 ticks in it
-  EXPECT_NEAR(period.x.back(), std::log10(2976.0), 1e-6);         // [2944, 3008) us, centre
+  EXPECT_NEAR(period.x.back(), std::log10(3000.0), 1e-6);         // [2992, 3008) us, centre
   EXPECT_NEAR(period.y.back(), std::log10(11.0), 1e-5);
   EXPECT_EQ(h.window_misses, 10u);
   // Second window: 100 periods of 2.0 ms only.
@@ -165,8 +165,8 @@ TEST(ServoHealth, QuantilesOfTheWindowOnly) {
   t.ticks.store(1110);
   t.misses.store(12);
   h = meter.update(t, 1'500'000'000);
-  EXPECT_NEAR(h.period_median_ms, 2.0, 1e-9);  // [1984, 2016) us
-  EXPECT_NEAR(h.period_p99_ms, 2.0, 1e-9);
+  EXPECT_NEAR(h.period_median_ms, 2.004, 1e-9);  // [2000, 2008) us
+  EXPECT_NEAR(h.period_p99_ms, 2.004, 1e-9);
   EXPECT_EQ(h.window_ticks, 100u);
   EXPECT_EQ(h.window_misses, 2u);
   EXPECT_EQ(h.misses, 12u);

@@ -82,7 +82,7 @@ TEST(VpsConfig, ShippedConfigsRunTheTimeCriticalBudgetAndBadBudgetsAreRefused) {
     config::OperatorConfig cfg;
     ASSERT_FALSE(config::load_operator_config(path, &cfg)) << path;
     const VpsSetup setup = vps_setup(cfg, path);
-    EXPECT_EQ(setup.task.tick_budget_ns, 200'000) << name;
+    EXPECT_EQ(setup.task.tick_budget_ns, 120'000) << name;
     EXPECT_EQ(setup.task.tick_margin_ns, 100'000) << name;
     EXPECT_EQ(setup.task.budget, vps::kUnlimitedWork) << name;
   }
@@ -90,7 +90,7 @@ TEST(VpsConfig, ShippedConfigsRunTheTimeCriticalBudgetAndBadBudgetsAreRefused) {
   config::OperatorConfig cfg;
   ASSERT_FALSE(config::load_operator_config(std::string(HEMM_SOURCE_DIR) + "/deploy/configs/operator_vps_peg.pbtxt", &cfg));
   cfg.mutable_vps()->clear_tick_budget_us();
-  EXPECT_EQ(vps_setup(cfg, "x.pbtxt").task.tick_budget_ns, 200'000);
+  EXPECT_EQ(vps_setup(cfg, "x.pbtxt").task.tick_budget_ns, 120'000);
   auto refused = [](config::OperatorConfig c, const std::string& field) {
     try {
       vps_setup(c, "x.pbtxt");
