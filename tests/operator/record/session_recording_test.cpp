@@ -9,6 +9,7 @@
 #include <gtest/gtest.h>
 #include <numbers>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -470,9 +471,15 @@ TEST(SessionReplay, ReproducesTheRecordedForcesBitForBitAndCatchesAChange) {
   EXPECT_NEAR(c.max_force_error_N, 1e-6, 1e-12);
   EXPECT_EQ(c.max_error_tick, 2500u);
 
-  // The readable part of a truncated copy replays, matching.
+  // The readable part of a truncated copy replays, matching. The cut is
+  // inside a record (a cut that lands on a record's boundary leaves a file a
+  // reader cannot tell from a complete one: the format has no end record; the
+  // run's sizes vary, and 1 run in 8 cut on a boundary when this took 2/3).
   const std::string bytes = read_bytes(path);
-  write_bytes(path, bytes.substr(0, bytes.size() * 2 / 3));
+  std::size_t cut = bytes.size() * 2 / 3;
+  const std::vector<std::size_t> starts = record_starts(bytes);
+  if (std::find(starts.begin(), starts.end(), cut) != starts.end()) ++cut;
+  write_bytes(path, bytes.substr(0, cut));
   ho::Recording part;
   ASSERT_TRUE(ho::load_recording(path, &part).has_value());
   const ho::SessionReplayResult p = ho::replay_session(part, o);

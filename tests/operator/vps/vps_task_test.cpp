@@ -318,16 +318,7 @@ TEST(VpsServoTask, TimeBudgetBuysTheTimeLeftBeforeTheDeadline) {
   ASSERT_GT(task.calibration().samples, 0);
   const double c0 = task.budget_stats().calibrated_ns_per_unit;
   ASSERT_GT(c0, 0.0);
-  // No deadline given: the tick budget over the budgeted cost per unit.
-  servo::TickOutput out;
-  task.tick(in, none, out);
-  EXPECT_STREQ(out.renderer, "vps");
-  EXPECT_GT(out.work, 0);
-  EXPECT_LE(out.work, static_cast<std::int64_t>(40'000 / c0));
-  std::printf("full cycle %lld units; 40 us at %.1f ns/unit (calibrated): %lld units\n",
-              static_cast<long long>(out_full.work), c0, static_cast<long long>(out.work));
-  // The deadline already passed: an eighth of the tick budget, or the
-  // coarsest level (which always completes) when that is more: a coarse force.
+  // The coarsest level alone (it always completes, whatever the budget).
   VpsTaskParams one_unit;
   one_unit.tick_budget_ns = 0;
   one_unit.budget = 1;
@@ -336,6 +327,18 @@ TEST(VpsServoTask, TimeBudgetBuysTheTimeLeftBeforeTheDeadline) {
   coarsest.tick(in, none, out_coarsest);
   EXPECT_GT(out_coarsest.work, 1);
   EXPECT_EQ(coarsest.budget_stats().levels[1], 1u);
+  // No deadline given: the tick budget over the budgeted cost per unit, or
+  // the coarsest level when that is more (under the sanitizer, 40 us bought
+  // 95 units at 419 ns/unit and the coarsest level is 274).
+  servo::TickOutput out;
+  task.tick(in, none, out);
+  EXPECT_STREQ(out.renderer, "vps");
+  EXPECT_GT(out.work, 0);
+  EXPECT_LE(out.work, std::max(static_cast<std::int64_t>(40'000 / c0), out_coarsest.work));
+  std::printf("full cycle %lld units; 40 us at %.1f ns/unit (calibrated): %lld units\n",
+              static_cast<long long>(out_full.work), c0, static_cast<long long>(out.work));
+  // The deadline already passed: an eighth of the tick budget, or the
+  // coarsest level when that is more: a coarse force.
   const double c1 = task.budget_stats().ns_per_unit;
   out = servo::TickOutput{};
   out.deadline_ns = steady_now_ns() - 1;
@@ -378,7 +381,9 @@ TEST(VpsServoTask, TimeBudgetHoldsThePegInHolesPairsToTheirTimeWithoutAllocating
   // Over their time: a preempted tick counts too (this test runs beside
   // other work, without SCHED_FIFO); a cost estimate off by even 2 x would
   // put most of the early-stopped ticks over.
+#ifndef HEMM_SANITIZE  // the instrumentation makes a unit's cost swing 4x (170-758 ns): no time bound holds
   EXPECT_LT(st.over_time, st.stopped_early / 4 + 10);
+#endif
 }
 
 TEST(VpsModel, LoadsMeshFilesThroughTheCache) {
