@@ -3,7 +3,8 @@
 #
 #   cmake --install BUILD --prefix P   P/bin: the user-facing tools below;
 #                                      P/share/hemm: configs/ (with the demo
-#                                      key), scenes/, meshes/
+#                                      key), scenes/, meshes/;
+#                                      P/share/doc/hemm: README.md, docs/
 #   cd BUILD && cpack -G DEB           hemm_<version>_<arch>.deb (prefix /usr)
 #
 # User-facing tools: the two stations (hemm-robot, hemm-operator: record,
@@ -64,6 +65,12 @@ if(TARGET hemm-vps)
       endif()
     endforeach()")
 endif()
+
+# The documentation a user reads: README and docs/ (with its plots) in
+# share/doc/hemm, where Debian keeps a package's documentation.
+install(FILES ${CMAKE_SOURCE_DIR}/README.md DESTINATION ${CMAKE_INSTALL_DOCDIR})
+install(DIRECTORY ${CMAKE_SOURCE_DIR}/docs/ DESTINATION ${CMAKE_INSTALL_DOCDIR}/docs
+        FILES_MATCHING PATTERN "*.md" PATTERN "*.png")
 
 # ---------------------------------------------------------------- Debian package
 # Depends: computed by dpkg-shlibdeps from the installed binaries' shared

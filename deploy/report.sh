@@ -18,7 +18,8 @@
 #   bimanual   the SIMULATED bimanual device's cost per tick (bimanual_bench; ~20 s)
 #   link       the link's hot paths: sealing, opening, replay window (bench_net; ~1 min)
 #   rt         every shipped operator config for 60 s, its servo deadlines
-#              (deploy/rt_table.sh; ~12 min), and the histogram plot of the
+#              (deploy/rt_table.sh; ~12 min), beside the machine's own floor
+#              (cyclictest from rt-tests, if installed), and the histogram plot of the
 #              VPS peg-in-hole with the bimanual device; or, with --rt-table
 #              FILE, the table deploy/rt_table.sh wrote elsewhere, imported
 #   rt-compile the same with a compile running beside (deploy/rt_table.sh
@@ -173,9 +174,9 @@ for s in ${only//,/ }; do
   vps-budget)
     need bench/vps_budget_bench
     scenes=()
-    # --quick: the Omni's probe only (no meshes to make).
+    # --quick: the Omni's probe only.
     ((quick)) && scenes=("$root/deploy/configs/operator_vps_omni.pbtxt")
-    if ((!quick)) && [[ ! -f "$root/out/vps/assembly-scene.stl" ]]; then
+    if [[ ! -f "$root/out/vps/assembly-scene.stl" || ! -f "$root/out/vps/peg-in-hole-probe.stl" ]]; then
       step "vps-budget: making the VPS scenes (deploy/vps/make_scenes.sh)"
       bash "$root/deploy/vps/make_scenes.sh" "$build" >"$work/make_scenes.log" 2>&1 \
         || { tail -n 20 "$work/make_scenes.log" >&2; echo "report: make_scenes.sh failed" >&2; exit 1; }
@@ -205,6 +206,18 @@ for s in ${only//,/ }; do
     need hemm-robot hemm-operator
     a=()
     ((quick)) && a=(--seconds 3 --only '^operator(_vps_omni)?\.pbtxt$')
+    # The machine's own floor, before hemm runs: how late it wakes a bare
+    # SCHED_FIFO thread every 1 ms (cyclictest, Debian's rt-tests), if present.
+    floor=""
+    if [[ "$s" == rt ]] && command -v cyclictest >/dev/null; then
+      step "rt: cyclictest, the machine alone ($(((quick)) && echo 3 || echo 60) s)"
+      if cyclictest -m -p 80 -i 1000 -D "$(((quick)) && echo 3 || echo 60)" -q -h 5000 --histfile="$work/cyclictest.txt" \
+        >"$work/cyclictest.log" 2>&1; then
+        floor="$("$py" "$tables" cyclictest "$work/cyclictest.txt") "
+      else
+        floor="(cyclictest could not run here: $(tail -n 1 "$work/cyclictest.log")) "
+      fi
+    fi
     [[ "$s" == rt-compile ]] && a+=(--beside-compile)
     step "$s: deploy/rt_table.sh ${a[*]} (about 70 s a configuration)"
     "$root/deploy/rt_table.sh" "$build" "${a[@]}" --out "$work/$s" --table "$work/$s-table.md" \
@@ -212,7 +225,7 @@ for s in ${only//,/ }; do
     # The script's own condition lines (load, RT throttling, pinning) above its table.
     { grep '^- ' "$work/$s/condition.md" | grep -v '^- date:\|^- machine:'; echo; cat "$work/$s/table.md"; } >"$work/$s.md"
     "$py" "$tables" markdown-rows "$work/$s.md" >/dev/null
-    note="Per configuration: its servo loop (misses: a wake more than 0.5 ms late or a tick's work past the next deadline; compute from the wake to the end of the tick's work), the SIMULATED hardware thread beside it, and the robot station's 1 kHz control loop for the networked ones. Each run's histograms: $(rel "$work")/$s/<config>/timing.png."
+    note="${floor}Per configuration: its servo loop (misses: a wake more than 0.5 ms late or a tick's work past the next deadline; compute from the wake to the end of the tick's work), the SIMULATED hardware thread beside it, and the robot station's 1 kHz control loop for the networked ones. Each run's histograms: $(rel "$work")/$s/<config>/timing.png."
     cond="$condition"
     if [[ "$s" == rt-compile ]]; then
       cond="$condition, then a compile started beside the runs by deploy/rt_table.sh --beside-compile (figures reported, no target)"

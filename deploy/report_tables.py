@@ -10,6 +10,8 @@ Subcommands (each prints Markdown on stdout; a bad input exits 2 with a message)
   vps-budget CSV         vps_budget_bench's CSV: per config and budget the share of ticks
                          stopped early, the force and torque error against the full cycle,
                          the time per tick
+  cyclictest HISTFILE    cyclictest's histogram (--histfile, one thread): one line saying how
+                         late the machine alone wakes a SCHED_FIFO thread every 1 ms
   markdown-rows FILE     the Markdown table rows ("|" lines) of a script's output, as they are
   section NAME TITLE     one section of the document, with its heading, command, date, machine
                          and condition (--command, --date, --machine, --condition), the table
@@ -176,6 +178,52 @@ def vps_budget_table(text):
                     out, ["l", "l"] + ["r"] * 8)
 
 
+def cyclictest_line(text, late_us=500):
+    """One sentence from cyclictest's --histfile of one thread: wakes, how many were more than
+    late_us late (beyond the histogram counts as late), the median and p99 of the lateness and
+    its maximum."""
+    bins, total, overflows, maximum = [], None, 0, None
+    for line in text.splitlines():
+        if line.startswith("#"):
+            key, _, value = line[1:].partition(":")
+            key, value = key.strip(), value.strip()
+            try:
+                if key == "Total":
+                    total = int(value.split()[0])
+                elif key == "Histogram Overflows":
+                    overflows = int(value.split()[0])
+                elif key == "Max Latencies":
+                    maximum = int(value.split()[0])
+            except (ValueError, IndexError):
+                raise InputError("cyclictest: bad line %r" % line)
+            continue
+        f = line.split()
+        if not f:
+            continue
+        if len(f) != 2:
+            raise InputError("cyclictest: one thread's histogram expected, got %r" % line)
+        try:
+            bins.append((int(f[0]), int(f[1])))
+        except ValueError:
+            raise InputError("cyclictest: bad line %r" % line)
+    if not bins or total is None or maximum is None:
+        raise InputError("cyclictest: no histogram, total or maximum")
+    if sum(c for _, c in bins) + overflows != total:
+        raise InputError("cyclictest: the histogram does not add up to its total")
+    late = sum(c for b, c in bins if b > late_us) + overflows
+
+    def quantile(q):
+        need, seen = q * total, 0
+        for b, c in bins:
+            seen += c
+            if seen >= need:
+                return "%d" % b
+        return "> %d" % bins[-1][0]
+    return ("The machine alone (cyclictest, SCHED_FIFO 80, memory locked, a 1 ms interval): "
+            "%d of %d wakes more than %d µs late (%.3f %%); lateness median %s µs, p99 %s µs, max %d µs.\n"
+            % (late, total, late_us, 100.0 * late / total if total else 0.0, quantile(0.5), quantile(0.99), maximum))
+
+
 def markdown_rows(text):
     """The Markdown tables in a script's output (runs of "|" lines), as they are, a blank line between."""
     blocks, cur = [], []
@@ -239,6 +287,7 @@ def main(argv):
     sub.add_parser("latency").add_argument("file")
     sub.add_parser("markdown-rows").add_argument("file")
     sub.add_parser("vps-budget").add_argument("file")
+    sub.add_parser("cyclictest").add_argument("file")
     s = sub.add_parser("section")
     s.add_argument("name")
     s.add_argument("title")
@@ -250,7 +299,7 @@ def main(argv):
     m.add_argument("--order", required=True, action="append", help="NAME=TITLE, once per section, in order")
     a = p.parse_args(argv)
     try:
-        if a.cmd in ("bench", "latency", "markdown-rows", "vps-budget"):
+        if a.cmd in ("bench", "latency", "markdown-rows", "vps-budget", "cyclictest"):
             text = open(a.file, encoding="utf-8").read()
             if a.cmd == "bench":
                 try:
@@ -258,7 +307,7 @@ def main(argv):
                 except ValueError as e:
                     raise InputError("%s: not JSON: %s" % (a.file, e))
             sys.stdout.write({"bench": bench_table, "latency": latency_table, "markdown-rows": markdown_rows,
-                              "vps-budget": vps_budget_table}[a.cmd](text))
+                              "vps-budget": vps_budget_table, "cyclictest": cyclictest_line}[a.cmd](text))
         elif a.cmd == "section":
             if a.missing is None and (a.table is None or None in (a.command, a.date, a.machine, a.condition)):
                 raise InputError("section: --table with --command, --date, --machine, --condition, or --missing")

@@ -100,6 +100,36 @@ class VpsBudgetTable(unittest.TestCase):
             rt.vps_budget_table(VPS_BUDGET.splitlines()[0] + "\n")
 
 
+# cyclictest --histfile of one thread: 10 wakes, 2 beyond 500 us (one in the histogram, one over it).
+CYCLICTEST = """# Histogram
+000040 000005
+000060 000003
+000700 000001
+# Total: 000000010
+# Min Latencies: 00040
+# Avg Latencies: 00200
+# Max Latencies: 03000
+# Histogram Overflows: 00001
+"""
+
+
+class Cyclictest(unittest.TestCase):
+    def test_counts_late_wakes_with_the_overflows_and_gives_median_and_p99(self):
+        line = rt.cyclictest_line(CYCLICTEST)
+        self.assertIn("2 of 10 wakes more than 500 µs late (20.000 %)", line)
+        self.assertIn("median 40 µs", line)
+        self.assertIn("p99 > 700 µs", line)  # the 10th wake is past the histogram
+        self.assertIn("max 3000 µs", line)
+
+    def test_a_histogram_that_does_not_add_up_or_is_missing_is_refused(self):
+        with self.assertRaises(rt.InputError):
+            rt.cyclictest_line(CYCLICTEST.replace("Total: 000000010", "Total: 000000011"))
+        with self.assertRaises(rt.InputError):
+            rt.cyclictest_line("# Total: 0\n")
+        with self.assertRaises(rt.InputError):
+            rt.cyclictest_line(CYCLICTEST.replace("000060 000003", "000060 000003 000001"))
+
+
 class Document(unittest.TestCase):
     def sec(self, name, table="| a | b |\n|---|--:|\n| x | 1 |\n"):
         return rt.section(name, "T " + name, "cmd " + name, "2026-01-01", "2 cores", "idle", table)

@@ -28,7 +28,7 @@ TEST(InstalledTree, HoldsItsFilesPrintsUsageAndRunsASessionWithoutPaths) {
   const std::string share = (p / "share/hemm").lexically_normal().string();
 
   {
-    SCOPED_TRACE("the tree: tools, configs, scenes, meshes, key");
+    SCOPED_TRACE("the tree: tools, configs, scenes, meshes, key, docs");
     for (const char* b : {"hemm-robot", "hemm-operator", "hemm-relay", "hemm-truth", "hemm-vps"})
       EXPECT_TRUE(fs::is_regular_file(p / "bin" / b)) << b;
     for (const char* f : {"configs/robot.pbtxt", "configs/operator.pbtxt", "configs/demo.key",
@@ -43,6 +43,9 @@ TEST(InstalledTree, HoldsItsFilesPrintsUsageAndRunsASessionWithoutPaths) {
       std::error_code ec;
       EXPECT_GT(fs::file_size(p / "share/hemm/meshes" / m, ec), 84u) << m;  // a binary STL's header and count
     }
+    // The documentation, where Debian keeps a package's, with the README's plots.
+    for (const char* d : {"README.md", "docs/design.md", "docs/realtime.md", "docs/measurements.md", "docs/img/timing.png"})
+      EXPECT_TRUE(fs::is_regular_file(p / "share/doc/hemm" / d)) << d;
     // Only the user-facing tools: no tests or benchmarks.
     for (const auto& e : fs::directory_iterator(p / "bin"))
       EXPECT_EQ(e.path().filename().string().rfind("hemm-", 0), 0u) << e.path();
