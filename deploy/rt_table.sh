@@ -221,7 +221,7 @@ for name in open(os.path.join(out, "runs.txt")).read().split():
                  f"{n(r['compute_us'].get('p99')):.1f} / {n(r['period_us'].get('p99')):.0f}")
     else:
         rcell = "-"
-    fifo = "yes" if t.get("fifo") else "no"
+    fifo = ("yes" if t.get("fifo") else "no") + (" (wake latency held)" if t.get("wake_latency_held") else "")
     cpu = int(n(t.get("cpu", -1)))
     rows.append(f"| {name} | {ticks} | {misses} ({share:.3f} %) | {n(c.get('median')):.1f} | {n(c.get('p99')):.1f} | "
                 f"{n(p.get('p99')):.1f} | {n(w.get('p99')):.1f} | {wt} | {fifo} / {cpu if cpu >= 0 else '-'} | "

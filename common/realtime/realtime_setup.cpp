@@ -3,6 +3,7 @@
 #include <linux/capability.h>
 #include <pthread.h>
 #include <sched.h>
+#include <fcntl.h>
 #include <sys/mman.h>
 #include <sys/resource.h>
 #include <sys/syscall.h>
@@ -155,6 +156,27 @@ bool lock_memory(RealtimeStatus* status) {
 }
 
 void unlock_memory() noexcept { munlockall(); }
+
+int hold_cpu_wake_latency(RealtimeStatus* status, const std::string& path) {
+  const int fd = ::open(path.c_str(), O_WRONLY | O_CLOEXEC);
+  if (fd < 0) {
+    status->warnings.push_back("CPU wake latency not held (" + path + ": " + errno_text(errno) +
+                               "): idle CPUs may sleep deeply and wake the thread late");
+    return -1;
+  }
+  const std::int32_t zero_us = 0;  // the kernel reads a binary s32 of microseconds
+  if (::write(fd, &zero_us, sizeof zero_us) != static_cast<ssize_t>(sizeof zero_us)) {
+    status->warnings.push_back("CPU wake latency not held (writing " + path + ": " + errno_text(errno) + ")");
+    ::close(fd);
+    return -1;
+  }
+  status->wake_latency_held = true;
+  return fd;
+}
+
+void release_cpu_wake_latency(int fd) noexcept {
+  if (fd >= 0) ::close(fd);  // closing the file ends the request
+}
 
 std::vector<std::string> system_checks(bool fifo, int cpu, const SystemFiles& files) {
   std::vector<std::string> w;

@@ -284,6 +284,7 @@ void fill(report::ServoTiming* t, const TimingSummary& s) {
   t->set_late_wake_threshold_us(s.late_wake_threshold_us);
   t->set_fifo(s.fifo);
   t->set_memory_locked(s.memory_locked);
+  t->set_wake_latency_held(s.wake_latency_held);
   t->set_cpu(s.cpu);
   for (const WorstTick& w : s.worst) {
     report::WorstTick* r = t->add_worst_ticks();

@@ -185,7 +185,7 @@ struct TimingSummary {
   std::vector<WorstTick> worst;  // worst first
   // The loop's set-up (filled by its owner; summarize leaves them).
   double period_target_us = 0, late_wake_threshold_us = 0;
-  bool fifo = false, memory_locked = false;
+  bool fifo = false, memory_locked = false, wake_latency_held = false;
   int cpu = -1;
 };
 

@@ -78,9 +78,12 @@ RealtimeStatus ServoLoop::start() {
   if (thread_.joinable()) throw std::logic_error("ServoLoop: already running");
   RealtimeStatus status;
   if (config_.lock_memory) locked_memory_ = rt::lock_memory(&status);
+  if (config_.realtime) wake_latency_fd_ = rt::hold_cpu_wake_latency(&status);
   auto undo_memory_lock = [this] {
     if (locked_memory_) rt::unlock_memory();
     locked_memory_ = false;
+    rt::release_cpu_wake_latency(wake_latency_fd_);
+    wake_latency_fd_ = -1;
   };
   // The device first: a SIMULATED one may start its hardware thread (below
   // the servo's priority, not pinned: the servo's CPU is the servo's).
@@ -126,6 +129,8 @@ void ServoLoop::stop() {
     rt::unlock_memory();
     locked_memory_ = false;
   }
+  rt::release_cpu_wake_latency(wake_latency_fd_);
+  wake_latency_fd_ = -1;
 }
 
 TimingSummary ServoLoop::summary() const {
@@ -134,6 +139,7 @@ TimingSummary ServoLoop::summary() const {
   t.late_wake_threshold_us = static_cast<double>(config_.late_wake_threshold_ns) * 1e-3;
   t.fifo = last_status_.fifo;
   t.memory_locked = last_status_.memory_locked;
+  t.wake_latency_held = last_status_.wake_latency_held;
   t.cpu = last_status_.pinned ? last_status_.cpu : -1;
   if (const device::SimulatedHardwareStats* hw = device_.simulated_hardware()) {
     SimulatedHardwareSummary h;

@@ -183,6 +183,7 @@ class ServoLoop {
   std::atomic<bool> stop_{false};
   std::atomic<bool> go_{false};
   bool locked_memory_ = false;
+  int wake_latency_fd_ = -1;  // rt::hold_cpu_wake_latency while running (realtime)
   RealtimeStatus last_status_;  // of the last start()
   std::thread thread_;
 };

@@ -338,6 +338,7 @@ bool RobotStation::start(std::string* error) {
 
   shared_->stop.store(false, std::memory_order_release);
   shared_->rt_status = rt::RealtimeStatus{};
+  if (o_.control_thread.fifo) wake_latency_fd_ = rt::hold_cpu_wake_latency(&shared_->rt_status);
   thread_ = std::thread([this] { run(); });
   rt::apply_thread_realtime(thread_, o_.control_thread, &shared_->rt_status);
   for (std::string& w : rt::system_checks(shared_->rt_status.fifo, shared_->rt_status.pinned ? o_.control_thread.cpu : -1))
@@ -359,6 +360,8 @@ void RobotStation::local_estop(bool engaged, const std::string& reason) {
 void RobotStation::stop() {
   shared_->stop.store(true, std::memory_order_release);
   if (thread_.joinable()) thread_.join();
+  rt::release_cpu_wake_latency(wake_latency_fd_);
+  wake_latency_fd_ = -1;
 }
 
 RobotStationStatistics RobotStation::statistics() const {
@@ -412,6 +415,7 @@ RobotStationStatistics RobotStation::statistics() const {
   s.control_timing.period_target_us = static_cast<double>(robot_.timestep_ns()) * 1e-3;
   s.control_timing.late_wake_threshold_us = static_cast<double>(o_.late_wake_threshold_ns) * 1e-3;
   s.control_timing.fifo = sh.rt_status.fifo;
+  s.control_timing.wake_latency_held = sh.rt_status.wake_latency_held;
   s.control_timing.cpu = sh.rt_status.pinned ? sh.rt_status.cpu : -1;
   return s;
 }

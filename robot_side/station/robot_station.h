@@ -196,6 +196,7 @@ class RobotStation {
   std::shared_ptr<Shared> shared_;
   std::shared_ptr<SimViewFeed> view_;
   std::thread thread_;
+  int wake_latency_fd_ = -1;  // rt::hold_cpu_wake_latency while the control loop runs SCHED_FIFO
   bool attached_ = false;
   uint64_t frame_epoch_ = 0;
 };

@@ -6,12 +6,14 @@
 #include "common/realtime/realtime_setup.h"
 
 #include <gtest/gtest.h>
+#include <fcntl.h>
 #include <sched.h>
 #include <unistd.h>
 
 #include <atomic>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <thread>
 
 namespace hemm::rt {
@@ -147,6 +149,32 @@ TEST(SystemChecks, ARealTimeReadyMachineGivesNoWarnings) {
   const std::vector<std::string> w = system_checks(true, 1, f.files);
   ASSERT_EQ(w.size(), 1u);
   EXPECT_NE(w[0].find("unreadable"), std::string::npos) << w[0];
+}
+
+// The wake-latency hold writes the kernel's binary s32 of 0 us and keeps
+// the file open; a file it cannot open is a warning naming it, nothing held.
+TEST(HoldCpuWakeLatency, WritesZeroMicrosecondsAndKeepsTheFileOpenOrWarns) {
+  FakeSystem f;
+  const std::string path = (f.dir / "cpu_dma_latency").string();
+  f.write(path, "");
+  RealtimeStatus st;
+  const int fd = hold_cpu_wake_latency(&st, path);
+  ASSERT_GE(fd, 0);
+  EXPECT_TRUE(st.wake_latency_held);
+  EXPECT_TRUE(st.warnings.empty());
+  EXPECT_EQ(::fcntl(fd, F_GETFD), FD_CLOEXEC);  // open until released, not inherited
+  std::ifstream in(path, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(bytes, std::string(4, '\0'));
+  release_cpu_wake_latency(fd);
+  EXPECT_EQ(::fcntl(fd, F_GETFD), -1);  // closed
+  release_cpu_wake_latency(-1);         // nothing to release: no effect
+
+  RealtimeStatus no;
+  EXPECT_EQ(hold_cpu_wake_latency(&no, (f.dir / "absent" / "cpu_dma_latency").string()), -1);
+  EXPECT_FALSE(no.wake_latency_held);
+  ASSERT_EQ(no.warnings.size(), 1u);
+  EXPECT_NE(no.warnings[0].find("absent/cpu_dma_latency"), std::string::npos) << no.warnings[0];
 }
 
 }  // namespace
