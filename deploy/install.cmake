@@ -70,7 +70,7 @@ endif()
 # share/doc/hemm, where Debian keeps a package's documentation.
 install(FILES ${CMAKE_SOURCE_DIR}/README.md DESTINATION ${CMAKE_INSTALL_DOCDIR})
 install(DIRECTORY ${CMAKE_SOURCE_DIR}/docs/ DESTINATION ${CMAKE_INSTALL_DOCDIR}/docs
-        FILES_MATCHING PATTERN "*.md" PATTERN "*.png")
+        FILES_MATCHING PATTERN "*.md" PATTERN "*.png" PATTERN "data" EXCLUDE)  # data/: a plot's CSVs
 
 # ---------------------------------------------------------------- Debian package
 # Depends: computed by dpkg-shlibdeps from the installed binaries' shared
