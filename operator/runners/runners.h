@@ -81,12 +81,11 @@ std::atomic<bool>* stop_local_run_on_signals();
 // (said on stderr) if the file cannot be written.
 bool write_station_json(const std::string& path, const std::string& json);
 
-// A local run's end: its summary on stdout and, if asked, as JSON (the
-// summary's own, or `json` when given).
+// A local run's end: its summary on stdout and, if asked, as JSON.
 template <typename Summary>
-int finish_local_run(const Summary& s, const std::string& station_json, const std::string& json = {}) {
+int finish_local_run(const Summary& s, const std::string& station_json) {
   std::cout << to_string(s) << std::flush;
-  return write_station_json(station_json, json.empty() ? to_json(s) : json) ? net::kExitOk : net::kExitInternal;
+  return write_station_json(station_json, to_json(s)) ? net::kExitOk : net::kExitInternal;
 }
 
 #ifdef HEMM_DEVICE_VIEW

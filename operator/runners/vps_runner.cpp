@@ -8,9 +8,7 @@
 
 #include "operator/runners/runners.h"
 #include "operator/vps/vps_config.h"
-#include "common/realtime/realtime_setup.h"
 #include "operator/vps/vps_session.h"
-#include "report.pb.h"
 #ifdef HEMM_DEVICE_VIEW
 #include "operator/device/bimanual/simulated_bimanual_device.h"
 #endif
@@ -61,12 +59,7 @@ int run_vps(const config::OperatorConfig& cfg, const OperatorArgs& a) {
     std::cerr << "hemm-operator: " << e.what() << "\n";
     return net::kExitUsage;
   }
-  // The report with the servo loop's histograms, worst ticks and simulated
-  // hardware (ServoTiming, as the other runs report it).
-  report::VpsSession r = to_report(s);
-  servo::fill(r.mutable_timing(), s.timing);
-  std::cout << "servo worst ticks: " << rt::worst_ticks_text(s.timing.worst) << "\n";
-  return finish_local_run(s, a.station_json, config::to_json(r));
+  return finish_local_run(s, a.station_json);
 }
 
 }  // namespace hemm::op::runner

@@ -78,6 +78,7 @@ std::string to_string(const VpsSessionSummary& s) {
   o << "vps session: device " << s.device << ", " << s.end_effectors << " end-effector(s), " << s.objects
     << " object(s), model " << s.model_bytes / 1000 << " kB\n";
   o << "  servo: " << servo::to_string(s.timing) << "\n";
+  o << "  servo worst ticks: " << rt::worst_ticks_text(s.timing.worst) << "\n";
   o << "  vps work per tick: median " << s.vps_compute.median_us << " us, p99 " << s.vps_compute.p99_us << " us, max "
     << s.vps_compute.max_us << " us; max work " << s.stats.max_work << "\n";
   o << "  vps budget: " << to_string(s.budget) << "\n";
@@ -128,6 +129,7 @@ report::VpsSession to_report(const VpsSessionSummary& s) {
   r.set_log_dropped(s.log_dropped);
   r.set_log_failed(s.log_failed);
   to_report(s.budget, r.mutable_budget());
+  servo::fill(r.mutable_timing(), s.timing);  // histograms, worst ticks, simulated hardware
   return r;
 }
 
