@@ -74,17 +74,18 @@ ServoLoop::ServoLoop(device::HapticDevice& device, ServoTask& task, ModelChannel
 
 ServoLoop::~ServoLoop() { stop(); }
 
+void ServoLoop::release_process_realtime() noexcept {
+  if (locked_memory_) rt::unlock_memory();
+  locked_memory_ = false;
+  rt::release_cpu_wake_latency(wake_latency_fd_);
+  wake_latency_fd_ = -1;
+}
+
 RealtimeStatus ServoLoop::start() {
   if (thread_.joinable()) throw std::logic_error("ServoLoop: already running");
   RealtimeStatus status;
   if (config_.lock_memory) locked_memory_ = rt::lock_memory(&status);
   if (config_.realtime) wake_latency_fd_ = rt::hold_cpu_wake_latency(&status);
-  auto undo_memory_lock = [this] {
-    if (locked_memory_) rt::unlock_memory();
-    locked_memory_ = false;
-    rt::release_cpu_wake_latency(wake_latency_fd_);
-    wake_latency_fd_ = -1;
-  };
   // The device first: a SIMULATED one may start its hardware thread (below
   // the servo's priority, not pinned: the servo's CPU is the servo's).
   device::HardwareStart how;
@@ -94,7 +95,7 @@ RealtimeStatus ServoLoop::start() {
   try {
     device_.start(how, &status.warnings);
   } catch (...) {
-    undo_memory_lock();
+    release_process_realtime();
     throw;
   }
   stop_.store(false, std::memory_order_relaxed);
@@ -103,7 +104,7 @@ RealtimeStatus ServoLoop::start() {
     thread_ = std::thread([this] { thread_main(); });
   } catch (...) {
     device_.stop();
-    undo_memory_lock();
+    release_process_realtime();
     throw;
   }
   pthread_setname_np(thread_.native_handle(), "hemm-servo");
@@ -125,12 +126,7 @@ void ServoLoop::stop() {
   go_.notify_one();
   thread_.join();
   device_.stop();
-  if (locked_memory_) {
-    rt::unlock_memory();
-    locked_memory_ = false;
-  }
-  rt::release_cpu_wake_latency(wake_latency_fd_);
-  wake_latency_fd_ = -1;
+  release_process_realtime();
 }
 
 TimingSummary ServoLoop::summary() const {

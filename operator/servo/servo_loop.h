@@ -182,6 +182,7 @@ class ServoLoop {
   std::atomic<std::int64_t> link_rtt_ns_{-1}, link_offset_ns_{0};
   std::atomic<bool> stop_{false};
   std::atomic<bool> go_{false};
+  void release_process_realtime() noexcept;  // undoes start()'s mlockall and wake-latency hold
   bool locked_memory_ = false;
   int wake_latency_fd_ = -1;  // rt::hold_cpu_wake_latency while running (realtime)
   RealtimeStatus last_status_;  // of the last start()
