@@ -92,12 +92,13 @@ t0=$SECONDS
 step() { echo "== [$((SECONDS - t0)) s] $*" >&2; }
 sections=()
 
-# emit NAME COMMAND TABLE_FILE [NOTE]: the section file for NAME.
+# emit NAME COMMAND TABLE_FILE [NOTE [CONDITION]]: the section file for NAME
+# (CONDITION: the run's own, default --condition's).
 emit() {
-  local name="$1" command="$2" table="$3" note="${4:-}"
+  local name="$1" command="$2" table="$3" note="${4:-}" cond="${5:-$condition}"
   local f="$work/section-$name.md"
   "$py" "$tables" section "$name" "${titles[$name]}" --command "$command" --date "$(date -u '+%Y-%m-%d %H:%M UTC')" \
-    --machine "$machine" --condition "$condition" --table "$table" ${note:+--note "$note"} >"$f"
+    --machine "$machine" --condition "$cond" --table "$table" ${note:+--note "$note"} >"$f"
   sections+=("$f")
 }
 missing() {  # NAME REASON
@@ -234,9 +235,7 @@ for s in ${only//,/ }; do
       cp "$work/$s/operator_vps_peg_bimanual/timing.png" "$img/timing.png"
       note+=" The histograms of the VPS peg-in-hole with the SIMULATED bimanual device: ![deadline histograms](img/timing.png)"
     fi
-    saved="$condition"; condition="$cond"
-    emit "$s" "deploy/rt_table.sh $(rel "$build") ${a[*]}" "$work/$s.md" "$note"
-    condition="$saved"
+    emit "$s" "deploy/rt_table.sh $(rel "$build") ${a[*]}" "$work/$s.md" "$note" "$cond"
     ;;
   esac
 done
