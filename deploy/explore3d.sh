@@ -181,6 +181,9 @@ for r in ${rtts//,/ }; do
   args+=(--run "$label=$out/${r}ms/truth.csv")
 done
 png="$tag"
+# home keeps its image (the table top); another scene: its truth region, seen from behind the robot.
+plot_view=()
+[[ "$scene_name" == home ]] || plot_view=(--region "$r0" "$r1" 0.70 "$r3" "$r4" 0.95 --heading "$(awk -v t="$st" 'BEGIN {printf "%.1f", t * 180 / 3.141592653589793}')")
 if ((!plots)); then
   :
 elif [[ "$device" == sim-bimanual ]]; then
@@ -191,7 +194,8 @@ elif [[ "$device" == sim-bimanual ]]; then
 else
   /usr/bin/python3 "$root/deploy/plots/plot_explore3d.py" --wrench "$doc/${png}_wrench.png" \
     --title "6-DoF probe tool on the live voxmap: $scene_name table (SIMULATION)" \
-    --voxmap "$doc/${png}_voxmap.png" --voxcsv "$out/${first}ms/servo.csv.voxmap.csv" "${args[@]}"
+    --voxmap "$doc/${png}_voxmap.png" --voxcsv "$out/${first}ms/servo.csv.voxmap.csv" "${args[@]}" \
+    "${plot_view[@]}"
   echo "explore3d: wrote $doc/${png}_wrench.png and $doc/${png}_voxmap.png" >&2
 fi
 
