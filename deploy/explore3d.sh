@@ -145,6 +145,9 @@ run() {  # RTT_MS
     stream=$((base + 101))
   fi
   sleep 1
+  # A robot that did not start (its port taken by another run on this machine)
+  # must not leave the operator to connect to whatever listens there.
+  kill -0 "$robot" 2>/dev/null || { echo "explore3d: hemm-robot did not start: $(tail -n 1 "$dir/robot.log")" >&2; return 1; }
   local rc=0
   "$bin/hemm-operator" --config "$opcfg_file" "${hand6[@]}" --session-port "$port" --stream-port "$stream" \
     --log "$dir/servo.csv" --duration "$secs" --log-level warn --station-json "$dir/station.json" "${op_view[@]}" \
@@ -188,7 +191,7 @@ if ((!plots)); then
   :
 elif [[ "$device" == sim-bimanual ]]; then
   /usr/bin/python3 "$root/deploy/plots/plot_explore3d.py" --wrench "$doc/${png}_wrench.png" \
-    --title "6-DoF probe tool on the right arm of the SIMULATED bimanual device: $scene_name table (SIMULATION)" \
+    --title "6-DoF tool on the SIMULATED bimanual device's right arm: $scene_name (SIMULATION)" \
     "${args[@]}"
   echo "explore3d: wrote $doc/${png}_wrench.png" >&2
 else

@@ -11,7 +11,8 @@
 #   latency    the loopback latency suite through hemm-relay at 0-1000 ms (latency_suite_test; ~2.5 min)
 #   accuracy   the local model against the scene's truth on every scene (deploy/accuracy.sh; ~12 min)
 #   explore3d  the 6-DoF probe tool on the live voxmap against truth on every table scene
-#              (deploy/explore3d_table.sh; ~2-2.5 min a scene and round trip, 0 and 300 ms)
+#              (deploy/explore3d_table.sh; ~2-2.5 min a scene and round trip, 0 and 300 ms;
+#              its ports from $HEMM_EXPLORE3D_PORT_BASE, default 47300)
 #   vps        the Voxmap-PointShell engine report (hemm-vps report; ~3 min)
 #   vps-budget the time-critical VPS's force error against the full cycle at
 #              budgets from the smallest to the full cycle, on the shipped VPS
@@ -140,7 +141,8 @@ for s in ${only//,/ }; do
     a=()
     ((quick)) && a=(--scenes home --rtts 0)
     step "explore3d: deploy/explore3d_table.sh ${a[*]} (about 2-2.5 min a scene and round trip: the route, then the truth replay)"
-    "$root/deploy/explore3d_table.sh" "$build" "${a[@]}" --out "$work/explore3d" \
+    # HEMM_EXPLORE3D_PORT_BASE: other ports when another run on this machine holds 47300.
+    "$root/deploy/explore3d_table.sh" "$build" "${a[@]}" --port-base "${HEMM_EXPLORE3D_PORT_BASE:-47300}" --out "$work/explore3d" \
       >"$work/explore3d.txt" 2>"$work/explore3d.log" || { tail -n 20 "$work/explore3d.log" >&2; echo "report: explore3d_table.sh failed" >&2; exit 1; }
     # The per-feature table, then each run's whole-run table (force, torque, servo) as explore3d.sh printed it.
     {

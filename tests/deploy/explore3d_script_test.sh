@@ -3,7 +3,8 @@
 # before running anything (exit 2, no station started, no output table), and
 # explore3d.sh reads the route from the scene's header through hemm-operator
 # --print-hand6-route: a scene whose route is malformed or out of reach is
-# refused with the file, line and reason. Nothing runs for long (no station).
+# refused with the file, line and reason; a robot that cannot take its port
+# stops the run before the operator starts. Nothing runs for long.
 # Usage: explore3d_script_test.sh BUILD_DIR
 set -euo pipefail
 build="${1:?usage: explore3d_script_test.sh BUILD_DIR}"
@@ -37,4 +38,15 @@ sed 's/explore6: explore-table    13   0.85  -0.25  0.865 0.35/explore6: explore
 expect2 bash "$e" "$build" --scene "$tmp/far.xml" --out "$tmp/e4" "explore6 explore-table at t = 13 s: the tip (0.850 -0.250 2.200) in R is out of the device's reach"
 expect2 bash "$e" "$build" --route explore-moon --out "$tmp/e5" "no route 'explore-moon'"
 [[ ! -e "$tmp/e3/0ms" && ! -e "$tmp/e4/0ms" ]] || fail "a refused route started a run"
+# A robot port another process holds: the robot does not start, and the
+# operator is not left to connect to whatever listens there.
+coproc HOLD { /usr/bin/python3 -c 'import socket, sys
+s = socket.socket(); s.bind(("127.0.0.1", 0)); s.listen(1); print(s.getsockname()[1], flush=True); sys.stdin.read()'; }
+read -r port <&"${HOLD[0]}"
+rc=0
+bash "$e" "$build" --rtts 0 --port-base "$port" --out "$tmp/e6" --no-plots >"$tmp/out" 2>"$tmp/err" || rc=$?
+eval "exec ${HOLD[1]}>&-"
+((rc != 0)) || fail "a run whose robot could not listen on $port went on"
+grep -qF "hemm-robot did not start" "$tmp/err" || fail "no word on the robot that did not start: $(cat "$tmp/err")"
+[[ ! -e "$tmp/e6/0ms/operator.txt" ]] || fail "the operator was started without its robot"
 echo "explore3d scripts: refusals ok"
