@@ -1,32 +1,41 @@
 #!/usr/bin/env bash
-# 6-DoF exploration of the remote table through the live voxmap (issue 13),
-# SIMULATION ONLY truth. For each round trip it runs hemm-robot
-# (robot_depth.pbtxt: home scene, the robot at W (1.5, 1.0) facing the table,
+# 6-DoF exploration of a remote table through the live voxmap (issue 13),
+# SIMULATION ONLY truth. The scene (--scene: home, table_round, table_mixed
+# or an MJCF file; home by default) carries its own route in its header
+# comment (explore6 lines, deploy/scenes/README.md "Exploration routes"): the
+# SIMULATED hand's key poses, each naming the feature it explores, the robot
+# start they assume and the truth region. For each round trip it runs
+# hemm-robot (robot_depth.pbtxt on that scene, started where the header says,
 # SIMULATED mast depth camera), hemm-relay above 0 ms (half the round trip
 # each way, 5 % loss each way), and hemm-operator (operator_explore3d.pbtxt:
 # the robot's probe tool as a VPS pointshell on the live voxmap, held by a
-# SIMULATED rigid 6-DoF scripted hand that presses and slides on the tops and
-# the robot-facing sides of the block, the book and the mug); then hemm-truth
-# --tool6 replays the logged hand path against a 2.5 mm voxmap of the scene's
-# true geometry with the same tool, contact and coupling. Prints the force and
-# torque error table and the servo's numbers, and writes the plots.
+# SIMULATED rigid 6-DoF scripted hand following the route); then hemm-truth
+# --tool6 replays the logged hand path against a 2.5 mm voxmap of the
+# scene's true geometry in the header's region with the same tool, contact
+# and coupling. Prints the force and torque error table, the per-feature
+# table (the route's features) and the servo's numbers, and writes the plots.
 # --device sim-bimanual holds the tool with the right arm of the SIMULATED
 # bimanual device instead (operator_explore3d_bimanual.pbtxt: its SIMULATED
-# human follows the same script and yields to the force; the truth replays the
+# human follows the same route and yields to the force; the truth replays the
 # hand's actual path); output under out/explore3d_bimanual, plot
 # DOC/explore3d_bimanual_wrench.png.
+# Variants (deploy/explore3d_table.sh runs them): --operator-config and
+# --robot-config replace the two configs (the route, the scene and the start
+# are still given on the command line), --operator-arg / --robot-arg pass one
+# more argument each (repeat them), --label names the variant in the output.
 #
-# Usage: deploy/explore3d.sh BUILD_DIR [--device sim-hand6|sim-bimanual] [--rtts 0,300] [--out DIR] [--doc DIR] [--port-base P] [--views]
+# Usage: deploy/explore3d.sh BUILD_DIR [--scene NAME|FILE] [--route NAME] [--device sim-hand6|sim-bimanual] [--rtts 0,300] [--out DIR] [--doc DIR] [--port-base P] [--views] [--no-plots] [--operator-config FILE] [--robot-config FILE] [--operator-arg ARG]... [--robot-arg ARG]... [--label TEXT]
 # (ports P, P+1 for the robot and P+100, P+101 for the relay; P default 47300;
 # --views: both stations write PNGs of their live view every 2 s into
 # DIR/<rtt>ms/{operator,robot}_view/, on the caller's X display.)
-# Takes about 75 s per round trip.
+# Takes about the route's length plus a minute per round trip (home: ~2.5 min).
 set -euo pipefail
 
 usage() {
   sed -n '/^# Usage:/s/^# //p' "${BASH_SOURCE[0]}"
-  echo "Writes DIR/<rtt>ms/{servo.csv*,truth.csv,truth.json,station.json,timing.png,robot_timing.png}; DOC/explore3d_wrench.png and"
-  echo "DOC/explore3d_voxmap.png (DOC default deploy/doc; sim-bimanual: DOC/explore3d_bimanual_wrench.png)."
+  echo "Writes DIR/route.txt, DIR/<rtt>ms/{servo.csv*,truth.csv,truth.json,station.json,timing.png,robot_timing.png}; DOC/explore3d_wrench.png"
+  echo "and DOC/explore3d_voxmap.png (DOC default deploy/doc; another scene: DOC/explore3d_<scene>_*.png; sim-bimanual:"
+  echo "DOC/explore3d_bimanual_wrench.png). DIR default out/explore3d (another scene: out/explore3d_<scene>)."
 }
 build="${1:-}"
 if [[ -z "$build" || "$build" == -h || "$build" == --help ]]; then usage; [[ -n "$build" ]] && exit 0 || exit 2; fi
@@ -38,8 +47,21 @@ doc="$root/deploy/doc"
 device="sim-hand6"
 base=47300
 views=0
+plots=1
+scene=home
+route=explore-table
+opcfg_arg="" robotcfg_arg="" label=""
+op_extra=() robot_extra=()
 while (($#)); do
   case "$1" in
+    --scene) scene="${2:?--scene needs a name or an MJCF file}"; shift 2 ;;
+    --route) route="${2:?--route needs a route name}"; shift 2 ;;
+    --operator-config) opcfg_arg="${2:?--operator-config needs a file}"; shift 2 ;;
+    --robot-config) robotcfg_arg="${2:?--robot-config needs a file}"; shift 2 ;;
+    --operator-arg) op_extra+=("${2?--operator-arg needs an argument}"); shift 2 ;;
+    --robot-arg) robot_extra+=("${2?--robot-arg needs an argument}"); shift 2 ;;
+    --label) label="${2:?--label needs a text}"; shift 2 ;;
+    --no-plots) plots=0; shift ;;
     --port-base) base="${2:?--port-base needs a port}"; shift 2 ;;
     --device) device="${2:?--device needs sim-hand6 or sim-bimanual}"; shift 2 ;;
     --views) views=1; shift ;;
@@ -55,6 +77,18 @@ case "$device" in
   sim-bimanual) opcfg="operator_explore3d_bimanual.pbtxt"; tag="explore3d_bimanual" ;;
   *) echo "explore3d: --device '$device': sim-hand6 or sim-bimanual" >&2; exit 2 ;;
 esac
+if [[ "$scene" == *.xml ]]; then scene_file="$scene"; else scene_file="$root/deploy/scenes/$scene.xml"; fi
+[[ -f "$scene_file" ]] || { echo "explore3d: --scene '$scene': no $scene_file (home, table_round, table_mixed or an MJCF file)" >&2; exit 2; }
+scene_file="$(cd "$(dirname "$scene_file")" && pwd)/$(basename "$scene_file")"
+scene_name="$(basename "$scene_file" .xml)"
+[[ "$scene_name" == home ]] || tag="${tag}_$scene_name"
+opcfg_file="$root/deploy/configs/$opcfg"
+robotcfg_file="$root/deploy/configs/robot_depth.pbtxt"
+for f in "$opcfg_arg" "$robotcfg_arg"; do
+  [[ -z "$f" || -f "$f" ]] || { echo "explore3d: config '$f' not found" >&2; exit 2; }
+done
+[[ -n "$opcfg_arg" ]] && opcfg_file="$opcfg_arg"
+[[ -n "$robotcfg_arg" ]] && robotcfg_file="$robotcfg_arg"
 out="${out:-$root/out/$tag}"
 bin="$build/bin"
 for b in hemm-robot hemm-operator hemm-relay hemm-truth; do
@@ -65,9 +99,18 @@ for r in ${rtts//,/ }; do
   [[ "$r" =~ ^[0-9]+$ ]] || { echo "explore3d: --rtts '$rtts': round trips are whole milliseconds" >&2; exit 2; }
 done
 [[ -x /usr/bin/python3 ]] || { echo "explore3d: /usr/bin/python3 not found (apt-get install python3-matplotlib)" >&2; exit 2; }
-cfg="$root/deploy/configs"
-secs=60  # the explore-table script ends at 58.5 s
 mkdir -p "$out" "$doc"
+# The route as the operator reads it (checked against the SIMULATED hand's
+# reach): the robot's start, the truth region, its end, its features.
+hand6=(--hand6-route "$scene_file" --hand6-script "$route")
+"$bin/hemm-operator" --config "$opcfg_file" "${hand6[@]}" "${op_extra[@]}" --print-hand6-route >"$out/route.txt" \
+  || { echo "explore3d: the route '$route' of $scene_file does not load (above)" >&2; exit 2; }
+read -r _ sx sy st < <(grep '^start ' "$out/route.txt")
+read -r _ r0 r1 r2 r3 r4 r5 < <(grep '^region ' "$out/route.txt")
+read -r _ end_s < <(grep '^end ' "$out/route.txt")
+secs=$(( ${end_s%.*} + 2 ))  # past the route's last key (home's explore-table: 58.5 s -> 60 s)
+printf '%s\n' "${label:-main}" >"$out/label.txt"
+echo "explore3d: scene $scene_name, route $route (${end_s} s), robot at W ($sx, $sy, $st)${label:+, variant: $label}" >&2
 
 pids=()
 cleanup() { for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done; }
@@ -82,8 +125,10 @@ run() {  # RTT_MS
     robot_view=(--view-png "$dir/robot_view" --view-interval 2)
   fi
   echo "explore3d: ${rtt} ms round trip$( ((rtt > 0)) && echo ", 5 % loss each way") ($secs s) -> $dir" >&2
-  "$bin/hemm-robot" --config "$cfg/robot_depth.pbtxt" --session-port "$base" --stream-port $((base + 1)) \
+  "$bin/hemm-robot" --config "$robotcfg_file" --scene "$scene_file" --start "$sx,$sy,$st" \
+    --session-port "$base" --stream-port $((base + 1)) \
     --duration $((secs + 10)) --log-level warn --station-json "$dir/robot_station.json" "${robot_view[@]}" \
+    "${robot_extra[@]}" \
     >"$dir/robot.txt" 2>"$dir/robot.log" &
   local robot=$! relay="" port="$base" stream=$((base + 1))
   pids+=("$robot")
@@ -100,9 +145,13 @@ run() {  # RTT_MS
     stream=$((base + 101))
   fi
   sleep 1
+  # A robot that did not start (its port taken by another run on this machine)
+  # must not leave the operator to connect to whatever listens there.
+  kill -0 "$robot" 2>/dev/null || { echo "explore3d: hemm-robot did not start: $(tail -n 1 "$dir/robot.log")" >&2; return 1; }
   local rc=0
-  "$bin/hemm-operator" --config "$cfg/$opcfg" --session-port "$port" --stream-port "$stream" \
+  "$bin/hemm-operator" --config "$opcfg_file" "${hand6[@]}" --session-port "$port" --stream-port "$stream" \
     --log "$dir/servo.csv" --duration "$secs" --log-level warn --station-json "$dir/station.json" "${op_view[@]}" \
+    "${op_extra[@]}" \
     >"$dir/operator.txt" 2>"$dir/operator.log" || rc=$?
   kill -INT "$robot" 2>/dev/null || true
   wait "$robot" 2>/dev/null || true
@@ -115,12 +164,12 @@ run() {  # RTT_MS
     return "$rc"
   fi
   # The deadline histograms of the servo loop (and the SIMULATED device's own thread) and the robot's control loop.
-  /usr/bin/python3 "$root/deploy/plots/plot_timing.py" "$dir/station.json" --out "$dir/timing.png" \
+  ((plots)) && /usr/bin/python3 "$root/deploy/plots/plot_timing.py" "$dir/station.json" --out "$dir/timing.png" \
     --title "$tag, ${rtt} ms: operator servo loop" >&2
-  /usr/bin/python3 "$root/deploy/plots/plot_timing.py" "$dir/robot_station.json" --out "$dir/robot_timing.png" \
+  ((plots)) && /usr/bin/python3 "$root/deploy/plots/plot_timing.py" "$dir/robot_station.json" --out "$dir/robot_timing.png" \
     --title "$tag, ${rtt} ms: robot control loop" >&2
   echo "explore3d: truth replay (2.5 mm voxmap of the scene) for ${rtt} ms" >&2
-  "$bin/hemm-truth" --scene "$root/deploy/scenes/home.xml" --log "$dir/servo.csv.world.csv" \
+  "$bin/hemm-truth" --scene "$scene_file" --region "$r0" "$r1" "$r2" "$r3" "$r4" "$r5" --log "$dir/servo.csv.world.csv" \
     --tool6 "$dir/servo.csv.tool6.txt" --csv "$dir/truth.csv" --json "$dir/truth.json" >"$dir/truth.txt"
   cat "$dir/truth.txt" >&2
 }
@@ -134,15 +183,23 @@ for r in ${rtts//,/ }; do
   ((r > 0)) && label="$r ms round trip, 5 % loss each way" || label="0 ms (direct)"
   args+=(--run "$label=$out/${r}ms/truth.csv")
 done
-if [[ "$device" == sim-bimanual ]]; then
-  /usr/bin/python3 "$root/deploy/plots/plot_explore3d.py" --wrench "$doc/explore3d_bimanual_wrench.png" \
-    --title "6-DoF probe tool on the right arm of the SIMULATED bimanual device: block, book, mug (SIMULATION)" \
+png="$tag"
+# home keeps its image (the table top); another scene: its truth region, seen from behind the robot.
+plot_view=()
+[[ "$scene_name" == home ]] || plot_view=(--region "$r0" "$r1" 0.70 "$r3" "$r4" 0.95 --heading "$(awk -v t="$st" 'BEGIN {printf "%.1f", t * 180 / 3.141592653589793}')")
+if ((!plots)); then
+  :
+elif [[ "$device" == sim-bimanual ]]; then
+  /usr/bin/python3 "$root/deploy/plots/plot_explore3d.py" --wrench "$doc/${png}_wrench.png" \
+    --title "6-DoF tool on the SIMULATED bimanual device's right arm: $scene_name (SIMULATION)" \
     "${args[@]}"
-  echo "explore3d: wrote $doc/explore3d_bimanual_wrench.png" >&2
+  echo "explore3d: wrote $doc/${png}_wrench.png" >&2
 else
-  /usr/bin/python3 "$root/deploy/plots/plot_explore3d.py" --wrench "$doc/explore3d_wrench.png" \
-    --voxmap "$doc/explore3d_voxmap.png" --voxcsv "$out/${first}ms/servo.csv.voxmap.csv" "${args[@]}"
-  echo "explore3d: wrote $doc/explore3d_wrench.png and $doc/explore3d_voxmap.png" >&2
+  /usr/bin/python3 "$root/deploy/plots/plot_explore3d.py" --wrench "$doc/${png}_wrench.png" \
+    --title "6-DoF probe tool on the live voxmap: $scene_name table (SIMULATION)" \
+    --voxmap "$doc/${png}_voxmap.png" --voxcsv "$out/${first}ms/servo.csv.voxmap.csv" "${args[@]}" \
+    "${plot_view[@]}"
+  echo "explore3d: wrote $doc/${png}_wrench.png and $doc/${png}_voxmap.png" >&2
 fi
 
 /usr/bin/python3 - "$out" "$rtts" <<'PY'
@@ -161,26 +218,10 @@ for r in rtts:
           f"{t['true_torque_peak_nm']:.3f} | {tm['period_us']['median']} / {tm['period_us']['p99']} | "
           f"{tm['misses']} / {tm['ticks']} | {tm['compute_us']['p99']} |")
 
-# Per feature (the explore-table script's phases, tool6_explorer.cpp): force error RMS over contact ticks.
-import csv, math
-phases = [("block top", 6, 15), ("block front side", 16, 22.5), ("block left side", 23, 30), ("book top", 32, 40.5),
-          ("book front side", 41.5, 46.5), ("mug top", 48.5, 52.5), ("mug front side", 53.5, 58.5)]
-print()
-print("| link | " + " | ".join(p[0] for p in phases) + " |")
-print("|---|" + "--:|" * len(phases))
-for r in rtts:
-    rows = list(csv.DictReader(open(os.path.join(out, f"{r}ms", "truth.csv"))))
-    cells = []
-    for name, a, b in phases:
-        e2, n, peak = 0.0, 0, 0.0
-        for x in rows:
-            t = int(x["tick"]) * 1e-3
-            if not (a <= t < b) or (x["contacts"] == "0" and x["contacts_true"] == "0"):
-                continue
-            d = [float(x[k]) - float(x[k.replace("f_", "ft_")]) for k in ("f_x", "f_y", "f_z")]
-            e2 += sum(v * v for v in d)
-            n += 1
-            peak = max(peak, math.sqrt(sum(float(x[k]) ** 2 for k in ("ft_x", "ft_y", "ft_z"))))
-        cells.append(f"{math.sqrt(e2 / n):.2f} N of {peak:.1f} N ({n})" if n else "no contact")
-    print(f"| {r} ms | " + " | ".join(cells) + " |")
 PY
+
+# Per feature (the route's features, from its header): force error RMS over each one's contact ticks.
+echo
+feat=()
+for r in ${rtts//,/ }; do feat+=(--run "$r ms=$out/${r}ms"); done
+/usr/bin/python3 "$root/deploy/report_tables.py" explore3d-features "$out/route.txt" "${feat[@]}"

@@ -10,7 +10,9 @@
 # Sections (in the document's order):
 #   latency    the loopback latency suite through hemm-relay at 0-1000 ms (latency_suite_test; ~2.5 min)
 #   accuracy   the local model against the scene's truth on every scene (deploy/accuracy.sh; ~12 min)
-#   explore3d  the 6-DoF probe tool on the live voxmap against truth (deploy/explore3d.sh; ~2.5 min a round trip, 0 and 300 ms)
+#   explore3d  the 6-DoF probe tool on the live voxmap against truth on every table scene
+#              (deploy/explore3d_table.sh; ~2-2.5 min a scene and round trip, 0 and 300 ms;
+#              its ports from $HEMM_EXPLORE3D_PORT_BASE, default 47300)
 #   vps        the Voxmap-PointShell engine report (hemm-vps report; ~3 min)
 #   vps-budget the time-critical VPS's force error against the full cycle at
 #              budgets from the smallest to the full cycle, on the shipped VPS
@@ -137,13 +139,22 @@ for s in ${only//,/ }; do
   explore3d)
     need hemm-robot hemm-operator hemm-relay hemm-truth
     a=()
-    ((quick)) && a=(--rtts 0)
-    step "explore3d: deploy/explore3d.sh ${a[*]} (about 2.5 min a round trip: a 60 s run, then the truth replay)"
-    "$root/deploy/explore3d.sh" "$build" "${a[@]}" --out "$work/explore3d" --doc "$work/explore3d" \
-      >"$work/explore3d.txt" 2>"$work/explore3d.log" || { tail -n 20 "$work/explore3d.log" >&2; echo "report: explore3d.sh failed" >&2; exit 1; }
-    "$py" "$tables" markdown-rows "$work/explore3d.txt" >"$work/explore3d.md"
-    emit explore3d "deploy/explore3d.sh $(rel "$build") ${a[*]}" "$work/explore3d.md" \
-      "First table: the whole run; second: force error RMS over each feature's contact ticks, of the true peak there (ticks)."
+    ((quick)) && a=(--scenes home --rtts 0)
+    step "explore3d: deploy/explore3d_table.sh ${a[*]} (about 2-2.5 min a scene and round trip: the route, then the truth replay)"
+    # HEMM_EXPLORE3D_PORT_BASE: other ports when another run on this machine holds 47300.
+    "$root/deploy/explore3d_table.sh" "$build" "${a[@]}" --port-base "${HEMM_EXPLORE3D_PORT_BASE:-47300}" --out "$work/explore3d" \
+      >"$work/explore3d.txt" 2>"$work/explore3d.log" || { tail -n 20 "$work/explore3d.log" >&2; echo "report: explore3d_table.sh failed" >&2; exit 1; }
+    # The per-feature table, then each run's whole-run table (force, torque, servo) as explore3d.sh printed it.
+    {
+      cat "$work/explore3d/table.md"
+      for f in "$work"/explore3d/*/variant*.txt; do
+        v="${f%.txt}"
+        printf '\n%s, %s:\n\n' "$(basename "$(dirname "$f")")" "$(cat "$v/label.txt")"
+        awk '/^\|/ {p = 1; print; next} p {exit}' "$f"
+      done
+    } >"$work/explore3d.md"
+    emit explore3d "deploy/explore3d_table.sh $(rel "$build") ${a[*]}" "$work/explore3d.md" \
+      "First table: per scene, the force error RMS over each feature's contact ticks (the features of the scene's route, from its header) and over the whole run, of the true force's peak there (its share); columns: round trip and variant. Then each run's whole-run force and torque errors and its servo timing."
     ;;
   vps)
     need hemm-vps

@@ -12,6 +12,14 @@ Subcommands (each prints Markdown on stdout; a bad input exits 2 with a message)
                          the time per tick
   cyclictest HISTFILE    cyclictest's histogram (--histfile, one thread): one line saying how
                          late the machine alone wakes a SCHED_FIFO thread every 1 ms
+  explore3d-features ROUTE_TXT --run LABEL=RUN_DIR...
+                         deploy/explore3d.sh's per-feature table: one row per run (RUN_DIR/truth.csv),
+                         one column per feature of the route (ROUTE_TXT: hemm-operator
+                         --print-hand6-route), each "RMS error of the true peak (% of it), contact ticks"
+  explore3d-table --run SCENE|VARIANT|RTT=OUT...
+                         deploy/explore3d_table.sh's table: per scene its features and the whole run
+                         (rows), per round trip and variant (columns), from explore3d.sh's --out
+                         directory OUT (OUT/route.txt, OUT/<RTT>ms/truth.csv and truth.json)
   markdown-rows FILE     the Markdown table rows ("|" lines) of a script's output, as they are
   section NAME TITLE     one section of the document, with its heading, command, date, machine
                          and condition (--command, --date, --machine, --condition), the table
@@ -239,6 +247,120 @@ def markdown_rows(text):
     return "\n\n".join("\n".join(b) for b in blocks) + "\n"
 
 
+def read_route(text, where="route"):
+    """hemm-operator --print-hand6-route's output: {"scene", "route", "start", "region", "end", "features"}."""
+    r = {"features": []}
+    for n, line in enumerate(text.splitlines(), 1):
+        w = line.split()
+        if not w:
+            continue
+        try:
+            if w[0] in ("scene", "route") and len(w) == 2:
+                r[w[0]] = w[1]
+            elif w[0] == "start" and len(w) == 4:
+                r["start"] = [float(x) for x in w[1:]]
+            elif w[0] == "region" and len(w) == 7:
+                r["region"] = [float(x) for x in w[1:]]
+            elif w[0] == "end" and len(w) == 2:
+                r["end"] = float(w[1])
+            elif w[0] == "feature" and len(w) == 4:
+                r["features"].append((w[1], float(w[2]), float(w[3])))
+            else:
+                raise ValueError
+        except ValueError:
+            raise InputError("%s:%d: not a route line: %r" % (where, n, line))
+    for k in ("scene", "route", "start", "region", "end"):
+        if k not in r:
+            raise InputError("%s: no %s line" % (where, k))
+    if not r["features"]:
+        raise InputError("%s: no features" % where)
+    return r
+
+
+def feature_errors(truth_csv, features, where="truth.csv"):
+    """Per feature (name, t0, t1): (force error RMS N, true force peak N, contact ticks) over the ticks
+    of the hand's script time t in [t0, t1] (one period a tick: t = tick / 1000) where the live or
+    the true tool touches (hemm-truth --tool6 --csv)."""
+    lines = truth_csv.splitlines()
+    if not lines:
+        raise InputError("%s: empty" % where)
+    head = lines[0].split(",")
+    need = ["tick", "f_x", "f_y", "f_z", "ft_x", "ft_y", "ft_z", "contacts", "contacts_true"]
+    if any(k not in head for k in need):
+        raise InputError("%s: not hemm-truth --tool6 --csv output (columns %s)" % (where, ", ".join(need)))
+    ix = [head.index(k) for k in need]
+    acc = [[0.0, 0.0, 0] for _ in features]
+    for n, line in enumerate(lines[1:], 2):
+        c = line.split(",")
+        if len(c) != len(head):
+            raise InputError("%s:%d: %d columns, expected %d" % (where, n, len(c), len(head)))
+        try:
+            tick, fx, fy, fz, tx, ty, tz, live, true = (float(c[i]) for i in ix)
+        except ValueError:
+            raise InputError("%s:%d: not numbers" % (where, n))
+        if live == 0 and true == 0:
+            continue
+        t = tick * 1e-3
+        for a, (_, t0, t1) in zip(acc, features):
+            if t0 <= t <= t1:
+                a[0] += (fx - tx) ** 2 + (fy - ty) ** 2 + (fz - tz) ** 2
+                a[1] = max(a[1], math.sqrt(tx * tx + ty * ty + tz * tz))
+                a[2] += 1
+    return [(math.sqrt(e2 / k) if k else None, peak, k) for e2, peak, k in acc]
+
+
+def error_cell(rms, peak, ticks=None):
+    """ "RMS of PEAK (P %)", the share of the true peak; "no contact" when nothing touched."""
+    if rms is None:
+        return "no contact"
+    share = " (%.0f %%)" % (100.0 * rms / peak) if peak > 0 else ""
+    return "%.2f of %.1f%s%s" % (rms, peak, share, ", %d" % ticks if ticks is not None else "")
+
+
+def read_file(path):
+    try:
+        return open(path, encoding="utf-8").read()
+    except OSError as e:
+        raise InputError("%s: %s" % (path, e.strerror or e))
+
+
+def explore3d_features_table(route, runs):
+    """runs: [(label, truth_csv_text)]; one row a run, one column a feature of the route."""
+    rows = []
+    for label, text in runs:
+        rows.append([label] + [error_cell(*e) for e in feature_errors(text, route["features"], label)])
+    return md_table(["run"] + [f[0] for f in route["features"]], rows)
+
+
+def explore3d_table(runs):
+    """runs: [(scene, variant, rtt, out_dir)]: rows scene x (features, whole run), columns rtt x variant."""
+    cols, scenes, cells = [], [], {}
+    for scene, variant, rtt, out in runs:
+        col = "%s ms, %s" % (rtt, variant)
+        if col not in cols:
+            cols.append(col)
+        route = read_route(read_file("%s/route.txt" % out), "%s/route.txt" % out)
+        if scene not in [s for s, _ in scenes]:
+            scenes.append((scene, route))
+        elif [f[0] for f in dict(scenes)[scene]["features"]] != [f[0] for f in route["features"]]:
+            raise InputError("%s: another route than the scene's other runs" % out)
+        run = "%s/%sms" % (out, rtt)
+        errs = feature_errors(read_file(run + "/truth.csv"), route["features"], run + "/truth.csv")
+        for (name, _, _), e in zip(route["features"], errs):
+            cells[(scene, name, col)] = error_cell(*e[:2])
+        try:
+            j = json.loads(read_file(run + "/truth.json"))
+            whole = (j["force_rms_n"], j["true_force_peak_n"]) if j.get("contact_ticks", 0) else (None, 0.0)
+        except (ValueError, KeyError) as e:
+            raise InputError("%s/truth.json: not hemm-truth --json output (%s)" % (run, e))
+        cells[(scene, "whole run", col)] = error_cell(*whole)
+    rows = []
+    for scene, route in scenes:
+        for name in [f[0] for f in route["features"]] + ["whole run"]:
+            rows.append([scene, name] + [cells.get((scene, name, c), "not run") for c in cols])
+    return md_table(["scene", "feature"] + cols, rows, ["l", "l"] + ["r"] * len(cols))
+
+
 def section(name, title, command, date, machine, condition, table=None, missing=None, note=None):
     if not re.fullmatch(r"[a-z0-9-]+", name):
         raise InputError("section name %r: lower-case letters, digits, '-'" % name)
@@ -288,6 +410,11 @@ def main(argv):
     sub.add_parser("markdown-rows").add_argument("file")
     sub.add_parser("vps-budget").add_argument("file")
     sub.add_parser("cyclictest").add_argument("file")
+    f = sub.add_parser("explore3d-features")
+    f.add_argument("route")
+    f.add_argument("--run", action="append", required=True, help="LABEL=RUN_DIR (RUN_DIR/truth.csv)")
+    t = sub.add_parser("explore3d-table")
+    t.add_argument("--run", action="append", required=True, help="SCENE|VARIANT|RTT=OUT (explore3d.sh --out)")
     s = sub.add_parser("section")
     s.add_argument("name")
     s.add_argument("title")
@@ -308,6 +435,24 @@ def main(argv):
                     raise InputError("%s: not JSON: %s" % (a.file, e))
             sys.stdout.write({"bench": bench_table, "latency": latency_table, "markdown-rows": markdown_rows,
                               "vps-budget": vps_budget_table, "cyclictest": cyclictest_line}[a.cmd](text))
+        elif a.cmd == "explore3d-features":
+            route = read_route(read_file(a.route), a.route)
+            runs = []
+            for spec in a.run:
+                label, eq, d = spec.partition("=")
+                if not eq or not label:
+                    raise InputError("--run %r: LABEL=RUN_DIR" % spec)
+                runs.append((label, read_file(d + "/truth.csv")))
+            sys.stdout.write(explore3d_features_table(route, runs))
+        elif a.cmd == "explore3d-table":
+            runs = []
+            for spec in a.run:
+                key, eq, out = spec.partition("=")
+                k = key.split("|")
+                if not eq or len(k) != 3 or not all(k) or not re.fullmatch(r"[0-9]+", k[2]):
+                    raise InputError("--run %r: SCENE|VARIANT|RTT=OUT (RTT whole milliseconds)" % spec)
+                runs.append((k[0], k[1], k[2], out))
+            sys.stdout.write(explore3d_table(runs))
         elif a.cmd == "section":
             if a.missing is None and (a.table is None or None in (a.command, a.date, a.machine, a.condition)):
                 raise InputError("section: --table with --command, --date, --machine, --condition, or --missing")

@@ -23,7 +23,9 @@
 #include <cctype>
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <iostream>
 #include <optional>
 #include <sstream>
@@ -40,6 +42,7 @@
 #include "operator/record/session_recording.h"
 #include "operator/runners/runners.h"
 #include "operator/station/demo_scripts.h"
+#include "operator/station/explore_route.h"
 
 namespace {
 
@@ -66,6 +69,8 @@ std::optional<Eigen::Vector2d> parse_goal(const std::string& s) {
 struct RawArgs {
   std::vector<std::string> goal_args;
   std::string probe_line_arg;
+  std::string hand6_route, hand6_script;  // override probe_3d.tool_hand_route / tool_hand_script
+  bool print_hand6_route = false;
 #ifdef HEMM_WITH_VIEW
   view::ViewOptionStrings view_strs;
 #endif
@@ -153,6 +158,14 @@ void add_options(CLI::App* app, OperatorArgs* a, RawArgs* raw) {
                   "SIMULATED hand script for the sim-bimanual device (overrides device.bimanual.script): features "
                   "(each feature in turn, 14 s), idle")
       ->check(CLI::IsMember(op::bimanual_script_names()));
+  app->add_option("--hand6-route", raw->hand6_route,
+                  "scene file whose header holds the 6-DoF tool's SIMULATED hand routes (overrides "
+                  "probe_3d.tool_hand_route; explore6 lines, deploy/scenes/README.md \"Exploration routes\")");
+  app->add_option("--hand6-script", raw->hand6_script,
+                  "the route of that file the SIMULATED hand follows (overrides probe_3d.tool_hand_script)");
+  app->add_flag("--print-hand6-route", raw->print_hand6_route,
+                "print the chosen route (robot start, truth region, end time, features with their times) after "
+                "checking it against the SIMULATED rigid hand's reach, and exit");
 #ifdef HEMM_WITH_VIEW
   view::add_view_options(*app, &a->view_opts, &raw->view_strs);
 #endif
@@ -221,6 +234,45 @@ bool load_config(OperatorArgs* a, config::OperatorConfig* cfg) {
     return false;
   }
   return true;
+}
+
+// --hand6-route / --hand6-script into the config (a route file given on
+// the command line is relative to the working directory).
+void apply_hand6_args(const RawArgs& raw, config::OperatorConfig* cfg) {
+  if (!raw.hand6_route.empty())
+    cfg->mutable_probe_3d()->set_tool_hand_route(std::filesystem::absolute(raw.hand6_route).lexically_normal().string());
+  if (!raw.hand6_script.empty()) cfg->mutable_probe_3d()->set_tool_hand_script(raw.hand6_script);
+}
+
+// --print-hand6-route: the route as deploy/explore3d.sh reads it, one
+// "key value..." line each; exit 2 (said on stderr) when it does not load or
+// leaves the SIMULATED rigid hand's reach.
+int print_hand6_route(const config::OperatorConfig& cfg, const OperatorArgs& a) {
+  const auto& p3 = cfg.probe_3d();
+  const std::string path = config::resolve_relative_to(a.config_path, p3.tool_hand_route());
+  op::SceneExploration x;
+  if (auto e = op::load_scene_exploration(path, &x)) {
+    std::cerr << "hemm-operator: --print-hand6-route: " << *e << "\n";
+    return net::kExitUsage;
+  }
+  const op::ExploreRoute* r = x.find(p3.tool_hand_script());
+  if (r == nullptr) {
+    std::cerr << "hemm-operator: --print-hand6-route: no route '" << p3.tool_hand_script() << "' in " << path
+              << " (its explore6 routes: " << x.route_names() << ")\n";
+    return net::kExitUsage;
+  }
+  const Eigen::Vector3d origin_R(p3.origin_x_m(), 0.0, p3.origin_z_m());
+  if (auto e = op::check_route_reach(*r, origin_R, device::rigid_hand_limits(1).ee[0], path)) {
+    std::cerr << "hemm-operator: --print-hand6-route: " << *e << "\n";
+    return net::kExitUsage;
+  }
+  const Eigen::AlignedBox3d& b = x.region_W;
+  std::printf("scene %s\nroute %s\nstart %.10g %.10g %.10g\nregion %.10g %.10g %.10g %.10g %.10g %.10g\nend %.10g\n",
+              path.c_str(), r->name.c_str(), x.start_W.x, x.start_W.y, x.start_W.theta, b.min().x(), b.min().y(),
+              b.min().z(), b.max().x(), b.max().y(), b.max().z(), r->keys.back().t_s);
+  for (const op::RouteFeature& f : op::route_features(*r))
+    std::printf("feature %s %.10g %.10g\n", f.name.c_str(), f.t0_s, f.t1_s);
+  return net::kExitOk;
 }
 
 // The runner for this config and command line.
@@ -298,6 +350,8 @@ int run(int argc, char** argv) {
   if (!op::runner::setup_logging(a.log_level)) return net::kExitUsage;
   config::OperatorConfig cfg;
   if (!load_config(&a, &cfg)) return net::kExitUsage;
+  apply_hand6_args(raw, &cfg);
+  if (raw.print_hand6_route) return print_hand6_route(cfg, a);
   return dispatch(cfg, a);
 }
 

@@ -8,6 +8,8 @@
 // running station started with --control-socket PATH; only the robot
 // station releases it.
 #include <CLI/CLI.hpp>
+
+#include <cmath>
 #include <spdlog/spdlog.h>
 
 #include <asio.hpp>
@@ -64,6 +66,12 @@ int run(int argc, char** argv) {
   std::string scene_path;
   bool no_realtime = false;
   app.add_option("--scene", scene_path, "MJCF scene of the SIMULATED robot (overrides sim.scene)");
+  std::vector<double> start;
+  app.add_option("--start", start,
+                 "X,Y,THETA: the SIMULATED robot's start pose in W (m, rad; overrides sim.start_* and the scene's "
+                 "robot_start site)")
+      ->delimiter(',')
+      ->expected(3);
   app.add_flag("--no-realtime", no_realtime,
                "step the simulation as fast as possible instead of in real time (stamps are simulation time)");
   int control_cpu = -1;
@@ -107,6 +115,15 @@ int run(int argc, char** argv) {
       spdlog::error("event=bad_config error=\"{}\"", err->to_string());
       return net::kExitUsage;
     }
+  }
+  if (!start.empty()) {
+    if (start.size() != 3 || !std::isfinite(start[0]) || !std::isfinite(start[1]) || !std::isfinite(start[2])) {
+      std::cerr << "hemm-robot: --start: expected X,Y,THETA (three finite numbers)\n";
+      return net::kExitUsage;
+    }
+    cfg.mutable_sim()->set_start_x_m(start[0]);
+    cfg.mutable_sim()->set_start_y_m(start[1]);
+    cfg.mutable_sim()->set_start_theta_rad(start[2]);
   }
   const std::string listen_address = listen.empty() ? cfg.net().listen_address() : listen;
   const auto key =

@@ -276,8 +276,11 @@ std::vector<FieldIssue> validate_operator_config(const pb::Message& m) {
     out.push_back({"probe_3d.tool_tick_margin_us", "must be within [0, 100000]"});
   if (!(p3.tool_contact_stiffness() > 0 && p3.tool_contact_stiffness() <= 1e10))
     out.push_back({"probe_3d.tool_contact_stiffness", "must be within (0, 1e10] N/m^3"});
-  if (p3.tool_hand_script() != "explore-table" && p3.tool_hand_script() != "explore-block")
-    out.push_back({"probe_3d.tool_hand_script", "must be \"explore-table\" or \"explore-block\""});
+  // The route itself is read (and checked, with its file and line) when the station starts.
+  if (shell && p3.tool_hand_script().empty())
+    out.push_back({"probe_3d.tool_hand_script", "must name an explore6 route of tool_hand_route (e.g. \"explore-table\")"});
+  if (shell && p3.tool_hand_route().empty())
+    out.push_back({"probe_3d.tool_hand_route", "must name the scene file whose header holds the route"});
   return out;
 }
 

@@ -13,6 +13,7 @@ Outputs:
 
 Usage: plot_explore3d.py --wrench WRENCH_PNG --voxmap VOXMAP_PNG --voxcsv VOXMAP_CSV
                          --run LABEL=TRUTH_CSV [--run LABEL=TRUTH_CSV ...]
+                         [--region XMIN YMIN ZMIN XMAX YMAX ZMAX] [--heading DEG]
 """
 import argparse
 import csv
@@ -51,6 +52,11 @@ def main():
     ap.add_argument("--voxcsv")
     ap.add_argument("--title", default="6-DoF probe tool on the live voxmap: block, book, mug (SIMULATION)")
     ap.add_argument("--run", action="append", required=True, help="LABEL=TRUTH_CSV")
+    ap.add_argument("--region", type=float, nargs=6, default=[1.0, 1.55, 0.70, 2.0, 2.45, 0.95],
+                    metavar=("XMIN", "YMIN", "ZMIN", "XMAX", "YMAX", "ZMAX"),
+                    help="the voxels shown and the axes, W (default: home.xml's table top)")
+    ap.add_argument("--heading", type=float, default=90.0,
+                    help="the robot's heading in W, degrees: the view is from behind it (default home's, 90)")
     a = ap.parse_args()
     runs = []
     for spec in a.run:
@@ -85,8 +91,9 @@ def main():
     c = runs[0][1]
     fig = plt.figure(figsize=(9, 7))
     ax = fig.add_subplot(111, projection="3d")
+    x0, y0, z0, x1, y1, z1 = a.region
     keep = [i for i, (x, y, z) in enumerate(zip(v["x"], v["y"], v["z"]))
-            if 1.0 <= x <= 2.0 and 1.55 <= y <= 2.45 and 0.70 <= z <= 0.95]
+            if x0 <= x <= x1 and y0 <= y <= y1 and z0 <= z <= z1]
     sc = ax.scatter([v["x"][i] for i in keep], [v["y"][i] for i in keep], [v["z"][i] for i in keep],
                     c=[v["z"][i] for i in keep], cmap="viridis", s=4, alpha=0.6, depthshade=False)
     live = [i for i, m in enumerate(c["model"]) if m > 0]  # before the first voxmap the robot pose is not known yet
@@ -98,10 +105,10 @@ def main():
     ax.set_xlabel("W x [m]")
     ax.set_ylabel("W y [m]")
     ax.set_zlabel("W z [m]")
-    ax.set_xlim(1.0, 2.0)
-    ax.set_ylim(1.55, 2.45)
-    ax.set_zlim(0.70, 1.0)
-    ax.view_init(elev=35, azim=-120)
+    ax.set_xlim(x0, x1)
+    ax.set_ylim(y0, y1)
+    ax.set_zlim(z0, max(z1, 1.0))
+    ax.view_init(elev=35, azim=a.heading - 210)  # from behind the robot's left shoulder
     fig.colorbar(sc, ax=ax, shrink=0.6, label="surface voxel height [m]")
     ax.legend(loc="upper left", fontsize=8)
     ax.set_title(f"Live voxmap (1 cm surface voxels, {len(keep)} shown) and the tool path ({runs[0][0]})")

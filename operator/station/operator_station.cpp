@@ -51,6 +51,7 @@ void apply_probe3d_config(const config::Probe3dConfig& c, OperatorStationOptions
     o->task.tool6.contact_stiffness = c.tool_contact_stiffness();
     o->task.tool6.origin_R = Eigen::Vector3d(c.origin_x_m(), 0.0, c.origin_z_m());
     o->hand6_script = c.tool_hand_script();
+    o->hand6_route_file = c.tool_hand_route();  // as given: relative to the config file (station_runner resolves it)
     o->tool_device_offset_D =
         Eigen::Vector3d(c.tool_device_offset_x_m(), c.tool_device_offset_y_m(), c.tool_device_offset_z_m());
     return;
@@ -315,8 +316,9 @@ OperatorStation::OperatorStation(asio::io_context& io, OperatorClient& client, c
   } else if (o.device == "sim-hand6") {
     // The SIMULATED rigid 6-DoF scripted hand of the 6-DoF tool (tool6_explorer.h).
     if (!tp.tool6.enabled) throw std::invalid_argument("device sim-hand6 needs probe_3d { tool: \"pointshell\" }");
-    device_ = std::make_unique<device::ReplayDevice>(make_hand6_trajectory(o.hand6_script, tp.tool6.origin_R),
-                                                     device::rigid_hand_limits(1));
+    const device::DeviceLimits hand = device::rigid_hand_limits(1);
+    device_ = std::make_unique<device::ReplayDevice>(
+        load_hand6_route(o.hand6_route_file, o.hand6_script, tp.tool6.origin_R, hand.ee[0]), hand);
   } else if (o.device == "sim-bimanual") {
     // The right arm of the SIMULATED bimanual device holds the 6-DoF tool
     // (tool6_bimanual.h); without the tool it runs without a robot (main.cpp).
@@ -325,7 +327,8 @@ OperatorStation::OperatorStation(asio::io_context& io, OperatorClient& client, c
                                   "probe_3d { tool: \"pointshell\" } (without it hemm-operator runs the device "
                                   "against its local planes, no robot)");
     device_ = make_tool6_bimanual_device(o.bimanual ? *o.bimanual : config::BimanualDeviceConfig{},
-                                         make_hand6_trajectory(o.hand6_script, tp.tool6.origin_R),
+                                         load_hand6_route(o.hand6_route_file, o.hand6_script, tp.tool6.origin_R,
+                                                          device::rigid_hand_limits(1).ee[0]),
                                          o.tool_device_offset_D, static_cast<double>(o.servo.period_ns) * 1e-9,
                                          &tp.tool6);
   } else {

@@ -45,7 +45,11 @@ namespace hemm::op {
 struct OperatorStationOptions {
   // or "replay", or "sim-hand6" / "sim-bimanual" (need task.tool6.enabled)
   std::string device = "sim-omni";
-  std::string hand6_script = "explore-table";  // device == "sim-hand6" or "sim-bimanual": tool6_explorer.h
+  // device == "sim-hand6" or "sim-bimanual": the route of the SIMULATED
+  // hand, an explore6 route of the scene file hand6_route_file's header
+  // (explore_route.h, tool6_explorer.h load_hand6_route).
+  std::string hand6_script = "explore-table";
+  std::string hand6_route_file;
   // device == "sim-bimanual" (tool6_bimanual.h): the device's block (null:
   // the defaults) and where H's origin sits in the device frame D.
   std::shared_ptr<const config::BimanualDeviceConfig> bimanual;

@@ -9,6 +9,7 @@
 #include "common/haptics/vps/cache.h"
 #include "common/haptics/vps/voxmap.h"
 #include "common/mesh/primitives.h"
+#include "operator/station/explore_route.h"
 #include "operator/station/operator_task.h"
 
 namespace hemm::op {
@@ -200,76 +201,32 @@ bool write_voxmap_vps(const vps::Voxmap& vm, const vps::PointShell& shell, const
   return ok;
 }
 
-namespace {
-
-struct Key {
-  double t;
-  Eigen::Vector3d tip_R;  // the tool tip's centre in R
-  double tilt_x = 0.0;    // rad about R's x
-};
-
-// Key poses in R (deploy/scenes/home.xml with the robot at W (1.5, 1.0)
-// facing +y: R x = W y - 1.0, R y = 1.5 - W x). Block: R x 0.80-0.90,
-// y -0.30..-0.20, top z 0.85; book: x 0.785-0.915, y 0.16-0.34, top 0.78;
-// mug: centre (1.20, -0.10), radius 0.04, top 0.85; table top 0.75. The tip
-// (radius 20 mm) is pressed 5 mm past each surface; sides are pressed from
-// the robot's side (the faces the mast camera sees) and slid along.
-std::vector<Key> explore_keys(bool whole_table) {
-  const double up = 0.95;
-  std::vector<Key> k = {
-      {0.0, {0.85, -0.25, up}},  {5.0, {0.85, -0.25, up}},  // the voxmap fills
-      // Block top: down, pressed, slid across, tilted, lifted.
-      {6.0, {0.85, -0.25, 0.88}}, {7.0, {0.85, -0.25, 0.865}}, {8.0, {0.85, -0.25, 0.865}},
-      {9.0, {0.85, -0.23, 0.865}}, {11.0, {0.85, -0.27, 0.865}}, {12.0, {0.85, -0.25, 0.865}},
-      {13.0, {0.85, -0.25, 0.865}, 0.35}, {14.0, {0.85, -0.25, 0.865}}, {15.0, {0.85, -0.25, up}},
-      // Block front side (R x = 0.80): pressed, slid along, withdrawn.
-      {16.0, {0.72, -0.25, up}}, {17.0, {0.72, -0.25, 0.80}}, {18.0, {0.785, -0.25, 0.80}},
-      {19.0, {0.785, -0.25, 0.80}}, {20.0, {0.785, -0.23, 0.80}}, {21.0, {0.785, -0.27, 0.80}},
-      {21.5, {0.785, -0.25, 0.80}}, {22.0, {0.72, -0.25, 0.80}}};
-  if (!whole_table) {
-    k.push_back({23.0, {0.72, -0.25, up}});
-    return k;
-  }
-  const std::vector<Key> more = {
-      // Block's left side (R y = -0.20), reached round its front corner.
-      {23.0, {0.72, -0.12, 0.80}}, {24.0, {0.85, -0.12, 0.80}}, {25.0, {0.85, -0.185, 0.80}},
-      {26.0, {0.85, -0.185, 0.80}}, {27.0, {0.83, -0.185, 0.80}}, {28.0, {0.87, -0.185, 0.80}},
-      {28.5, {0.85, -0.185, 0.80}}, {29.0, {0.85, -0.12, 0.80}}, {30.0, {0.85, -0.12, up}},
-      // Book top (z 0.78): pressed, slid along its length.
-      {32.0, {0.85, 0.25, up}}, {33.0, {0.85, 0.25, 0.81}}, {34.0, {0.85, 0.25, 0.795}},
-      {35.0, {0.85, 0.25, 0.795}}, {36.5, {0.85, 0.29, 0.795}}, {38.5, {0.85, 0.21, 0.795}},
-      {39.5, {0.85, 0.25, 0.795}}, {40.5, {0.85, 0.25, 0.85}},
-      // Book front side (R x = 0.785; 30 mm high: the tip 5 mm above the table).
-      {41.5, {0.72, 0.25, 0.85}}, {42.5, {0.72, 0.25, 0.775}}, {43.5, {0.77, 0.25, 0.775}},
-      {44.5, {0.77, 0.25, 0.775}}, {45.5, {0.72, 0.25, 0.775}}, {46.5, {0.72, 0.25, up}},
-      // Mug top, then its front side (R x = 1.16).
-      {48.5, {1.20, -0.10, up}}, {49.5, {1.20, -0.10, 0.88}}, {50.5, {1.20, -0.10, 0.865}},
-      {51.5, {1.20, -0.10, 0.865}}, {52.5, {1.20, -0.10, up}}, {53.5, {1.10, -0.10, up}},
-      {54.5, {1.10, -0.10, 0.80}}, {55.5, {1.145, -0.10, 0.80}}, {56.5, {1.145, -0.10, 0.80}},
-      {57.5, {1.10, -0.10, 0.80}}, {58.5, {1.10, -0.10, up}}};
-  k.insert(k.end(), more.begin(), more.end());
-  return k;
-}
-
-}  // namespace
-
-const char* hand6_script_names() { return "explore-table, explore-block"; }
-
-device::Trajectory make_hand6_trajectory(const std::string& name, const Eigen::Vector3d& origin_R) {
-  if (name != "explore-table" && name != "explore-block")
-    throw std::invalid_argument("unknown SIMULATED 6-DoF hand script '" + name + "' (" + hand6_script_names() + ")");
+device::Trajectory make_hand6_trajectory(const ExploreRoute& route, const Eigen::Vector3d& origin_R) {
   device::Trajectory tr;
   tr.end_effectors = 1;
   tr.has_orientation = true;
-  for (const Key& k : explore_keys(name == "explore-table")) {
+  for (const RouteKey& k : route.keys) {
     device::TrajectorySample s;
-    s.t_s = k.t;
+    s.t_s = k.t_s;
     s.end_effectors = 1;
     s.ee[0].position_H = k.tip_R - origin_R;
-    s.ee[0].orientation_H = Eigen::Quaterniond(Eigen::AngleAxisd(k.tilt_x, Eigen::Vector3d::UnitX()));
+    s.ee[0].orientation_H = Eigen::Quaterniond(Eigen::AngleAxisd(k.tilt_x_rad, Eigen::Vector3d::UnitX()));
     tr.samples.push_back(s);
   }
   return tr;
+}
+
+device::Trajectory load_hand6_route(const std::string& scene_path, const std::string& name,
+                                    const Eigen::Vector3d& origin_R, const device::EndEffectorLimits& limits) {
+  SceneExploration x;
+  if (auto e = load_scene_exploration(scene_path, &x)) throw std::invalid_argument("probe_3d.tool_hand_route: " + *e);
+  const ExploreRoute* r = x.find(name);
+  if (r == nullptr)
+    throw std::invalid_argument("probe_3d.tool_hand_script: no route '" + name + "' in " + scene_path +
+                                " (its explore6 routes: " + x.route_names() + ")");
+  if (auto e = check_route_reach(*r, origin_R, limits, scene_path))
+    throw std::invalid_argument("probe_3d.tool_hand_script: " + *e);
+  return make_hand6_trajectory(*r, origin_R);
 }
 
 }  // namespace hemm::op

@@ -18,10 +18,11 @@
 // an LWR-class arm, device::rigid_hand_limits; D = H, P = E), or the right
 // arm of the SIMULATED bimanual device ("sim-bimanual", tool6_bimanual.h:
 // its SIMULATED human follows the same script mapped into D, and yields).
-// Scripts (make_hand6_trajectory): "explore-table" presses and slides
-// on the tops and the robot-facing sides of the block, the book and the mug
-// of deploy/scenes/home.xml's table with the robot at W (1.5, 1.0) facing +y;
-// "explore-block" the block's top (pressed, slid, tilted) and front side.
+// Scripts: the explore6 routes of a scene file's header (explore_route.h,
+// load_hand6_route), e.g. deploy/scenes/home.xml's "explore-table" (presses
+// and slides on the tops and the robot-facing sides of the block, the book
+// and the mug, the robot at W (1.5, 1.0) facing +y) and "explore-block" (the
+// block's top, pressed, slid, tilted, and its front side).
 //
 // Real time: tick() allocates nothing and takes no lock; the VPS work per
 // tick is bounded in time (time-critical mode, common/haptics/vps/
@@ -129,9 +130,16 @@ bool write_voxmap_vps(const vps::Voxmap& vm, const vps::PointShell& shell, const
 // The robot pose as an SE(3) transform (z = 0, yaw theta).
 Eigen::Isometry3d robot_pose3(const math::Pose2& T_W_R);
 
-// The named SIMULATED rigid hand's pose path (H, see above) for a tool whose
-// H origin sits at origin_R; throws std::invalid_argument on an unknown name.
-device::Trajectory make_hand6_trajectory(const std::string& name, const Eigen::Vector3d& origin_R);
-const char* hand6_script_names();  // "explore-table, explore-block"
+// The SIMULATED hand's pose path (H, see above) along a route of a scene
+// file's header (explore_route.h: tip centres in R) for a tool whose H
+// origin sits at origin_R.
+struct ExploreRoute;
+device::Trajectory make_hand6_trajectory(const ExploreRoute& route, const Eigen::Vector3d& origin_R);
+// The route `name` of the scene file at scene_path, checked against the
+// device's end-effector limits (check_route_reach); throws
+// std::invalid_argument ("probe_3d.tool_hand_route: FILE:LINE: reason", or
+// ...tool_hand_script: for an unknown route or one out of reach).
+device::Trajectory load_hand6_route(const std::string& scene_path, const std::string& name,
+                                    const Eigen::Vector3d& origin_R, const device::EndEffectorLimits& limits);
 
 }  // namespace hemm::op

@@ -1,8 +1,10 @@
 #!/usr/bin/python3
 """deploy/report_tables.py: the tables of docs/measurements.md from the runs' outputs."""
 import json
+import math
 import os
 import sys
+import tempfile
 import unittest
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "deploy"))
@@ -159,6 +161,71 @@ class Document(unittest.TestCase):
     def test_section_names_are_checked(self):
         with self.assertRaises(rt.InputError):
             rt.section("Bad Name", "t", "c", "d", "m", "c", "| a |\n|---|\n| b |\n")
+
+
+ROUTE = """scene /x/table.xml
+route explore-table
+start 0.5 2 0
+region 1 1 0.6 2 2 1
+end 3.5
+feature top 1 2
+feature side 3 3.5
+"""
+TRUTH_HEAD = "tick,t_s,f_x,f_y,f_z,ft_x,ft_y,ft_z,contacts,contacts_true\n"
+
+
+def truth_rows(rows):
+    """rows: (tick, live force, true force, live contacts, true contacts)."""
+    return TRUTH_HEAD + "".join("%d,0,%g,%g,%g,%g,%g,%g,%d,%d\n" % ((t,) + tuple(f) + tuple(g) + (c, d))
+                                for t, f, g, c, d in rows)
+
+
+class Explore3dTables(unittest.TestCase):
+    # Feature "top" over t in [1, 2] s: ticks 1000 (error (3, 4, 0): 5 N, true |(0, 0, 6)| = 6 N) and
+    # 2000 (error 0, true 8 N); tick 1500 touches neither and does not count; tick 2500 is between
+    # features. "side": no contact tick.
+    CSV = truth_rows([(999, (9, 9, 9), (0, 0, 0), 1, 0), (1000, (3, 4, 6), (0, 0, 6), 1, 1),
+                      (1500, (7, 7, 7), (0, 0, 0), 0, 0), (2000, (0, 0, 8), (0, 0, 8), 0, 1),
+                      (2500, (5, 0, 0), (0, 0, 0), 1, 0), (3000, (0, 0, 0), (0, 0, 0), 0, 0)])
+
+    def test_features_come_from_the_route_and_errors_from_the_contact_ticks(self):
+        r = rt.read_route(ROUTE)
+        self.assertEqual(r["features"], [("top", 1.0, 2.0), ("side", 3.0, 3.5)])
+        self.assertEqual(r["start"], [0.5, 2.0, 0.0])
+        errs = rt.feature_errors(self.CSV, r["features"])
+        self.assertAlmostEqual(errs[0][0], math.sqrt(25 / 2))
+        self.assertEqual(errs[0][1:], (8.0, 2))
+        self.assertEqual(errs[1], (None, 0.0, 0))
+        lines = rt.explore3d_features_table(r, [("0 ms", self.CSV)]).splitlines()
+        self.assertEqual(lines[0], "| run | top | side |")
+        self.assertEqual(lines[2], "| 0 ms | 3.54 of 8.0 (44 %), 2 | no contact |")
+
+    def test_the_table_has_a_row_per_feature_and_scene_and_a_column_per_round_trip_and_variant(self):
+        d = tempfile.mkdtemp(prefix="hemm-report-tables-")
+        for v in ("a", "b"):
+            os.makedirs(os.path.join(d, v, "0ms"))
+            open(os.path.join(d, v, "route.txt"), "w").write(ROUTE)
+            open(os.path.join(d, v, "0ms", "truth.csv"), "w").write(self.CSV)
+            json.dump({"contact_ticks": 4, "force_rms_n": 1.5, "true_force_peak_n": 10.0},
+                      open(os.path.join(d, v, "0ms", "truth.json"), "w"))
+        t = rt.explore3d_table([("table", "camera fixed", "0", os.path.join(d, "a")),
+                                ("table", "camera active", "0", os.path.join(d, "b"))]).splitlines()
+        self.assertEqual(t[0], "| scene | feature | 0 ms, camera fixed | 0 ms, camera active |")
+        self.assertEqual(t[2], "| table | top | 3.54 of 8.0 (44 %) | 3.54 of 8.0 (44 %) |")
+        self.assertEqual(t[3], "| table | side | no contact | no contact |")
+        self.assertEqual(t[4], "| table | whole run | 1.50 of 10.0 (15 %) | 1.50 of 10.0 (15 %) |")
+        self.assertEqual(len(t), 5)
+        # A missing run, a route that is not one, a CSV of something else: refused, naming the file.
+        with self.assertRaisesRegex(rt.InputError, "nope/route.txt"):
+            rt.explore3d_table([("table", "x", "0", os.path.join(d, "nope"))])
+        with self.assertRaisesRegex(rt.InputError, r"route:2: not a route line"):
+            rt.read_route("scene s\nfeature top 1\n")
+        with self.assertRaisesRegex(rt.InputError, "no features"):
+            rt.read_route("scene s\nroute r\nstart 0 0 0\nregion 0 0 0 1 1 1\nend 2\n")
+        with self.assertRaisesRegex(rt.InputError, "not hemm-truth --tool6 --csv output"):
+            rt.feature_errors("a,b\n1,2\n", [("top", 0, 1)])
+        with self.assertRaisesRegex(rt.InputError, "truth.csv:3: 3 columns"):
+            rt.feature_errors(TRUTH_HEAD + "1,0,0,0,0,0,0,0,0,0\n1,2,3\n", [("top", 0, 1)])
 
 
 if __name__ == "__main__":

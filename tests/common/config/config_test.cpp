@@ -175,6 +175,16 @@ TEST(ConfigTest, ShippedExplore3dConfigLoadsAndTheToolNeedsItsDevice) {
       "o.pbtxt", &validate_operator_config, &ob);
   ASSERT_TRUE(e4m);
   EXPECT_EQ(e4m->field, "probe_3d.tool_tick_margin_us");
+  // The SIMULATED hand's route: a scene file and a route name (the route
+  // itself is read when the station starts, explore_route_test).
+  EXPECT_EQ(o.probe_3d().tool_hand_route(), "../scenes/home.xml");
+  for (const char* bad : {"tool_hand_route: \"\"", "tool_hand_script: \"\""}) {
+    auto e4r = parse_text_config(std::string("device { type: \"sim-hand6\" } probe_3d { enabled: true tool: "
+                                             "\"pointshell\" ") + bad + " }",
+                                 "o.pbtxt", &validate_operator_config, &ob);
+    ASSERT_TRUE(e4r) << bad;
+    EXPECT_EQ(e4r->field, std::string(bad).substr(0, std::string(bad).find(':')).insert(0, "probe_3d.")) << bad;
+  }
   // SIMULATION ONLY start arm pose: five finite angles or none.
   RobotConfig ra;
   auto e5 = parse_text_config("sim { start_arm_q: [0, 1.2, -0.8, 0] }", "r.pbtxt", &validate_robot_config, &ra);

@@ -19,6 +19,7 @@
 
 #include "config_operator.pb.h"
 #include "operator/client/operator_client.h"
+#include "operator/station/explore_route.h"
 #include "operator/station/operator_station.h"
 #include "robot_side/truth/tool6_truth.h"
 #include "tests/integration/probe3d/table_scene.h"
@@ -64,6 +65,7 @@ inline void run_explore(const std::string& log, config::OperatorConfig ocfg,
   p3->set_tool("pointshell");
   p3->set_tool_hand_script(script);
   op::apply_probe3d_config(ocfg.probe_3d(), &so);
+  so.hand6_route_file = kHomeScene;
   device(so);
   op::OperatorStation station(io, client, so);
   station.task().set_servo_thread_hook(&count_allocations_on_this_thread);
@@ -140,29 +142,31 @@ inline void run_explore(const std::string& log, config::OperatorConfig ocfg,
               t.true_torque_peak);
 }
 
-// The force error over one feature of a script: the ticks in [t0, t1) of
+// The force error over one feature of a route: the ticks in [t0, t1] of
 // the hand's script time where the live or the true tool touches.
 struct FeatureError {
-  const char* name;
+  std::string name;
   double t0, t1;
   std::size_t ticks = 0;
   double rms = 0, true_peak = 0;  // |live - true| RMS; the true force's peak there (N)
   double with_model = 0;          // fraction of the feature's ticks that had a live voxmap
 };
 
-// The explore-table script's features (tool6_explorer.cpp; the same phases
-// as deploy/explore3d.sh's table).
-inline std::vector<FeatureError> table_feature_errors(const Explore3dRun& r) {
-  std::vector<FeatureError> f = {{"block top", 6, 15},          {"block front side", 16, 22.5},
-                                 {"block left side", 23, 30},   {"book top", 32, 40.5},
-                                 {"book front side", 41.5, 46.5}, {"mug top", 48.5, 52.5},
-                                 {"mug front side", 53.5, 58.5}};
+// The features of home.xml's route `route` (its header's explore6 keys,
+// operator/station/explore_route.h; deploy/explore3d.sh's table takes the same).
+inline std::vector<FeatureError> table_feature_errors(const Explore3dRun& r, const std::string& route = "explore-table") {
+  op::SceneExploration x;
+  const auto err = op::load_scene_exploration(kHomeScene, &x);
+  EXPECT_FALSE(err) << *err;
+  std::vector<FeatureError> f;
+  if (err || x.find(route) == nullptr) return f;
+  for (const op::RouteFeature& g : op::route_features(*x.find(route))) f.push_back({g.name, g.t0_s, g.t1_s});
   for (FeatureError& e : f) {
     double e2 = 0;
     std::size_t in = 0, modelled = 0;
     for (std::size_t i = 0; i < r.ticks.size() && i < r.truth.replay.wrench.size(); ++i) {
       const double ts = static_cast<double>(i) * 1e-3;  // one script period per tick
-      if (ts < e.t0 || ts >= e.t1) continue;
+      if (ts < e.t0 || ts > e.t1) continue;
       ++in;
       modelled += r.ticks[i].model ? 1 : 0;
       if (r.ticks[i].contacts == 0 && r.truth.replay.contacts[i] == 0) continue;
@@ -174,7 +178,7 @@ inline std::vector<FeatureError> table_feature_errors(const Explore3dRun& r) {
     if (e.ticks > 0) e.rms = std::sqrt(e2 / static_cast<double>(e.ticks));
     if (in > 0) e.with_model = static_cast<double>(modelled) / static_cast<double>(in);
     std::printf("  %-16s %6zu contact ticks, force error RMS %6.2f N of a true peak %5.1f N (live voxmap on %.0f %%)\n",
-                e.name, e.ticks, e.rms, e.true_peak, 100 * e.with_model);
+                e.name.c_str(), e.ticks, e.rms, e.true_peak, 100 * e.with_model);
   }
   return f;
 }

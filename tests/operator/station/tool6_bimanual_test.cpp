@@ -24,12 +24,18 @@ Eigen::Vector3d shipped_offset() {
   return {c.tool_device_offset_x_m(), c.tool_device_offset_y_m(), c.tool_device_offset_z_m()};
 }
 
+// A route of home.xml's header (explore_route.h).
+hemm::device::Trajectory home_route(const std::string& name, const Eigen::Vector3d& origin_R) {
+  return ho::load_hand6_route(HEMM_SOURCE_DIR "/deploy/scenes/home.xml", name, origin_R,
+                              hemm::device::rigid_hand_limits(1).ee[0]);
+}
+
 }  // namespace
 
 TEST(Tool6Bimanual, RightHandFollowsTheHand6ScriptInDAndTheToolMapsItBackToH) {
   for (const char* script : {"explore-block", "explore-table"}) {
     const Eigen::Vector3d origin_R(0.85, 0.0, 0.95);
-    const hemm::device::Trajectory path = ho::make_hand6_trajectory(script, origin_R);
+    const hemm::device::Trajectory path = home_route(script, origin_R);
     ho::Tool6Params tp;
     tp.limits.peak_force = -1.0;  // replaced by the right arm's
     const auto dev =
@@ -80,7 +86,7 @@ TEST(Tool6Bimanual, RightHandFollowsTheHand6ScriptInDAndTheToolMapsItBackToH) {
 
 TEST(Tool6Bimanual, ABadOffsetOrPathIsRefusedClearlyAndChangesNothing) {
   const Eigen::Vector3d origin_R(0.85, 0.0, 0.95);
-  const hemm::device::Trajectory path = ho::make_hand6_trajectory("explore-block", origin_R);
+  const hemm::device::Trajectory path = home_route("explore-block", origin_R);
   ho::Tool6Params tp;
   const ho::Tool6Params before = tp;
   auto unchanged = [&] {
