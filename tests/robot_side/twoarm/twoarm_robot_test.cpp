@@ -5,6 +5,7 @@
 // gripper keeps the 2 kg box (not dropped), and motion resumes only after a
 // neutral and then a pressed command; the e-stop stops both arms.
 #include "robot_side/twoarm/twoarm_robot.h"
+#include "tests/operator/servo/alloc_counter.h"
 #include "tests/robot_side/twoarm/workbench_scene.h"
 
 #include <algorithm>
@@ -226,5 +227,33 @@ TEST(TwoArmRobot, EStopStopsBothArms) {
   // Released: still held until re-armed.
   d.robot.set_estop(false);
   d.run(0.3, true, [&](double s) { return circling(2.2 + s); });
+  EXPECT_FALSE(d.robot.following());
+}
+
+// The 1 kHz tick (safety, both arms' control, the plant's step) does not
+// touch the heap: counted by the replacement allocator, while following and
+// while holding.
+TEST(TwoArmRobot, StepDoesNotAllocate) {
+  Driver d;
+  d.robot.set_link(true, true);
+  ht::TwoArmTargets t = d.robot.active_targets();
+  t.T_A_G[0].translation().x() += 0.04;
+  d.arm(t);
+  d.run_idle(0.2);
+  hemm::test::count_allocations_on_this_thread(true);
+  const std::uint64_t probe = hemm::test::counted_allocations();
+  {
+    auto* p = new std::array<double, 16>{};  // the counter counts (kept from being optimised away)
+    asm volatile("" : : "g"(p) : "memory");
+    delete p;
+  }
+  ASSERT_GT(hemm::test::counted_allocations(), probe);
+  const std::uint64_t before = hemm::test::counted_allocations();
+  for (int k = 0; k < 1000; ++k) d.robot.step();
+  d.robot.set_estop(true);
+  for (int k = 0; k < 1000; ++k) d.robot.step();
+  const std::uint64_t after = hemm::test::counted_allocations();
+  hemm::test::count_allocations_on_this_thread(false);
+  EXPECT_EQ(after - before, 0u);
   EXPECT_FALSE(d.robot.following());
 }
