@@ -125,6 +125,15 @@ int run(int argc, char** argv) {
     cfg.mutable_sim()->set_start_y_m(start[1]);
     cfg.mutable_sim()->set_start_theta_rad(start[2]);
   }
+  // The two-arm robot (robot_side/twoarm, docs/telemanipulation.md) exists
+  // as a simulation and its controllers; no station serves it over the link
+  // yet, so hemm-robot says so rather than run the mobile robot instead.
+  if (cfg.kind() != "mobile") {
+    std::cerr << "hemm-robot: kind \"" << cfg.kind() << "\": only the mobile robot has a station yet"
+              << " (docs/telemanipulation.md)\n";
+    spdlog::error("event=bad_config error=\"kind {} has no station yet\"", cfg.kind());
+    return net::kExitUsage;
+  }
   const std::string listen_address = listen.empty() ? cfg.net().listen_address() : listen;
   const auto key =
       net::load_station_key("hemm-robot", key_path, config_path, cfg.link().key_file(), listen_address);

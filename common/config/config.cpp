@@ -10,6 +10,7 @@
 #include <memory>
 #include <cmath>
 #include <sstream>
+#include <utility>
 #include <stdexcept>
 
 #include "config_operator.pb.h"
@@ -156,6 +157,38 @@ std::optional<ConfigError> load_text_config(const std::string& path, Validator v
   return parse_text_config(ss.str(), path, validate, out);
 }
 
+namespace {
+
+// The two-arm station's block (robot kind "twoarm").
+void check_twoarm(const RobotConfig& c, std::vector<FieldIssue>& out) {
+  if (c.kind() != "mobile" && c.kind() != "twoarm") out.push_back({"kind", "must be mobile or twoarm"});
+  const auto& t = c.twoarm();
+  const std::pair<double, const char*> gains[] = {
+      {t.stiffness_n_per_m(), "twoarm.stiffness_n_per_m"},
+      {t.damping_ns_per_m(), "twoarm.damping_ns_per_m"},
+      {t.rot_stiffness_nm_per_rad(), "twoarm.rot_stiffness_nm_per_rad"},
+      {t.rot_damping_nms_per_rad(), "twoarm.rot_damping_nms_per_rad"},
+      {t.null_stiffness_nm_per_rad(), "twoarm.null_stiffness_nm_per_rad"},
+      {t.null_damping_nms_per_rad(), "twoarm.null_damping_nms_per_rad"},
+      {t.avoidance_stiffness_n_per_m(), "twoarm.avoidance_stiffness_n_per_m"}};
+  for (const auto& [v, name] : gains) {
+    if (!(v >= 0 && v <= 1e5)) out.push_back({name, "must be within [0, 1e5]"});
+  }
+  if (!(t.stiffness_n_per_m() <= 5000)) out.push_back({"twoarm.stiffness_n_per_m", "must be at most 5000 (1 kHz stability)"});
+  if (!(t.force_limit_n() > 0 && t.force_limit_n() <= 150))
+    out.push_back({"twoarm.force_limit_n", "must be within (0, 150] (the LWR's payload force)"});
+  if (!(t.torque_limit_nm() > 0 && t.torque_limit_nm() <= 30))
+    out.push_back({"twoarm.torque_limit_nm", "must be within (0, 30]"});
+  if (!(t.joint_limit_margin_rad() >= 0 && t.joint_limit_margin_rad() <= 0.5))
+    out.push_back({"twoarm.joint_limit_margin_rad", "must be within [0, 0.5]"});
+  if (!(t.avoidance_activation_m() > 0 && t.avoidance_activation_m() <= 0.3))
+    out.push_back({"twoarm.avoidance_activation_m", "must be within (0, 0.3]"});
+  if (!(t.max_target_jump_m() > 0 && t.max_target_jump_m() <= 2))
+    out.push_back({"twoarm.max_target_jump_m", "must be within (0, 2]"});
+}
+
+}  // namespace
+
 std::vector<FieldIssue> validate_robot_config(const pb::Message& m) {
   const auto& c = static_cast<const RobotConfig&>(m);
   std::vector<FieldIssue> out;
@@ -219,6 +252,7 @@ std::vector<FieldIssue> validate_robot_config(const pb::Message& m) {
   if (!(std::abs(dc.mast_x_m()) <= 1 && dc.mast_z_m() >= 0 && dc.mast_z_m() <= 3))
     out.push_back({"depth_camera.mast_x_m", "mast within 1 m of the base centre, 0..3 m high"});
   if (!(std::abs(dc.mast_pitch_deg()) <= 90)) out.push_back({"depth_camera.mast_pitch_deg", "must be within [-90, 90]"});
+  check_twoarm(c, out);
   return out;
 }
 

@@ -21,6 +21,7 @@
 #include "robot_side/control/arm_control.h"
 #include "robot_side/control/arm_keep_out.h"
 #include "robot_side/control/collision_guard.h"
+#include "robot_side/control/motion_gate.h"
 #include "robot_side/control/seen_voxels.h"
 #include "robot_side/control/watchdog.h"
 #include "robot_side/sim/mujoco_ray_caster.h"
@@ -247,7 +248,7 @@ struct SimulatedRobot::Impl {
   bool operator_in_control = false, estop = false, link_lost = false;
   // Re-arm (simulated_robot.h): armed once a neutral command and then a
   // pressed one came after the last stop.
-  bool armed = false, neutral_seen = false;
+  MotionGate gate;
   uint64_t rejected = 0;
   uint32_t safety = 0;
 
@@ -449,22 +450,14 @@ struct SimulatedRobot::Impl {
     return sc;
   }
 
-  void disarm() {
-    armed = false;
-    neutral_seen = false;
-  }
+  void disarm() { gate_disarm(gate); }
 
   // A command of the operator's, towards the re-arm: counted only once no
   // stop is in force. A pressed command after a neutral one arms.
   void rearm_with(const BaseArmCommand& c) {
-    if (armed || !operator_in_control || estop || link_lost) return;
     const bool neutral = !c.deadman || (c.mode != wire::MODE_NAVIGATION && c.mode != wire::MODE_MANIPULATION) ||
                          (c.mode == wire::MODE_NAVIGATION && c.v == 0.0 && c.omega == 0.0);
-    if (c.deadman && neutral_seen) {
-      armed = true;
-    } else if (neutral) {
-      neutral_seen = true;
-    }
+    gate_offer(gate, !operator_in_control || estop || link_lost, neutral, c.deadman);
   }
 
   void control_step() {
@@ -480,8 +473,8 @@ struct SimulatedRobot::Impl {
     if (estop) flags |= wire::SAFETY_ESTOP;
     if (link_lost) flags |= wire::SAFETY_LINK_LOST;
     if (!operator_in_control || expired || estop || link_lost) disarm();
-    if (!armed) flags |= wire::SAFETY_REARM;
-    const bool may_move = armed && command.deadman;
+    if (!gate.armed) flags |= wire::SAFETY_REARM;
+    const bool may_move = gate.armed && command.deadman;
 
     // Base.
     double v_cmd = 0.0, w_cmd = 0.0;
@@ -836,7 +829,7 @@ void SimulatedRobot::stop_commanded_motion(uint64_t seq) {
   impl_->command = neutral;
 }
 
-bool SimulatedRobot::armed() const { return impl_ && impl_->armed; }
+bool SimulatedRobot::armed() const { return impl_ && impl_->gate.armed; }
 
 uint64_t SimulatedRobot::rejected_commands() const { return impl_ ? impl_->rejected : 0; }
 SimulatedRobot::ArmRefusals SimulatedRobot::arm_refusals() const { return impl_ ? impl_->arm_refusals : ArmRefusals{}; }

@@ -1,0 +1,150 @@
+#include "robot_side/twoarm/arms_wire.h"
+
+#include <cmath>
+#include <utility>
+
+#include "common/mapping/depth_stream.h"
+
+namespace hemm::twoarm {
+
+namespace hk = hemm::kinematics;
+
+namespace {
+
+bool finite_pose(const proto::Pose3& p) {
+  const auto& a = p.position();
+  const auto& o = p.orientation();
+  for (double v : {a.x(), a.y(), a.z(), o.w(), o.x(), o.y(), o.z()}) {
+    if (!std::isfinite(v)) return false;
+  }
+  return true;
+}
+
+ArmsCommandResult refuse(wire::ArmsRefusalReason r, uint32_t index, std::string detail) {
+  ArmsCommandResult out;
+  out.refusal = {r, index, std::move(detail)};
+  return out;
+}
+
+void vec(const Eigen::Vector3d& v, proto::Vec3* out) {
+  out->set_x(v.x());
+  out->set_y(v.y());
+  out->set_z(v.z());
+}
+
+}  // namespace
+
+ArmsCommandResult apply_arms_command(const TwoArmModel& model, const ArmsCommandLimits& limits,
+                                     const wire::ArmsCommand& cmd, const TwoArmTargets& current,
+                                     const std::array<ArmReading, kArms>& readings) {
+  TwoArmTargets next = current;
+  // Finite numbers and known, distinct indices first: cheap, and nothing
+  // below runs on garbage.
+  bool seen_arm[kArms] = {}, seen_gripper[kArms] = {};
+  for (const wire::ArmTarget& a : cmd.arm()) {
+    if (a.index() >= kArms || seen_arm[a.index()])
+      return refuse(wire::ARMS_REFUSAL_UNKNOWN_ARM, a.index(), "arm " + std::to_string(a.index()) + " unknown or named twice");
+    seen_arm[a.index()] = true;
+    if (!finite_pose(a.t_a_g())) return refuse(wire::ARMS_REFUSAL_NONFINITE, a.index(), "arm target not finite");
+  }
+  for (const wire::GripperTarget& g : cmd.gripper()) {
+    if (g.index() >= kArms || seen_gripper[g.index()])
+      return refuse(wire::ARMS_REFUSAL_UNKNOWN_GRIPPER, g.index(),
+                    "gripper " + std::to_string(g.index()) + " unknown or named twice");
+    seen_gripper[g.index()] = true;
+    if (!std::isfinite(g.opening_m()) || !std::isfinite(g.force_n()))
+      return refuse(wire::ARMS_REFUSAL_NONFINITE, g.index(), "gripper target not finite");
+  }
+  for (const wire::GripperTarget& g : cmd.gripper()) {
+    const GripperTarget t{g.opening_m(), g.force_n()};
+    if (auto e = check_target(model.arms[g.index()].gripper, t))
+      return refuse(wire::ARMS_REFUSAL_GRIPPER_RANGE, g.index(), *e);
+    next.gripper[g.index()] = t;
+  }
+  for (const wire::ArmTarget& a : cmd.arm()) {
+    const std::size_t i = a.index();
+    Eigen::Isometry3d T;
+    if (!a.has_t_a_g()) return refuse(wire::ARMS_REFUSAL_BAD_POSE, a.index(), "arm target without a pose");
+    if (auto e = mapping::pose3_from_wire(a.t_a_g(), &T)) return refuse(wire::ARMS_REFUSAL_BAD_POSE, a.index(), *e);
+    const Eigen::Vector3d here = grasp_pose_A(model.arms[i], readings[i].q).translation();
+    if ((T.translation() - here).norm() > limits.max_target_jump_m)
+      return refuse(wire::ARMS_REFUSAL_OUT_OF_REACH, a.index(), "target more than max_target_jump_m from the grasp frame");
+    if (!grasp_inverse_kinematics(model.arms[i], T, readings[i].q))
+      return refuse(wire::ARMS_REFUSAL_OUT_OF_REACH, a.index(), "no joint angles within the limits reach the target");
+    next.T_A_G[i] = T;
+  }
+  ArmsCommandResult out;
+  out.targets = next;
+  return out;
+}
+
+void to_wire(const TwoArmTargets& targets, bool deadman, wire::ArmsCommand* out) {
+  out->Clear();
+  out->set_deadman(deadman);
+  for (uint32_t i = 0; i < kArms; ++i) {
+    wire::ArmTarget* a = out->add_arm();
+    a->set_index(i);
+    mapping::pose3_to_wire(targets.T_A_G[i], a->mutable_t_a_g());
+    wire::GripperTarget* g = out->add_gripper();
+    g->set_index(i);
+    g->set_opening_m(targets.gripper[i].opening_m);
+    g->set_force_n(targets.gripper[i].force_N);
+  }
+}
+
+void to_wire(const TwoArmModel& model, const std::array<ArmReading, kArms>& readings, const TwoArmTargets& targets,
+             const TwoArmOutput& c, int64_t stamp_ns, wire::ArmsState* out) {
+  (void)model;
+  out->clear_arm();
+  out->clear_gripper();
+  out->set_stamp_ns(stamp_ns);
+  for (uint32_t i = 0; i < kArms; ++i) {
+    const ArmReading& r = readings[i];
+    const ImpedanceOutput& a = c.arm[i];
+    wire::ArmState* s = out->add_arm();
+    s->set_index(i);
+    for (int j = 0; j < hk::kArm7Dof; ++j) {
+      s->add_q(r.q(j));
+      s->add_qd(r.qd(j));
+      s->add_tau(a.tau(j));
+    }
+    mapping::pose3_to_wire(a.T_A_G, s->mutable_t_a_g());
+    vec(a.twist_A.head<3>(), s->mutable_v_a());
+    vec(a.twist_A.tail<3>(), s->mutable_omega_a());
+    vec(c.wrench_ext_A[i].head<3>(), s->mutable_force_a());
+    vec(c.wrench_ext_A[i].tail<3>(), s->mutable_torque_a());
+    mapping::pose3_to_wire(targets.T_A_G[i], s->mutable_t_a_g_target());
+    s->set_force_limited(a.force_limited);
+    wire::GripperState* g = out->add_gripper();
+    g->set_index(i);
+    g->set_opening_m(c.gripper[i].opening_m);
+    g->set_grip_force_n(c.gripper[i].grip_force_N);
+    g->set_holding(c.gripper[i].holding);
+    g->set_target_opening_m(targets.gripper[i].opening_m);
+    g->set_target_force_n(targets.gripper[i].force_N);
+  }
+  out->set_min_arm_arm_m(std::isfinite(c.avoidance.min_arm_arm_m) ? c.avoidance.min_arm_arm_m : 0.0);
+}
+
+std::optional<std::string> check_arms_state(const wire::ArmsState& s) {
+  if (s.arm_size() > 16 || s.gripper_size() > 16) return "arms state: more than 16 arms or grippers";
+  for (const wire::ArmState& a : s.arm()) {
+    if (a.q_size() != hk::kArm7Dof || a.qd_size() != hk::kArm7Dof || a.tau_size() != hk::kArm7Dof)
+      return "arms state: arm " + std::to_string(a.index()) + " without 7 joint values";
+    for (int j = 0; j < hk::kArm7Dof; ++j) {
+      if (!std::isfinite(a.q(j)) || !std::isfinite(a.qd(j)) || !std::isfinite(a.tau(j)))
+        return "arms state: non-finite joint value";
+    }
+    Eigen::Isometry3d T;
+    if (auto e = mapping::pose3_from_wire(a.t_a_g(), &T)) return "arms state: T_A_G: " + *e;
+    for (const proto::Vec3* v : {&a.v_a(), &a.omega_a(), &a.force_a(), &a.torque_a()}) {
+      if (!std::isfinite(v->x()) || !std::isfinite(v->y()) || !std::isfinite(v->z())) return "arms state: non-finite twist or wrench";
+    }
+  }
+  for (const wire::GripperState& g : s.gripper()) {
+    if (!std::isfinite(g.opening_m()) || !std::isfinite(g.grip_force_n())) return "arms state: non-finite gripper value";
+  }
+  return std::nullopt;
+}
+
+}  // namespace hemm::twoarm

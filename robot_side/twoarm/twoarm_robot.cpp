@@ -1,0 +1,124 @@
+#include "robot_side/twoarm/twoarm_robot.h"
+
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+
+namespace hemm::twoarm {
+
+TwoArmRobot::TwoArmRobot(const std::string& scene_path, const TwoArmRobotOptions& options)
+    : o_(options), sim_(scene_path) {
+  for (std::size_t a = 0; a < kArms; ++a) {
+    if (auto e = validate(o_.control.arm[a], sim_.model().arms[a].arm))
+      throw std::runtime_error("two-arm control params: " + *e);
+  }
+  if (!(o_.watchdog_ns > 0)) throw std::runtime_error("two-arm watchdog must be > 0");
+  watchdog_.timeout_ns = o_.watchdog_ns;
+  reset({sim_.model().arms[0].rest_q, sim_.model().arms[1].rest_q}, {0.0, 0.0});
+}
+
+void TwoArmRobot::reset(const std::array<kinematics::Arm7Vector, kArms>& q, const std::array<double, kArms>& finger_m) {
+  sim_.reset(q, finger_m);
+  commanded_ = hold_targets(sim_.model(), readings(), {o_.initial_grip_force_N, o_.initial_grip_force_N});
+  active_ = commanded_;
+  following_ = false;
+  deadman_ = false;
+  gate_disarm(gate_);
+  watchdog_ = robot::Watchdog{o_.watchdog_ns};
+}
+
+int64_t TwoArmRobot::time_ns() const noexcept { return std::llround(sim_.time_s() * 1e9); }
+
+std::array<ArmReading, kArms> TwoArmRobot::readings() const noexcept {
+  return {sim_.reading(Side::kRight), sim_.reading(Side::kLeft)};
+}
+
+bool TwoArmRobot::command(const wire::ArmsCommand& cmd, uint64_t seq, int64_t sent_ns) {
+  ++counters_.commands;
+  const ArmsCommandResult r = apply_arms_command(sim_.model(), o_.limits, cmd, commanded_, readings());
+  if (!r.targets) {
+    ++counters_.refusals;
+    counters_.last_refusal = r.refusal.reason;
+    counters_.last_refused_seq = seq;
+    counters_.last_refused_index = r.refusal.index;
+    counters_.last_refusal_detail = r.refusal.detail;
+    return false;
+  }
+  const int64_t now = time_ns();
+  watchdog_feed(watchdog_, sent_ns, now);
+  // Towards the re-arm, with the stops as they are now (the watchdog was
+  // just fed: an expired one is not a stop in force for this command).
+  gate_offer(gate_, !operator_in_control_ || !link_up_ || estop_, !cmd.deadman(), cmd.deadman());
+  deadman_ = cmd.deadman();
+  if (gate_.armed && deadman_) {
+    commanded_ = *r.targets;
+    counters_.last_command_seq = seq;
+    ++counters_.applied;
+  }
+  return true;
+}
+
+void TwoArmRobot::set_link(bool operator_in_control, bool link_up) noexcept {
+  operator_in_control_ = operator_in_control;
+  link_up_ = link_up;
+}
+
+void TwoArmRobot::set_estop(bool engaged) noexcept { estop_ = engaged; }
+
+void TwoArmRobot::step() noexcept {
+  const int64_t now = time_ns();
+  const bool expired = watchdog_expired(watchdog_, now);
+  uint32_t flags = 0;
+  if (!operator_in_control_) flags |= wire::SAFETY_NO_OPERATOR;
+  if (expired && operator_in_control_) flags |= wire::SAFETY_WATCHDOG;
+  if (estop_) flags |= wire::SAFETY_ESTOP;
+  if (!link_up_) flags |= wire::SAFETY_LINK_LOST;
+  if (!operator_in_control_ || !link_up_ || expired || estop_) gate_disarm(gate_);
+  if (!gate_.armed) flags |= wire::SAFETY_REARM;
+  safety_ = flags;
+  const std::array<ArmReading, kArms> in = readings();
+  const bool follow = gate_.armed && deadman_;
+  if (follow) {
+    active_ = commanded_;
+  } else if (following_) {
+    // The stop begins: hold where the grasp frames are, under the load they
+    // carry (the set point offset by the wrist sensor's external wrench over
+    // the stiffness, within the force limits, so a held box does not make
+    // the arm sag), and keep the grips.
+    const TwoArmTargets here = hold_targets(sim_.model(), in, {0.0, 0.0});
+    for (std::size_t a = 0; a < kArms; ++a) {
+      const ImpedanceParams& p = o_.control.arm[a];
+      Eigen::Vector3d f = -out_.wrench_ext_A[a].head<3>(), t = -out_.wrench_ext_A[a].tail<3>();
+      if (f.norm() > p.force_limit_N) f *= p.force_limit_N / f.norm();
+      if (t.norm() > p.torque_limit_Nm) t *= p.torque_limit_Nm / t.norm();
+      Eigen::Isometry3d T = here.T_A_G[a];
+      if (p.stiffness_N_per_m > 0.0) T.translation() += f / p.stiffness_N_per_m;
+      if (p.rot_stiffness_Nm_per_rad > 0.0 && t.norm() > 0.0) {
+        const Eigen::Vector3d r = t / p.rot_stiffness_Nm_per_rad;
+        T.linear() = Eigen::AngleAxisd(r.norm(), r.normalized()).toRotationMatrix() * T.linear();
+      }
+      active_.T_A_G[a] = T;
+    }
+  }
+  following_ = follow;
+  const auto t0 = std::chrono::steady_clock::now();
+  twoarm_control(sim_.model(), o_.control, in, active_, out_);
+  const auto t1 = std::chrono::steady_clock::now();
+  compute_.record(std::chrono::duration_cast<std::chrono::nanoseconds>(t1 - t0).count());
+  sim_.set_command(Side::kRight, out_.command[0]);
+  sim_.set_command(Side::kLeft, out_.command[1]);
+  sim_.step();
+}
+
+void TwoArmRobot::state(wire::ArmsState* out) const {
+  out->Clear();
+  to_wire(sim_.model(), readings(), active_, out_, time_ns(), out);
+  out->set_safety(safety_);
+  out->set_last_command_seq(counters_.last_command_seq);
+  out->set_refusals(counters_.refusals);
+  out->set_last_refusal(counters_.last_refusal);
+  out->set_last_refused_seq(counters_.last_refused_seq);
+  out->set_last_refused_index(counters_.last_refused_index);
+}
+
+}  // namespace hemm::twoarm

@@ -1,0 +1,113 @@
+// The SIMULATED two-arm robot (issue 25) as the station drives it: the
+// workbench plant (workbench_sim.h), both arms' and grippers' 1 kHz control
+// (twoarm_control.h), the commands the operator sends (arms_wire.h) and the
+// robot's safety, with the mobile robot's watchdog (watchdog.h) and re-arm
+// gate (motion_gate.h):
+//
+//   * A command is validated whole (arms_wire.h); a refused one changes
+//     nothing and is counted with its reason, sequence number and index, and
+//     reported in every ArmsState.
+//   * The arms follow the commanded targets only while the robot is armed,
+//     the newest command has the dead-man pressed and the watchdog has not
+//     expired. Otherwise - dead-man released, watchdog expired, link lost, no
+//     operator in control, e-stop - both arms HOLD: each works, in
+//     impedance, to the grasp pose it had when the stop began (not to the
+//     last target, which it may not have reached), offset by the external
+//     wrench the wrist sensor measured then over the stiffness so that the
+//     load it carries does not make it sag, and the grippers keep their
+//     targets, so a grasped object is not dropped.
+//   * After a stop other than the dead-man (e-stop, lost link, expired
+//     watchdog, no operator) the robot follows nothing until re-armed: a
+//     neutral command (dead-man released), then a pressed one; the pressed
+//     one's targets are what it follows then (SAFETY_REARM).
+//
+// Not thread-safe: one thread (the station's control thread) owns it.
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+#include "common/realtime/timing_stats.h"
+#include "robot_side/control/motion_gate.h"
+#include "robot_side/control/watchdog.h"
+#include "robot_side/twoarm/arms_wire.h"
+#include "robot_side/twoarm/twoarm_control.h"
+#include "robot_side/twoarm/workbench_sim.h"
+#include "wire.pb.h"
+
+namespace hemm::twoarm {
+
+struct TwoArmRobotOptions {
+  TwoArmParams control{};
+  ArmsCommandLimits limits{};
+  int64_t watchdog_ns = 250'000'000;
+  // Grip force of the grippers' initial targets (open, at the rest opening).
+  double initial_grip_force_N = 10.0;
+};
+
+struct TwoArmRobotCounters {
+  uint64_t commands = 0;   // offered
+  uint64_t applied = 0;    // their targets followed
+  uint64_t refusals = 0;   // refused by validation (state unchanged)
+  wire::ArmsRefusalReason last_refusal = wire::ARMS_REFUSAL_UNSPECIFIED;
+  uint64_t last_refused_seq = 0;
+  uint32_t last_refused_index = 0;
+  std::string last_refusal_detail;
+  uint64_t last_command_seq = 0;  // the newest applied command's
+};
+
+class TwoArmRobot {
+ public:
+  // Throws std::runtime_error for a bad scene or params.
+  TwoArmRobot(const std::string& scene_path, const TwoArmRobotOptions& options);
+
+  // Robot time: the simulation's (steps x timestep), ns.
+  int64_t time_ns() const noexcept;
+
+  // An operator command received at time_ns() (the watchdog counts from
+  // sent_ns, at most now). False: refused (counters() say why).
+  bool command(const wire::ArmsCommand& cmd, uint64_t seq, int64_t sent_ns);
+  // The link's state, each tick before step().
+  void set_link(bool operator_in_control, bool link_up) noexcept;
+  void set_estop(bool engaged) noexcept;
+
+  // SIMULATION ONLY: both arms put at joint angles q, fingers at finger_m,
+  // the objects at the scene's poses; the robot holds there (disarmed).
+  void reset(const std::array<kinematics::Arm7Vector, kArms>& q, const std::array<double, kArms>& finger_m);
+
+  // One control period: safety, control, one plant step. Allocation-free.
+  void step() noexcept;
+
+  // The state to stream (stamp, arms, grippers, safety, sequence, refusals).
+  void state(wire::ArmsState* out) const;
+
+  bool armed() const noexcept { return gate_.armed; }
+  bool following() const noexcept { return following_; }  // the commanded targets, not a hold
+  uint32_t safety() const noexcept { return safety_; }
+  const TwoArmRobotCounters& counters() const noexcept { return counters_; }
+  // Per-tick compute of both arms' controllers (twoarm_control), ns.
+  const rt::LogHistogram& control_compute() const noexcept { return compute_; }
+  const TwoArmTargets& active_targets() const noexcept { return active_; }
+  const TwoArmOutput& control_output() const noexcept { return out_; }
+  WorkbenchSim& sim() noexcept { return sim_; }
+  const WorkbenchSim& sim() const noexcept { return sim_; }
+
+ private:
+  std::array<ArmReading, kArms> readings() const noexcept;
+
+  TwoArmRobotOptions o_;
+  WorkbenchSim sim_;
+  TwoArmTargets commanded_;  // the newest accepted command's (all parts)
+  TwoArmTargets active_;     // what the controllers work to now
+  TwoArmOutput out_;
+  bool deadman_ = false;
+  bool operator_in_control_ = false, link_up_ = false, estop_ = false;
+  bool following_ = false;
+  uint32_t safety_ = 0;
+  robot::Watchdog watchdog_;
+  robot::MotionGate gate_;
+  TwoArmRobotCounters counters_;
+  rt::LogHistogram compute_;
+};
+
+}  // namespace hemm::twoarm

@@ -1,0 +1,10 @@
+// The shipped two-arm scene, for the two-arm tests.
+#pragma once
+
+#include <string>
+
+namespace hemm::test {
+
+inline std::string workbench_scene() { return std::string(HEMM_SOURCE_DIR) + "/deploy/scenes/workbench.xml"; }
+
+}  // namespace hemm::test
