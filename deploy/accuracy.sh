@@ -16,8 +16,8 @@
 # peak: targets 5 % at 0 ms, 10 % at 300 ms) and the pose error.
 #
 # Usage: deploy/accuracy.sh BUILD_DIR [--scenes home,corridors,office,pillars] [--rtts 0,300] [--runs nav-to-wall,probe-cylinder,probe-back,probe-pillar-back] [--shape-completion on|off] [--out DIR]
-# Takes about 40 s per run (by default 4 scenes x 3 runs x 2 round trips, and probe-pillar-back in 2
-# of them: 28 runs, ~19 min).
+# Takes 20-40 s per run (by default 4 scenes x 3 runs x 2 round trips, and probe-pillar-back in 2
+# of them: 28 runs; 10 min measured beside other builds).
 set -euo pipefail
 
 usage() {
