@@ -264,9 +264,15 @@ void ModelThread::step(std::int64_t now_ns) {
       st.kept = shapes_.kept;
       st.raw_replaced = shapes_.raw_replaced;
       for (const mapping::FittedCircle& fc : shapes_.circles) st.max_circle_rms_m = std::max(st.max_circle_rms_m, fc.rms);
+      st.rectangles = shapes_.rectangles.size();
+      st.rectangles_kept = shapes_.kept_rectangles;
+      for (const mapping::FittedRectangle& fr : shapes_.rectangles)
+        st.max_rectangle_rms_m = std::max(st.max_rectangle_rms_m, fr.rms);
       st.raw_replaced_bytes = shapes_.raw_replaced * sizeof(mapping::Segment2);
-      st.primitive_bytes = shapes_.circles.size() * 3 * sizeof(double);
-      st.outline_bytes = shapes_.circles.size() * static_cast<std::size_t>(p_.shapes.circle_pieces) * sizeof(mapping::Segment2);
+      // A rectangle: corner, axis, two sides (6 doubles), drawn as 4 pieces.
+      st.primitive_bytes = (shapes_.circles.size() * 3 + shapes_.rectangles.size() * 6) * sizeof(double);
+      st.outline_bytes = (shapes_.circles.size() * static_cast<std::size_t>(p_.shapes.circle_pieces) +
+                          shapes_.rectangles.size() * 4) * sizeof(mapping::Segment2);
       std::lock_guard<std::mutex> lock(stats_mutex_);
       st.fits = shape_stats_.fits + 1;
       st.last_fit_ms = ms;

@@ -159,6 +159,8 @@ struct ShapeStats {
   std::size_t kept = 0;             // circles held from the previous fit (temporal coherence)
   std::size_t raw_replaced = 0;     // raw segments and shadow edges the circles stand for
   double max_circle_rms_m = 0.0;    // worst fit error among the rendered circles
+  std::size_t rectangles = 0, rectangles_kept = 0;  // closed pillars and boxes, held ones among them
+  double max_rectangle_rms_m = 0.0;
   double last_fit_ms = 0.0, max_fit_ms = 0.0;
   // Memory: the raw segments the circles replace against the circles'
   // parameters (centre, radius), and what the snapshot draws for them (the

@@ -127,7 +127,8 @@ std::string to_string(const OperatorStationSummary& s) {
     << " max_step_m=" << s.model.registration.max_step
     << " correction=(" << s.model.registration.correction.x << ", " << s.model.registration.correction.y << ", "
     << s.model.registration.correction.theta << ")\n"
-    << "shapes: circles=" << s.model.shapes.circles << " lines=" << s.model.shapes.lines
+    << "shapes: circles=" << s.model.shapes.circles << " rectangles=" << s.model.shapes.rectangles
+    << " lines=" << s.model.shapes.lines
     << " bridges=" << s.model.shapes.bridges << " kept=" << s.model.shapes.kept << " raw_replaced=" << s.model.shapes.raw_replaced
     << " max_circle_rms_m=" << s.model.shapes.max_circle_rms_m << " fit_ms last=" << s.model.shapes.last_fit_ms
     << " max=" << s.model.shapes.max_fit_ms << "\n"
@@ -186,6 +187,9 @@ report::OperatorStation to_report(const OperatorStationSummary& s) {
   m.set_shape_lines(sh.lines);
   m.set_shape_bridges(sh.bridges);
   m.set_shape_kept(sh.kept);
+  m.set_shape_rectangles(sh.rectangles);
+  m.set_shape_rectangles_kept(sh.rectangles_kept);
+  m.set_shape_max_rectangle_rms_m(sh.max_rectangle_rms_m);
   m.set_shape_raw_replaced(sh.raw_replaced);
   m.set_shape_max_circle_rms_m(sh.max_circle_rms_m);
   m.set_shape_last_fit_ms(sh.last_fit_ms);

@@ -267,7 +267,7 @@ TEST(SceneSlice, OfficeSceneMixedShapes) {
   // The pillar (0.4 m square turned 30 deg about z): 0.3 m from a face
   // along its normal at 30 deg is 0.5 m from the centre.
   const Eigen::Vector2d n(std::cos(std::numbers::pi / 6), std::sin(std::numbers::pi / 6));
-  EXPECT_NEAR(haptics::distance_to_scene(s.scene, Eigen::Vector2d(2.6, -1.1) + 0.5 * n), 0.3, 1e-9);
+  EXPECT_NEAR(haptics::distance_to_scene(s.scene, Eigen::Vector2d(1.3, -0.85) + 0.5 * n), 0.3, 1e-9);
   // The board: 1.5 cm thick, faces at x = 0.3925 and 0.4075.
   EXPECT_NEAR(haptics::distance_to_scene(s.scene, {0.3, 1.7}), 0.0925, 1e-9);
   EXPECT_NEAR(haptics::distance_to_scene(s.scene, {0.5, 1.7}), 0.0925, 1e-9);
