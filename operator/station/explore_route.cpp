@@ -3,6 +3,7 @@
 #include <cctype>
 #include <cerrno>
 #include <cmath>
+#include <numbers>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
@@ -116,7 +117,7 @@ std::optional<std::string> parse_scene_exploration(std::string_view text, const 
       if (has_start) return at + "explore-start: given twice (first on line " + std::to_string(start_line) + ")";
       if (w.size() != 4) return at + "explore-start: expected X Y THETA (3 numbers), got " + std::to_string(w.size() - 1);
       if (!numbers(1, 3, &why)) return at + "explore-start: " + why;
-      if (std::abs(v[0]) > kRouteMaxWorld_m || std::abs(v[1]) > kRouteMaxWorld_m || std::abs(v[2]) > 2 * M_PI)
+      if (std::abs(v[0]) > kRouteMaxWorld_m || std::abs(v[1]) > kRouteMaxWorld_m || std::abs(v[2]) > 2 * std::numbers::pi)
         return at + "explore-start: x, y must be within 100 m, theta within 2 pi";
       r.start_W = {v[0], v[1], v[2]};
       has_start = true;

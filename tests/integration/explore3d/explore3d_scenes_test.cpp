@@ -120,10 +120,10 @@ TEST(Explore3dScenes, TheHeadersStartIsTheRobotsAndTheMastCameraSeesEveryObject)
     const hemm::config::DepthCameraConfig dc = rc.depth_camera();
     cam.width = static_cast<int>(dc.width());
     cam.height = static_cast<int>(dc.height());
-    cam.hfov = dc.hfov_deg() * M_PI / 180;
+    cam.hfov = dc.hfov_deg() * std::numbers::pi / 180;
     cam.range_min = dc.range_min_m();
     cam.range_max = dc.range_max_m();
-    cam.T_mount_S = hr::SimDepthCameraParams::mast_mount(dc.mast_x_m(), dc.mast_z_m(), dc.mast_pitch_deg() * M_PI / 180);
+    cam.T_mount_S = hr::SimDepthCameraParams::mast_mount(dc.mast_x_m(), dc.mast_z_m(), dc.mast_pitch_deg() * std::numbers::pi / 180);
     const Eigen::Isometry3d T_W_S = ho::robot_pose3(x.start_W) * cam.T_mount_S;
     const hemm::mapping::DepthIntrinsics K = cam.intrinsics();
     const mjtByte groups[6] = {1, 1, 1, 0, 1, 1};
