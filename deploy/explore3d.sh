@@ -16,7 +16,11 @@
 # hand's actual path); output under out/explore3d_bimanual, plot
 # DOC/explore3d_bimanual_wrench.png.
 #
-# Usage: deploy/explore3d.sh BUILD_DIR [--device sim-hand6|sim-bimanual] [--rtts 0,300] [--out DIR] [--doc DIR] [--port-base P] [--views]
+# --head (issue 24): the robot's camera on its SIMULATED pan-tilt head
+# (robot_depth_head.pbtxt) turned by the operator's gaze, frames registered
+# (operator_explore3d_gaze.pbtxt; sim-hand6 only); output under out/explore3d_head.
+#
+# Usage: deploy/explore3d.sh BUILD_DIR [--device sim-hand6|sim-bimanual] [--head] [--rtts 0,300] [--out DIR] [--doc DIR] [--port-base P] [--views]
 # (ports P, P+1 for the robot and P+100, P+101 for the relay; P default 47300;
 # --views: both stations write PNGs of their live view every 2 s into
 # DIR/<rtt>ms/{operator,robot}_view/, on the caller's X display.)
@@ -38,11 +42,13 @@ doc="$root/deploy/doc"
 device="sim-hand6"
 base=47300
 views=0
+head=0
 while (($#)); do
   case "$1" in
     --port-base) base="${2:?--port-base needs a port}"; shift 2 ;;
     --device) device="${2:?--device needs sim-hand6 or sim-bimanual}"; shift 2 ;;
     --views) views=1; shift ;;
+    --head) head=1; shift ;;
     --rtts) rtts="${2:?--rtts needs a list}"; shift 2 ;;
     --out) out="${2:?--out needs a directory}"; shift 2 ;;
     --doc) doc="${2:?--doc needs a directory}"; shift 2 ;;
@@ -55,6 +61,11 @@ case "$device" in
   sim-bimanual) opcfg="operator_explore3d_bimanual.pbtxt"; tag="explore3d_bimanual" ;;
   *) echo "explore3d: --device '$device': sim-hand6 or sim-bimanual" >&2; exit 2 ;;
 esac
+robotcfg="robot_depth.pbtxt"
+if ((head)); then
+  [[ "$device" == sim-hand6 ]] || { echo "explore3d: --head needs --device sim-hand6" >&2; exit 2; }
+  robotcfg="robot_depth_head.pbtxt"; opcfg="operator_explore3d_gaze.pbtxt"; tag="explore3d_head"
+fi
 out="${out:-$root/out/$tag}"
 bin="$build/bin"
 for b in hemm-robot hemm-operator hemm-relay hemm-truth; do
@@ -82,7 +93,7 @@ run() {  # RTT_MS
     robot_view=(--view-png "$dir/robot_view" --view-interval 2)
   fi
   echo "explore3d: ${rtt} ms round trip$( ((rtt > 0)) && echo ", 5 % loss each way") ($secs s) -> $dir" >&2
-  "$bin/hemm-robot" --config "$cfg/robot_depth.pbtxt" --session-port "$base" --stream-port $((base + 1)) \
+  "$bin/hemm-robot" --config "$cfg/$robotcfg" --session-port "$base" --stream-port $((base + 1)) \
     --duration $((secs + 10)) --log-level warn --station-json "$dir/robot_station.json" "${robot_view[@]}" \
     >"$dir/robot.txt" 2>"$dir/robot.log" &
   local robot=$! relay="" port="$base" stream=$((base + 1))
@@ -140,9 +151,9 @@ if [[ "$device" == sim-bimanual ]]; then
     "${args[@]}"
   echo "explore3d: wrote $doc/explore3d_bimanual_wrench.png" >&2
 else
-  /usr/bin/python3 "$root/deploy/plots/plot_explore3d.py" --wrench "$doc/explore3d_wrench.png" \
-    --voxmap "$doc/explore3d_voxmap.png" --voxcsv "$out/${first}ms/servo.csv.voxmap.csv" "${args[@]}"
-  echo "explore3d: wrote $doc/explore3d_wrench.png and $doc/explore3d_voxmap.png" >&2
+  /usr/bin/python3 "$root/deploy/plots/plot_explore3d.py" --wrench "$doc/${tag}_wrench.png" \
+    --voxmap "$doc/${tag}_voxmap.png" --voxcsv "$out/${first}ms/servo.csv.voxmap.csv" "${args[@]}"
+  echo "explore3d: wrote $doc/${tag}_wrench.png and $doc/${tag}_voxmap.png" >&2
 fi
 
 /usr/bin/python3 - "$out" "$rtts" <<'PY'
