@@ -140,9 +140,16 @@ RegistrationResult register_points(const std::vector<Eigen::Vector3f>& points_W,
     r.verdict = RegistrationVerdict::kNoSurface;
     return r;
   }
+  // Only the frame's points where the surface is (the voxmap keeps a region
+  // of interest; a frame sees far beyond it): the overlap is judged there.
+  Eigen::AlignedBox3f box;
+  for (const Eigen::Vector3f& x : surface.points) box.extend(x);
+  box.min().array() -= static_cast<float>(p.max_correspondence_m);
+  box.max().array() += static_cast<float>(p.max_correspondence_m);
   pcl::PointCloud<pcl::PointXYZ>::Ptr raw(new pcl::PointCloud<pcl::PointXYZ>);
   raw->reserve(points_W.size());
-  for (const Eigen::Vector3f& x : points_W) raw->push_back(pcl::PointXYZ(x.x(), x.y(), x.z()));
+  for (const Eigen::Vector3f& x : points_W)
+    if (box.contains(x)) raw->push_back(pcl::PointXYZ(x.x(), x.y(), x.z()));
   pcl::PointCloud<pcl::PointXYZ> down;
   pcl::VoxelGrid<pcl::PointXYZ> grid;
   grid.setInputCloud(raw);

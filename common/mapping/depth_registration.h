@@ -9,7 +9,8 @@
 //
 // A correction is accepted only when all of these hold (DepthRegistrationParams):
 //   * enough points: the frame has min_points after down-sampling (leaf_m)
-//     and the surface min_target_points;
+//     within the surface's bounds (the voxmap's region of interest) and the
+//     surface min_target_points;
 //   * they fix every direction (min_constraint; else kDegenerate);
 //   * the fit is good: after ICP at least min_overlap of the frame's points
 //     have a surface point within max_correspondence_m, and their point-to-
