@@ -23,8 +23,12 @@
 # --robot-config replace the two configs (the route, the scene and the start
 # are still given on the command line), --operator-arg / --robot-arg pass one
 # more argument each (repeat them), --label names the variant in the output.
+# --head (issue 24): the robot's camera on its SIMULATED pan-tilt head
+# (robot_depth_head.pbtxt) turned by the operator's gaze
+# (operator_explore3d_gaze.pbtxt; sim-hand6 only); output under
+# out/explore3d_head[_SCENE].
 #
-# Usage: deploy/explore3d.sh BUILD_DIR [--scene NAME|FILE] [--route NAME] [--device sim-hand6|sim-bimanual] [--rtts 0,300] [--out DIR] [--doc DIR] [--port-base P] [--views] [--no-plots] [--operator-config FILE] [--robot-config FILE] [--operator-arg ARG]... [--robot-arg ARG]... [--label TEXT]
+# Usage: deploy/explore3d.sh BUILD_DIR [--scene NAME|FILE] [--route NAME] [--device sim-hand6|sim-bimanual] [--head] [--rtts 0,300] [--out DIR] [--doc DIR] [--port-base P] [--views] [--no-plots] [--operator-config FILE] [--robot-config FILE] [--operator-arg ARG]... [--robot-arg ARG]... [--label TEXT]
 # (ports P, P+1 for the robot and P+100, P+101 for the relay; P default 47300;
 # --views: both stations write PNGs of their live view every 2 s into
 # DIR/<rtt>ms/{operator,robot}_view/, on the caller's X display.)
@@ -47,6 +51,7 @@ doc="$root/deploy/doc"
 device="sim-hand6"
 base=47300
 views=0
+head=0
 plots=1
 scene=home
 route=explore-table
@@ -62,6 +67,7 @@ while (($#)); do
     --robot-arg) robot_extra+=("${2?--robot-arg needs an argument}"); shift 2 ;;
     --label) label="${2:?--label needs a text}"; shift 2 ;;
     --no-plots) plots=0; shift ;;
+    --head) head=1; shift ;;
     --port-base) base="${2:?--port-base needs a port}"; shift 2 ;;
     --device) device="${2:?--device needs sim-hand6 or sim-bimanual}"; shift 2 ;;
     --views) views=1; shift ;;
@@ -77,13 +83,18 @@ case "$device" in
   sim-bimanual) opcfg="operator_explore3d_bimanual.pbtxt"; tag="explore3d_bimanual" ;;
   *) echo "explore3d: --device '$device': sim-hand6 or sim-bimanual" >&2; exit 2 ;;
 esac
+robotcfg="robot_depth.pbtxt"
+if ((head)); then
+  [[ "$device" == sim-hand6 ]] || { echo "explore3d: --head needs --device sim-hand6" >&2; exit 2; }
+  robotcfg="robot_depth_head.pbtxt"; opcfg="operator_explore3d_gaze.pbtxt"; tag="explore3d_head"
+fi
 if [[ "$scene" == *.xml ]]; then scene_file="$scene"; else scene_file="$root/deploy/scenes/$scene.xml"; fi
 [[ -f "$scene_file" ]] || { echo "explore3d: --scene '$scene': no $scene_file (home, table_round, table_mixed or an MJCF file)" >&2; exit 2; }
 scene_file="$(cd "$(dirname "$scene_file")" && pwd)/$(basename "$scene_file")"
 scene_name="$(basename "$scene_file" .xml)"
 [[ "$scene_name" == home ]] || tag="${tag}_$scene_name"
 opcfg_file="$root/deploy/configs/$opcfg"
-robotcfg_file="$root/deploy/configs/robot_depth.pbtxt"
+robotcfg_file="$root/deploy/configs/$robotcfg"
 for f in "$opcfg_arg" "$robotcfg_arg"; do
   [[ -z "$f" || -f "$f" ]] || { echo "explore3d: config '$f' not found" >&2; exit 2; }
 done

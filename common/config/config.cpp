@@ -241,7 +241,8 @@ std::vector<FieldIssue> validate_robot_config(const pb::Message& m) {
   for (double q : c.sim().start_arm_q())
     if (!(std::abs(q) <= 10)) out.push_back({"sim.start_arm_q", "must be finite, within 10 rad"});
   const auto& dc = c.depth_camera();
-  if (dc.mount() != "mast" && dc.mount() != "wrist") out.push_back({"depth_camera.mount", "must be mast or wrist"});
+  if (dc.mount() != "mast" && dc.mount() != "wrist" && dc.mount() != "pan-tilt")
+    out.push_back({"depth_camera.mount", "must be mast, wrist or pan-tilt"});
   if (!in_range(dc.width(), 1, 1024)) out.push_back({"depth_camera.width", "must be 1..1024"});
   if (!in_range(dc.height(), 1, 1024)) out.push_back({"depth_camera.height", "must be 1..1024"});
   if (!(dc.hfov_deg() > 0 && dc.hfov_deg() < 170)) out.push_back({"depth_camera.hfov_deg", "must be within (0, 170)"});
@@ -252,6 +253,25 @@ std::vector<FieldIssue> validate_robot_config(const pb::Message& m) {
   if (!(std::abs(dc.mast_x_m()) <= 1 && dc.mast_z_m() >= 0 && dc.mast_z_m() <= 3))
     out.push_back({"depth_camera.mast_x_m", "mast within 1 m of the base centre, 0..3 m high"});
   if (!(std::abs(dc.mast_pitch_deg()) <= 90)) out.push_back({"depth_camera.mast_pitch_deg", "must be within [-90, 90]"});
+  // The pan-tilt head (fields 140-152).
+  if (!(std::abs(dc.head_y_m()) <= 1)) out.push_back({"depth_camera.head_y_m", "must be within 1 m of the base centre"});
+  if (!(dc.pan_min_deg() >= -180 && dc.pan_min_deg() < dc.pan_max_deg() && dc.pan_max_deg() <= 180 &&
+        dc.pan_min_deg() <= 0 && dc.pan_max_deg() >= 0))
+    out.push_back({"depth_camera.pan_min_deg", "need -180 <= pan_min_deg <= 0 <= pan_max_deg <= 180, min < max"});
+  if (!(dc.tilt_min_deg() >= -90 && dc.tilt_min_deg() < dc.tilt_max_deg() && dc.tilt_max_deg() <= 90 &&
+        dc.mast_pitch_deg() >= dc.tilt_min_deg() && dc.mast_pitch_deg() <= dc.tilt_max_deg()))
+    out.push_back({"depth_camera.tilt_min_deg", "need -90 <= tilt_min_deg <= mast_pitch_deg <= tilt_max_deg <= 90"});
+  if (!(dc.head_rate_dps() > 0 && dc.head_rate_dps() <= 720))
+    out.push_back({"depth_camera.head_rate_dps", "must be within (0, 720]"});
+  if (!(dc.head_time_constant_s() >= 0 && dc.head_time_constant_s() <= 2))
+    out.push_back({"depth_camera.head_time_constant_s", "must be within [0, 2]"});
+  for (double b : {dc.pan_bias_deg(), dc.tilt_bias_deg()})
+    if (!(std::abs(b) <= 10)) out.push_back({"depth_camera.pan_bias_deg", "encoder biases must be within 10 deg"});
+  if (!(dc.encoder_sigma_deg() >= 0 && dc.encoder_sigma_deg() <= 5))
+    out.push_back({"depth_camera.encoder_sigma_deg", "must be within [0, 5]"});
+  if (!(dc.gaze_min_range_m() >= 0 && dc.gaze_min_range_m() < dc.gaze_max_range_m() && dc.gaze_max_range_m() <= 100))
+    out.push_back({"depth_camera.gaze_min_range_m", "need 0 <= gaze_min_range_m < gaze_max_range_m <= 100"});
+  if (!in_range(dc.gaze_timeout_ms(), 10, 10000)) out.push_back({"depth_camera.gaze_timeout_ms", "must be 10..10000"});
   check_twoarm(c, out);
   return out;
 }
@@ -287,6 +307,10 @@ std::vector<FieldIssue> validate_operator_config(const pb::Message& m) {
         p3.roi_x_max_m() - p3.roi_x_min_m() <= 10 && p3.roi_half_width_m() <= 5 && p3.roi_z_max_m() - p3.roi_z_min_m() <= 5))
     out.push_back({"probe_3d.roi_x_min_m", "the region of interest must be a non-empty box within 10 x 10 x 5 m"});
   if (p3.roi() != "probe" && p3.roi() != "robot") out.push_back({"probe_3d.roi", "must be \"probe\" or \"robot\""});
+  if (!(p3.gaze_lookahead_s() >= 0 && p3.gaze_lookahead_s() <= 5))
+    out.push_back({"probe_3d.gaze_lookahead_s", "must be within [0, 5]"});
+  if (!(p3.gaze_hysteresis_m() >= 0 && p3.gaze_hysteresis_m() <= 2))
+    out.push_back({"probe_3d.gaze_hysteresis_m", "must be within [0, 2]"});
   // A quarter of the edge is the re-centring margin: it must hold the probe
   // (1 cm) and the voxmap's distance layers around what it touches.
   if (!(p3.roi_size_m() >= 0.2 && p3.roi_size_m() <= 3))

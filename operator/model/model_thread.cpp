@@ -38,6 +38,10 @@ ModelThread::ModelThread(servo::ModelChannel& channel, const ModelThreadParams& 
     if (!(p.voxmap_rate_hz > 0.0 && p.voxmap_rate_hz <= 100.0))
       throw std::invalid_argument("ModelThread: voxmap_rate_hz outside (0, 100]");
     voxmap_ = std::make_unique<mapping::LiveVoxmap>(vp);
+    if (p.depth_registration) {
+      if (auto e = mapping::check(p.depth_registration_params)) throw std::invalid_argument("ModelThread: " + *e);
+      depth_reg_ = std::make_unique<mapping::DepthFrameRegistration>(p.depth_registration_params);
+    }
   }
 }
 
@@ -358,6 +362,10 @@ void ModelThread::step_voxmap(std::int64_t now_ns) {
         voxmap_retired_epochs_[0] = voxmap_epoch_;
         *voxmap_ = mapping::LiveVoxmap(voxmap_->params());
         depth_rx_.restart();
+        if (depth_reg_) {
+          depth_reg_->clear();
+          reg_surface_ = {};
+        }
         voxmap_dirty_ = false;
         ++st.restarts;
         std::shared_ptr<const vps::Voxmap> retired;  // released after the lock
@@ -370,8 +378,16 @@ void ModelThread::step_voxmap(std::int64_t now_ns) {
     m.reset();
     if (verdict != mapping::DepthStreamReceiver::Verdict::kAccepted) continue;
     if (!voxmap_roi_set_) continue;  // no pose yet: the ROI is not placed
-    voxmap_->integrate(depth_chunk_);
-    ++integrated;
+    if (depth_reg_) {
+      reg_ready_.clear();
+      depth_reg_->add(depth_chunk_, &reg_surface_, &reg_ready_);
+      for (const mapping::DepthChunkData& c : reg_ready_) voxmap_->integrate(c);
+      integrated += reg_ready_.size();
+      st.registration = depth_reg_->stats();
+    } else {
+      voxmap_->integrate(depth_chunk_);
+      ++integrated;
+    }
   }
   if (integrated > 0) {
     const double ms = static_cast<double>(steady_now_ns() - t0) * 1e-6;
@@ -388,6 +404,7 @@ void ModelThread::step_voxmap(std::int64_t now_ns) {
     auto vm = std::make_shared<vps::Voxmap>();
     std::shared_ptr<const vps::Voxmap> retired;  // released after the lock
     if (!voxmap_->snapshot(vm.get())) {
+      if (depth_reg_) mapping::surface_from_voxmap(*vm, &reg_surface_);
       st.snapshot_bytes = vm->memory_bytes();
       ++st.builds;
       std::lock_guard<std::mutex> lock(voxmap_mu_);

@@ -58,6 +58,7 @@
 #include <thread>
 #include <vector>
 
+#include "common/mapping/depth_registration.h"
 #include "common/mapping/depth_stream.h"
 #include "common/mapping/live_voxmap.h"
 #include "common/mapping/local_map.h"
@@ -132,6 +133,11 @@ struct ModelThreadParams {
   mapping::ProbeRoiParams voxmap_probe_roi;
   double voxmap_rate_hz = 5.0;        // rebuilds per second at most
   std::size_t depth_queue = 256;      // power of two
+  // Registration-corrected fusion (issue 24, mapping/depth_registration.h):
+  // each depth frame registered against the newest snapshot's surface
+  // before it is integrated (a frame is held until its last chunk).
+  bool depth_registration = false;
+  mapping::DepthRegistrationParams depth_registration_params;
 };
 
 // The live voxmap's figures (model thread, copied out under stats_mutex_).
@@ -149,6 +155,7 @@ struct VoxmapStats {
   std::uint64_t restarts = 0;           // cleared for a restarted robot (new frame epoch)
   std::uint64_t old_epoch_chunks = 0;   // chunks of a robot that restarted since: dropped
   bool roi_on_probe = false;            // the ROI is around the probe (else ahead of the robot)
+  mapping::DepthRegistrationStats registration;  // depth_registration on
 };
 
 // Shape completion (mapping::complete_shapes) as of the newest snapshot, and
@@ -299,6 +306,9 @@ class ModelThread {
   std::unique_ptr<mapping::LiveVoxmap> voxmap_;
   mapping::DepthStreamReceiver depth_rx_;
   mapping::DepthChunkData depth_chunk_;  // reused
+  std::unique_ptr<mapping::DepthFrameRegistration> depth_reg_;  // depth_registration on
+  mapping::RegistrationSurface reg_surface_;   // of the newest build
+  std::vector<mapping::DepthChunkData> reg_ready_;  // reused
   bool voxmap_dirty_ = false, voxmap_roi_set_ = false;
   math::Pose2 voxmap_roi_pose_;
   std::optional<Eigen::AlignedBox3d> probe_roi_;  // the ROI around the probe, while it is followed

@@ -21,6 +21,7 @@ CommandSender::CommandSender(asio::io_context& io, NewestMailbox<StationSetpoint
   if (!(p.rate_hz >= 100.0 && p.rate_hz <= 1000.0))
     throw std::invalid_argument("CommandSender: rate_hz must be in [100, 1000]");
   if (!send_ || !clock_) throw std::invalid_argument("CommandSender: send and clock are required");
+  if (auto e = check(p.gaze_params)) throw std::invalid_argument("CommandSender: " + *e);
 }
 
 void CommandSender::start() {
@@ -102,9 +103,24 @@ void CommandSender::send_once() {
   } else {
     c.clear_arm_target();
   }
+  if (p_.gaze) {
+    unseen_.clear();
+    if (unseen_source_) unseen_source_(&unseen_);
+    const std::uint64_t moves_before = gaze_state_.moves;
+    const std::optional<Eigen::Vector3d> tool =
+        latest_.tool_valid && fresh ? std::optional<Eigen::Vector3d>(latest_.tool_W) : std::nullopt;
+    gaze_choice_ = choose_gaze(p_.gaze_params, gaze_state_, tool, now, unseen_);
+    stats_.gaze_moves += gaze_state_.moves - moves_before;
+    wire::Gaze& g = *c.mutable_gaze();
+    g.set_active(gaze_choice_.active);
+    g.mutable_point_w()->set_x(gaze_choice_.point_W.x());
+    g.mutable_point_w()->set_y(gaze_choice_.point_W.y());
+    g.mutable_point_w()->set_z(gaze_choice_.point_W.z());
+  }
   if (send_(msg_)) {
     ++stats_.commands_sent;
     if (deadman) ++stats_.deadman_pressed;
+    if (p_.gaze && gaze_choice_.active) ++stats_.gaze_active;
     if (model_ != nullptr) model_->record_command(SentCommand{now, c.v(), c.omega()});
     // The mode goes on the session only once the link carries commands; a
     // failed send (no session: connecting, reconnecting) forgets it, so a

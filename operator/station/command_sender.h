@@ -19,6 +19,7 @@
 #include <cstdint>
 #include <functional>
 
+#include "operator/model/gaze.h"
 #include "operator/model/model_thread.h"
 #include "operator/station/operator_task.h"
 #include "wire.pb.h"
@@ -28,6 +29,11 @@ namespace hemm::op {
 struct CommandSenderParams {
   double rate_hz = 200.0;                // >= 100 (wire.proto)
   std::int64_t stale_after_ns = 100'000'000;  // setpoint older than this: no deadman
+  // The depth camera's gaze (issue 24): every command carries a Gaze chosen
+  // from the setpoint's tool position (operator/model/gaze.h; inactive while
+  // there is no tool or the setpoint is stale). Off: no Gaze field at all.
+  bool gaze = false;
+  GazeParams gaze_params;
 };
 
 struct CommandSenderStats {
@@ -39,6 +45,8 @@ struct CommandSenderStats {
   std::uint64_t estops_sent = 0;  // EStop frames (engage or release) sent
   std::uint64_t deadman_pressed = 0;  // commands sent with the hand's dead-man pressed
   std::uint64_t nonfinite_poses = 0;  // device samples with a non-finite pose (the task's count)
+  std::uint64_t gaze_active = 0;      // commands sent with an active gaze
+  std::uint64_t gaze_moves = 0;       // times the gaze point moved (beyond the hysteresis)
 };
 
 class CommandSender {
@@ -61,8 +69,14 @@ class CommandSender {
   // Sends an EStop frame now (engaged or released) and returns its request
   // id (its Ack names it); 0 if the link is down (nothing sent).
   std::uint64_t send_estop(bool engaged, const std::string& reason);
+  // Where the unseen candidates near the tool come from (e.g. the live
+  // voxmap's free-space record): called on the network thread before each
+  // gaze choice to fill the vector it is given (cleared first). Null: none.
+  using UnseenSource = std::function<void(std::vector<GazeCandidate>*)>;
+  void set_unseen_source(UnseenSource f) { unseen_source_ = std::move(f); }
   // Network thread only (or after stop).
   const CommandSenderStats& stats() const { return stats_; }
+  const GazeChoice& last_gaze() const { return gaze_choice_; }
   math::Mode mode() const { return latest_.mode; }  // of the newest setpoint taken
 
  private:
@@ -86,6 +100,10 @@ class CommandSender {
   bool running_ = false;
   CommandSenderStats stats_;
   wire::StreamMessage msg_;
+  UnseenSource unseen_source_;
+  std::vector<GazeCandidate> unseen_;
+  GazeChooserState gaze_state_;
+  GazeChoice gaze_choice_;
 };
 
 }  // namespace hemm::op

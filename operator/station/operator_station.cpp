@@ -41,6 +41,11 @@ void apply_probe3d_config(const config::Probe3dConfig& c, OperatorStationOptions
   o->model.voxmap_roi = c.roi() == "robot" ? VoxmapRoi::kRobot : VoxmapRoi::kProbe;
   o->model.voxmap_probe_roi.size = c.roi_size_m();
   o->model.voxmap_probe_roi.margin = 0.25 * c.roi_size_m();
+  // Issue 24: the depth camera's gaze and the registration of its frames.
+  o->gaze = c.gaze();
+  o->gaze_params.lookahead_s = c.gaze_lookahead_s();
+  o->gaze_params.hysteresis_m = c.gaze_hysteresis_m();
+  o->model.depth_registration = c.depth_registration();
   if (c.tool() == "pointshell") {  // the 6-DoF tool in place of the point probe
     o->task.tool6.enabled = true;
     o->task.tool6.budget = c.tool_work_budget();
@@ -217,6 +222,29 @@ report::OperatorStation to_report(const OperatorStationSummary& s) {
   m.set_voxmap_roi_on_probe(vx.roi_on_probe);
   m.set_voxmap_restarts(vx.restarts);
   m.set_voxmap_old_epoch_chunks(vx.old_epoch_chunks);
+  const mapping::DepthRegistrationStats& dr = vx.registration;
+  if (dr.frames > 0) {
+    m.set_depth_reg_frames(dr.frames);
+    m.set_depth_reg_accepted(dr.accepted);
+    m.set_depth_reg_too_few_points(dr.too_few_points);
+    m.set_depth_reg_no_surface(dr.no_surface);
+    m.set_depth_reg_poor_fit(dr.poor_fit);
+    m.set_depth_reg_no_gain(dr.no_gain);
+    m.set_depth_reg_degenerate(dr.degenerate);
+    m.set_depth_reg_step_too_large(dr.step_too_large);
+    m.set_depth_reg_last_rmse_before_m(dr.last_rmse_before_m);
+    m.set_depth_reg_last_rmse_after_m(dr.last_rmse_after_m);
+    m.set_depth_reg_max_step_m(dr.max_step_m);
+    if (dr.truth_frames > 0) {
+      const double n = static_cast<double>(dr.truth_frames);
+      m.set_depth_reg_mean_error_before_m(dr.sum_error_before_m / n);
+      m.set_depth_reg_mean_error_after_m(dr.sum_error_after_m / n);
+      m.set_depth_reg_mean_error_before_rad(dr.sum_error_before_rad / n);
+      m.set_depth_reg_mean_error_after_rad(dr.sum_error_after_rad / n);
+      m.set_depth_reg_mean_point_error_before_m(dr.sum_point_error_before_m / n);
+      m.set_depth_reg_mean_point_error_after_m(dr.sum_point_error_after_m / n);
+    }
+  }
   report::CommandStream& c = *r.mutable_commands();
   c.set_sent(s.commands.commands_sent);
   c.set_send_failures(s.commands.send_failures);
@@ -225,6 +253,10 @@ report::OperatorStation to_report(const OperatorStationSummary& s) {
   c.set_stale(s.commands.stale);
   c.set_estops_sent(s.commands.estops_sent);
   c.set_deadman_pressed(s.commands.deadman_pressed);
+  if (s.commands.gaze_active > 0) {
+    c.set_gaze_active(s.commands.gaze_active);
+    c.set_gaze_moves(s.commands.gaze_moves);
+  }
   r.set_device_nonfinite_poses(s.device_nonfinite_poses);
   r.set_mode_switches(s.mode_switches);
   report::OperatorEStop& e = *r.mutable_estop();
@@ -367,7 +399,7 @@ OperatorStation::OperatorStation(asio::io_context& io, OperatorClient& client, c
         client_.send_session_frame(f);
       },
       model_.get(),
-      CommandSenderParams{o.command_rate_hz, 100'000'000}, [] { return steady_now_ns(); },
+      CommandSenderParams{o.command_rate_hz, 100'000'000, o.gaze, o.gaze_params}, [] { return steady_now_ns(); },
       [this] { return client_.link_up(); });
 }
 

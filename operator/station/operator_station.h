@@ -68,6 +68,9 @@ struct OperatorStationOptions {
   std::vector<Eigen::Vector2d> probe_line;
   std::string log_path;             // empty: no logs
   double command_rate_hz = 200.0;
+  // The depth camera's gaze in every command (config probe_3d.gaze).
+  bool gaze = false;
+  GazeParams gaze_params;
   double stats_period_s = 0.1;      // link statistics -> servo log / model
   servo::ServoConfig servo;
   ModelThreadParams model;

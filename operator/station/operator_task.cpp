@@ -278,6 +278,13 @@ void OperatorServoTask::tick(const device::DeviceSample& in, const servo::ModelS
     sp.arm_valid = true;
     sp.moves_robot = true;
   }
+  if (tool6) {
+    sp.tool_W = tool6_->goal_W().translation();
+    sp.tool_valid = true;
+  } else if (probe3) {
+    sp.tool_W = probe3d_goal_W_;
+    sp.tool_valid = true;
+  }
   last_ = sp;
   setpoints_.publish(sp);
 

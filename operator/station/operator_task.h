@@ -105,6 +105,11 @@ struct StationSetpoint {
   bool deadman = false;      // the hand's dead-man pressed (and the pose finite)
   std::uint64_t estop_presses = 0;  // e-stop presses on the device so far (both buttons together)
   std::uint64_t nonfinite_poses = 0;  // device samples with a non-finite pose so far (all motion held)
+  // The exploring tool's goal position in W (the 6-DoF tool's goal origin or
+  // the 3-DoF probe's goal) for the depth camera's gaze (operator/model/
+  // gaze.h); tool_valid false when no such tool is active.
+  Eigen::Vector3d tool_W = Eigen::Vector3d::Zero();
+  bool tool_valid = false;
 };
 
 // The device's dead-man: pressed when every end-effector handle that has a

@@ -1,5 +1,6 @@
 #include "robot_side/sim/depth_camera.h"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
@@ -20,6 +21,25 @@ std::optional<std::string> check_params(const SimDepthCameraParams& p) {
     return "depth camera: dropout probability not in [0, 1]";
   if (!(p.rate_hz > 0.0 && p.rate_hz <= 100.0)) return "depth camera: rate not in (0, 100] Hz";
   if (!std::isfinite(p.edge_jump_fraction)) return "depth camera: edge_jump_fraction not finite";
+  return std::nullopt;
+}
+
+void SimPanTiltHead::step(const HeadParams& limits, double pan_sp, double tilt_sp, double dt) {
+  const double a = params.time_constant > 0.0 ? 1.0 - std::exp(-dt / params.time_constant) : 1.0;
+  pan = std::clamp(pan + (pan_sp - pan) * a, limits.pan_min, limits.pan_max);
+  tilt = std::clamp(tilt + (tilt_sp - tilt) * a, limits.tilt_min, limits.tilt_max);
+}
+
+Eigen::Vector2d SimPanTiltHead::read_encoders(std::mt19937_64& rng) const {
+  std::normal_distribution<double> n(0.0, 1.0);
+  const double e_pan = params.encoder_sigma * n(rng), e_tilt = params.encoder_sigma * n(rng);
+  return {pan + params.pan_bias + e_pan, tilt + params.tilt_bias + e_tilt};
+}
+
+std::optional<std::string> check(const SimPanTiltHeadParams& p) {
+  if (!(p.time_constant >= 0.0 && p.time_constant <= 2.0)) return "pan-tilt head: time constant not in [0, 2] s";
+  if (!(std::abs(p.pan_bias) < 0.2 && std::abs(p.tilt_bias) < 0.2)) return "pan-tilt head: encoder bias not finite or too large";
+  if (!(p.encoder_sigma >= 0.0 && p.encoder_sigma < 0.1)) return "pan-tilt head: encoder sigma not in [0, 0.1) rad";
   return std::nullopt;
 }
 

@@ -21,10 +21,24 @@
 #include <string>
 
 #include "common/mapping/depth_image.h"
+#include "robot_side/control/head_control.h"
 #include "robot_side/sim/range_sensors.h"
 
 namespace hemm::robot {
 
+// The SIMULATED pan-tilt head's joints and encoders. Each joint follows its
+// rate-limited setpoint (head_control.h) with a first-order lag of
+// time_constant (exact for a setpoint held over the step: x += (sp - x)(1 -
+// exp(-dt / tau)); 0: it is the setpoint), within the joint limits. The
+// encoders read the true angle plus a fixed bias plus white Gaussian noise
+// of sigma per reading (a small servo with a 12-bit magnetic encoder: a few
+// tenths of a degree of mounting offset, 0.05 degree of noise), so the pose
+// the frames are reported with is not the truth.
+struct SimPanTiltHeadParams {
+  double time_constant = 0.08;  // s
+  double pan_bias = 0.3 * std::numbers::pi / 180.0, tilt_bias = -0.2 * std::numbers::pi / 180.0;  // rad
+  double encoder_sigma = 0.05 * std::numbers::pi / 180.0;                                         // rad
+};
 struct SimDepthCameraParams {
   std::string name = "depth";
   int width = 80;
@@ -59,15 +73,10 @@ struct SimDepthCameraParams {
   // odometry's alone (no arm kinematics error).
   bool mount_on_base = false;
 
-  // A mast at (x, 0, z) in R looking along +x_R, pitched down by pitch (rad).
+  // A mast at (x, 0, z) in R looking along +x_R, pitched down by pitch (rad):
+  // the pan-tilt head's pose at pan 0, tilt pitch.
   static Eigen::Isometry3d mast_mount(double x, double z, double pitch) {
-    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-    const Eigen::Vector3d fwd(std::cos(pitch), 0.0, -std::sin(pitch));
-    T.linear().col(0) = Eigen::Vector3d(0, -1, 0);              // x_S: right
-    T.linear().col(2) = fwd;                                     // z_S: optical axis
-    T.linear().col(1) = fwd.cross(Eigen::Vector3d(0, -1, 0));    // y_S = z_S x x_S: down
-    T.translation() << x, 0.0, z;
-    return T;
+    return head_T_R_S(Eigen::Vector3d(x, 0.0, z), 0.0, pitch);
   }
 
   static Eigen::Isometry3d default_wrist_mount() {
@@ -79,8 +88,24 @@ struct SimDepthCameraParams {
     return T;
   }
 
+  // True: a SIMULATED pan-tilt head carries the camera (mount "pan-tilt"):
+  // mount_on_base is true too and T_mount_S is the head's home pose; the
+  // frame's pose follows the head (head, head_plant).
+  bool pan_tilt = false;
+  HeadParams head;
+  SimPanTiltHeadParams head_plant;
+
   mapping::DepthIntrinsics intrinsics() const;
 };
+
+struct SimPanTiltHead {
+  SimPanTiltHeadParams params;
+  double pan = 0.0, tilt = 0.0;  // the truth, rad
+  void step(const HeadParams& limits, double pan_sp, double tilt_sp, double dt);
+  // One encoder reading of each joint (pan, tilt).
+  Eigen::Vector2d read_encoders(std::mt19937_64& rng) const;
+};
+std::optional<std::string> check(const SimPanTiltHeadParams& p);
 
 // Casts one image from the true sensor pose T_W_S. Fills depth, status and K;
 // stamp, cloud id and the reported poses are the caller's.

@@ -30,6 +30,25 @@ struct BaseArmCommand {
   double wrist_pitch = 0.0;  // tool pitch, rad
   double wrist_roll = 0.0;   // forearm roll q4, rad
   bool deadman = false;
+  // Where the depth camera's pan-tilt head should look (hemm.wire.Gaze);
+  // present false: the command carries none (an older operator).
+  struct Gaze {
+    bool present = false;
+    bool active = false;
+    Eigen::Vector3d point_W = Eigen::Vector3d::Zero();  // odometry world frame W
+  } gaze;
+};
+
+// The pan-tilt head's state (hemm.wire.HeadState); present false without one.
+struct HeadStateSim {
+  bool present = false;
+  double pan = 0.0, tilt = 0.0;        // encoder readings, rad
+  double pan_setpoint = 0.0, tilt_setpoint = 0.0;
+  bool gaze_active = false;
+  uint64_t gaze_refusals = 0;
+  int last_gaze_refusal = 0;           // robot::GazeRefusal as int
+  uint64_t last_gaze_refused_seq = 0;
+  double pan_truth = 0.0, tilt_truth = 0.0;  // SIMULATION ONLY
 };
 
 struct RobotStateSim {
@@ -55,6 +74,7 @@ struct RobotStateSim {
   uint64_t arm_refusals = 0;
   int last_arm_refusal = 0;
   uint64_t last_refused_seq = 0;
+  HeadStateSim head;
 };
 
 enum class RangeSensorKind { kLaser, kSonar };

@@ -34,6 +34,11 @@ constexpr size_t kMaxQueuedScans = 64;
 // SIMULATION ONLY: how far the tool's clearance to the world is measured.
 constexpr double kArmClearanceRange = 0.10;
 // The RobotState's refusal reason is the ArmRefusal's value.
+static_assert(static_cast<int>(GazeRefusal::kNotFinite) == wire::GAZE_REFUSAL_NOT_FINITE &&
+              static_cast<int>(GazeRefusal::kTooNear) == wire::GAZE_REFUSAL_TOO_NEAR &&
+              static_cast<int>(GazeRefusal::kTooFar) == wire::GAZE_REFUSAL_TOO_FAR &&
+              static_cast<int>(GazeRefusal::kPanLimit) == wire::GAZE_REFUSAL_PAN_LIMIT &&
+              static_cast<int>(GazeRefusal::kTiltLimit) == wire::GAZE_REFUSAL_TILT_LIMIT);
 static_assert(static_cast<int>(ArmRefusal::kFloor) == wire::ARM_REFUSAL_FLOOR &&
               static_cast<int>(ArmRefusal::kBase) == wire::ARM_REFUSAL_BASE &&
               static_cast<int>(ArmRefusal::kScene) == wire::ARM_REFUSAL_SCENE);
@@ -233,6 +238,13 @@ struct SimulatedRobot::Impl {
   uint32_t depth_id = 0;
   std::deque<mapping::DepthImage> depth_images;
   std::unique_ptr<DepthWorker> depth_worker;  // DepthCasting::kWorker; declared after m, destroyed before it
+  // The SIMULATED pan-tilt head (depth.pan_tilt): controller, plant, the
+  // newest encoder reading (every step), and its own noise stream so the
+  // other sensors' noise does not depend on whether there is a head.
+  HeadControlState head_ctl;
+  SimPanTiltHead head_plant;
+  Eigen::Vector2d head_enc = Eigen::Vector2d::Zero();
+  std::mt19937_64 head_rng{2};
 
   // Clock.
   int64_t origin_ns = 0, dt_ns = 1'000'000;
@@ -367,21 +379,32 @@ struct SimulatedRobot::Impl {
     while (scans.size() > kMaxQueuedScans) scans.pop_front();
   }
 
-  // A wrist camera frame: cast from the true pose, reported with the pose
-  // the robot believes (odometry, planar: the base height is the mount's).
+  // The odometry pose in 3D (planar: the base height is the truth's).
+  Eigen::Isometry3d T_W_R_odom3() const {
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.translation() << odom.x, odom.y, base_pose().translation().z();
+    T.linear() = Eigen::AngleAxisd(odom.theta, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    return T;
+  }
+
+  // The camera in R as the robot believes it (the head's encoders) and truly.
+  Eigen::Isometry3d camera_T_R_S(bool truth) const {
+    if (depth.pan_tilt) {
+      return truth ? head_T_R_S(depth.head.head_R, head_plant.pan, head_plant.tilt)
+                   : head_T_R_S(depth.head.head_R, head_enc.x(), head_enc.y());
+    }
+    return depth.mount_on_base ? depth.T_mount_S : T_R_A * kinematics::forward_kinematics(arm, q()) * depth.T_mount_S;
+  }
+
+  // A camera frame: cast from the true pose, reported with the pose the
+  // robot believes (odometry, and the head's encoders of this step).
   void take_depth_image() {
     const Eigen::Isometry3d T_W_R = base_pose();
-    const Eigen::Isometry3d T_R_S = depth.mount_on_base
-                                        ? depth.T_mount_S
-                                        : T_R_A * kinematics::forward_kinematics(arm, q()) * depth.T_mount_S;
-    Eigen::Isometry3d T_W_R_odom = Eigen::Isometry3d::Identity();
-    T_W_R_odom.translation() << odom.x, odom.y, T_W_R.translation().z();
-    T_W_R_odom.linear() = Eigen::AngleAxisd(odom.theta, Eigen::Vector3d::UnitZ()).toRotationMatrix();
     mapping::DepthImage meta;
     meta.stamp_ns = now();
     meta.cloud_id = depth_id++;
-    meta.T_W_S = T_W_R_odom * T_R_S;
-    meta.T_W_S_truth = T_W_R * T_R_S;
+    meta.T_W_S = T_W_R_odom3() * camera_T_R_S(false);
+    meta.T_W_S_truth = T_W_R * camera_T_R_S(true);
     if (depth_worker) {
       depth_worker->submit(d.get(), std::move(meta));
       return;
@@ -431,14 +454,12 @@ struct SimulatedRobot::Impl {
     if (!depth_on) return sc;
     if (depth_worker) depth_worker->take_seen(&seen_points, &seen_stats);
     if (seen_points) sc.points_P = *seen_points;
-    const Eigen::Isometry3d T_W_R = base_pose();
-    sc.T_P_R = Eigen::Isometry3d::Identity();
-    sc.T_P_R.translation() << odom.x, odom.y, T_W_R.translation().z();
-    sc.T_P_R.linear() = Eigen::AngleAxisd(odom.theta, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    sc.T_P_R = T_W_R_odom3();
     if (depth.mount_on_base) {
-      // A wrist camera moves with the arm: its columns stay infinite.
+      // A wrist camera moves with the arm: its columns stay infinite. (The
+      // head's present view stands for the one the seen points came from.)
       const mapping::DepthIntrinsics K = depth.intrinsics();
-      const Eigen::Isometry3d T_S_R = depth.T_mount_S.inverse();
+      const Eigen::Isometry3d T_S_R = camera_T_R_S(false).inverse();
       const double top = laser.T_R_S.translation().z() + arm_keep_out.column_cap_margin;
       const double arm_top = T_R_A.translation().z() + arm.A2 + arm.A4 + arm.A5 + arm_keep_out.link_radius;
       column_capped.resize(guard_points_R.size());
@@ -516,6 +537,16 @@ struct SimulatedRobot::Impl {
     for (int i = 0; i < 5; ++i) bias(i) = d->qfrc_bias[arm_qvel[static_cast<size_t>(i)]];
     const kinematics::Arm5Vector tau = arm_control_step(arm_params, arm_state, q(), qd(), bias, dt);
     for (int i = 0; i < 5; ++i) d->ctrl[arm_act[static_cast<size_t>(i)]] = tau(i);
+
+    // The pan-tilt head follows the operator's gaze while in control and
+    // the link and the command watchdog are good, holds at the e-stop, and
+    // goes home otherwise (head_control.h).
+    if (depth_on && depth.pan_tilt) {
+      const bool may_follow = operator_in_control && !link_lost && !expired;
+      head_control_step(depth.head, head_ctl, T_W_R_odom3(), may_follow, estop, t, dt);
+      head_plant.step(depth.head, head_ctl.pan_sp, head_ctl.tilt_sp, dt);
+      head_enc = head_plant.read_encoders(head_rng);
+    }
     safety = flags;
   }
 
@@ -684,6 +715,7 @@ std::optional<std::string> SimulatedRobot::load(const config::RobotConfig& cfg, 
   impl->laser_period = std::max(1, static_cast<int>(std::lround(1.0 / (impl->laser.rate_hz * m->opt.timestep))));
   impl->sonar_period = std::max(1, static_cast<int>(std::lround(1.0 / (impl->sonar.rate_hz * m->opt.timestep))));
   impl->rng.seed(cfg.sim().seed());
+  impl->head_rng.seed(cfg.sim().seed() ^ 0x9e3779b97f4a7c15ull);
 
   // Start pose: the scene's site "robot_start", else the origin.
   mj_resetData(m, impl->d.get());
@@ -736,6 +768,11 @@ std::optional<std::string> SimulatedRobot::set_command(const BaseArmCommand& c, 
   if (c.mode < wire::MODE_IDLE || c.mode > wire::MODE_EXPLORATION) return reject("command has an unknown mode");
   if (c.arm_target_R.norm() > 10.0) return reject("arm target farther than 10 m");
   if (std::abs(c.wrist_pitch) > 10.0 || std::abs(c.wrist_roll) > 10.0) return reject("wrist angles out of range");
+  if (c.gaze.present && !c.gaze.point_W.allFinite()) return reject("gaze target not finite");
+  // The gaze goes to the head whatever the arm's checks decide below (its
+  // own checks refuse a bad target: counted in the head's state).
+  if (c.gaze.present && s.depth_on && s.depth.pan_tilt)
+    head_gaze_command(s.depth.head, s.head_ctl, c.gaze.point_W, c.gaze.active, s.T_W_R_odom3(), c.seq, now_ns);
   // A command after the watchdog expired comes after a stop (the step may
   // not have seen the expiry yet).
   if (watchdog_expired(s.watchdog, now_ns)) s.disarm();
@@ -885,6 +922,20 @@ RobotStateSim SimulatedRobot::state() const {
   st.arm_refusals = s.arm_refusals.floor + s.arm_refusals.base + s.arm_refusals.scene;
   st.last_arm_refusal = static_cast<int>(s.arm_refusals.last);
   st.last_refused_seq = s.arm_refusals.last_seq;
+  if (s.depth_on && s.depth.pan_tilt) {
+    HeadStateSim& h = st.head;
+    h.present = true;
+    h.pan = s.head_enc.x();
+    h.tilt = s.head_enc.y();
+    h.pan_setpoint = s.head_ctl.pan_sp;
+    h.tilt_setpoint = s.head_ctl.tilt_sp;
+    h.gaze_active = s.head_ctl.following;
+    h.gaze_refusals = s.head_ctl.refusals;
+    h.last_gaze_refusal = static_cast<int>(s.head_ctl.last_refusal);
+    h.last_gaze_refused_seq = s.head_ctl.last_refused_seq;
+    h.pan_truth = s.head_plant.pan;
+    h.tilt_truth = s.head_plant.tilt;
+  }
   return st;
 }
 
@@ -925,6 +976,10 @@ std::optional<std::string> SimulatedRobot::enable_depth_camera(const SimDepthCam
   if (!impl_) return "depth camera: no scene loaded";
   if (auto e = check_params(params)) return e;
   if (!params.T_mount_S.matrix().allFinite()) return "depth camera: mount not finite";
+  if (params.pan_tilt) {
+    if (auto e = check(params.head)) return "depth camera: " + *e;
+    if (auto e = check(params.head_plant)) return "depth camera: " + *e;
+  }
   impl_->depth_worker.reset();
   impl_->seen_inline.reset();
   impl_->seen_points.reset();
@@ -934,6 +989,14 @@ std::optional<std::string> SimulatedRobot::enable_depth_camera(const SimDepthCam
   else
     impl_->seen_inline = std::make_unique<SeenVoxels>(impl_->seen_params);
   impl_->depth = params;
+  if (params.pan_tilt) {
+    impl_->depth.mount_on_base = true;
+    impl_->head_ctl = head_control_init(params.head);
+    impl_->head_plant.params = params.head_plant;
+    impl_->head_plant.pan = params.head.home_pan;
+    impl_->head_plant.tilt = params.head.home_tilt;
+    impl_->head_enc = impl_->head_plant.read_encoders(impl_->head_rng);
+  }
   impl_->depth_period =
       std::max(1, static_cast<int>(std::lround(1.0 / (params.rate_hz * impl_->m->opt.timestep))));
   impl_->depth_on = true;
@@ -970,8 +1033,28 @@ SimDepthCameraParams depth_camera_params_from_config(const config::RobotConfig& 
   p.range_min = dc.range_min_m();
   p.range_max = dc.range_max_m();
   p.rate_hz = dc.rate_hz();
-  p.mount_on_base = dc.mount() == "mast";
+  p.mount_on_base = dc.mount() == "mast" || dc.mount() == "pan-tilt";
   if (p.mount_on_base) p.T_mount_S = SimDepthCameraParams::mast_mount(dc.mast_x_m(), dc.mast_z_m(), dc.mast_pitch_deg() * kDeg);
+  if (dc.mount() == "pan-tilt") {
+    p.pan_tilt = true;
+    HeadParams& h = p.head;
+    h.head_R = Eigen::Vector3d(dc.mast_x_m(), dc.head_y_m(), dc.mast_z_m());
+    h.pan_min = dc.pan_min_deg() * kDeg;
+    h.pan_max = dc.pan_max_deg() * kDeg;
+    h.tilt_min = dc.tilt_min_deg() * kDeg;
+    h.tilt_max = dc.tilt_max_deg() * kDeg;
+    h.home_pan = 0.0;
+    h.home_tilt = dc.mast_pitch_deg() * kDeg;
+    h.max_rate = dc.head_rate_dps() * kDeg;
+    h.min_range = dc.gaze_min_range_m();
+    h.max_range = dc.gaze_max_range_m();
+    h.gaze_timeout_ns = static_cast<int64_t>(dc.gaze_timeout_ms()) * 1'000'000;
+    p.head_plant.time_constant = dc.head_time_constant_s();
+    p.head_plant.pan_bias = dc.pan_bias_deg() * kDeg;
+    p.head_plant.tilt_bias = dc.tilt_bias_deg() * kDeg;
+    p.head_plant.encoder_sigma = dc.encoder_sigma_deg() * kDeg;
+    p.T_mount_S = head_T_R_S(h.head_R, h.home_pan, h.home_tilt);
+  }
   return p;
 }
 

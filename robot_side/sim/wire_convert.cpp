@@ -49,6 +49,19 @@ void to_wire(const RobotStateSim& s, wire::RobotState* out) {
   out->set_arm_refusals(s.arm_refusals);
   out->set_last_arm_refusal(static_cast<wire::ArmRefusalReason>(s.last_arm_refusal));
   out->set_last_refused_seq(s.last_refused_seq);
+  if (s.head.present) {
+    wire::HeadState* h = out->mutable_head();
+    h->set_pan(s.head.pan);
+    h->set_tilt(s.head.tilt);
+    h->set_pan_setpoint(s.head.pan_setpoint);
+    h->set_tilt_setpoint(s.head.tilt_setpoint);
+    h->set_gaze_active(s.head.gaze_active);
+    h->set_gaze_refusals(s.head.gaze_refusals);
+    h->set_last_gaze_refusal(static_cast<wire::GazeRefusalReason>(s.head.last_gaze_refusal));
+    h->set_last_gaze_refused_seq(s.head.last_gaze_refused_seq);
+    h->set_pan_truth(s.head.pan_truth);
+    h->set_tilt_truth(s.head.tilt_truth);
+  }
 }
 
 std::optional<std::string> from_wire(const wire::RobotState& m, RobotStateSim* out) {
@@ -83,6 +96,15 @@ std::optional<std::string> from_wire(const wire::RobotState& m, RobotStateSim* o
   s.arm_refusals = m.arm_refusals();
   s.last_arm_refusal = static_cast<int>(m.last_arm_refusal());
   s.last_refused_seq = m.last_refused_seq();
+  if (m.has_head()) {
+    const wire::HeadState& h = m.head();
+    if (!std::isfinite(h.pan()) || !std::isfinite(h.tilt()) || !std::isfinite(h.pan_setpoint()) ||
+        !std::isfinite(h.tilt_setpoint()) || !std::isfinite(h.pan_truth()) || !std::isfinite(h.tilt_truth()))
+      return "head angles not finite";
+    if (!wire::GazeRefusalReason_IsValid(h.last_gaze_refusal())) return "unknown gaze refusal reason";
+    s.head = {true, h.pan(), h.tilt(), h.pan_setpoint(), h.tilt_setpoint(), h.gaze_active(), h.gaze_refusals(),
+              static_cast<int>(h.last_gaze_refusal()), h.last_gaze_refused_seq(), h.pan_truth(), h.tilt_truth()};
+  }
   *out = s;
   return std::nullopt;
 }
@@ -99,6 +121,12 @@ void to_wire(const BaseArmCommand& c, wire::Command* out) {
   out->set_wrist_pitch(c.wrist_pitch);
   out->set_wrist_roll(c.wrist_roll);
   out->set_deadman(c.deadman);
+  if (c.gaze.present) {
+    out->mutable_gaze()->set_active(c.gaze.active);
+    out->mutable_gaze()->mutable_point_w()->set_x(c.gaze.point_W.x());
+    out->mutable_gaze()->mutable_point_w()->set_y(c.gaze.point_W.y());
+    out->mutable_gaze()->mutable_point_w()->set_z(c.gaze.point_W.z());
+  }
 }
 
 std::optional<std::string> from_wire(const wire::Command& m, uint64_t seq, BaseArmCommand* out) {
@@ -106,6 +134,7 @@ std::optional<std::string> from_wire(const wire::Command& m, uint64_t seq, BaseA
   if (!std::isfinite(m.v()) || !std::isfinite(m.omega()) || !math::finite3(m.arm_target()) ||
       !std::isfinite(m.wrist_pitch()) || !std::isfinite(m.wrist_roll()))
     return "command has non-finite values";
+  if (m.has_gaze() && !math::finite3(m.gaze().point_w())) return "command gaze target not finite";
   BaseArmCommand c;
   c.stamp_ns = m.stamp_ns();
   c.seq = seq;
@@ -116,6 +145,11 @@ std::optional<std::string> from_wire(const wire::Command& m, uint64_t seq, BaseA
   c.wrist_pitch = m.wrist_pitch();
   c.wrist_roll = m.wrist_roll();
   c.deadman = m.deadman();
+  if (m.has_gaze()) {
+    c.gaze.present = true;
+    c.gaze.active = m.gaze().active();
+    c.gaze.point_W << m.gaze().point_w().x(), m.gaze().point_w().y(), m.gaze().point_w().z();
+  }
   *out = c;
   return std::nullopt;
 }

@@ -44,19 +44,17 @@ double ray_box(const Eigen::AlignedBox3d& box, const Eigen::Vector3d& o, const E
   return t0;
 }
 
-}  // namespace
-
-std::vector<Eigen::Vector3d> visible_surface_samples(const std::vector<const mesh::TriangleMesh*>& meshes,
-                                                     const mapping::DepthIntrinsics& K, const Eigen::Isometry3d& T_W_S,
-                                                     const VisibleSurfaceParams& params) {
+// Samples of the meshes' faces turned toward o, unoccluded from o, and
+// accepted by in_view(x) (the camera's image and range limits).
+template <class InView>
+std::vector<Eigen::Vector3d> samples_seen_from(const std::vector<const mesh::TriangleMesh*>& meshes, const Eigen::Vector3d& o,
+                                               const VisibleSurfaceParams& params, const InView& in_view) {
   std::vector<Eigen::AlignedBox3d> bounds;
   for (const mesh::TriangleMesh* m : meshes) {
     Eigen::AlignedBox3d b;
     for (const Eigen::Vector3d& v : m->vertices) b.extend(v);
     bounds.push_back(b);
   }
-  const Eigen::Vector3d o = T_W_S.translation();
-  const Eigen::Isometry3d T_S_W = T_W_S.inverse();
   std::mt19937_64 rng(params.seed);
   std::uniform_real_distribution<double> uni(0.0, 1.0);
   std::vector<Eigen::Vector3d> out;
@@ -79,12 +77,8 @@ std::vector<Eigen::Vector3d> visible_surface_samples(const std::vector<const mes
         const Eigen::Vector3d x = a + r1 * (b - a) + r2 * (c - a);
         if (!params.region.contains(x)) continue;
         if (n2.dot(o - x) <= 0.0) continue;  // a face turned away
-        const Eigen::Vector3d x_S = T_S_W * x;
-        if (x_S.z() <= 0.0) continue;
-        const double u = K.fx * x_S.x() / x_S.z() + K.cx, v = K.fy * x_S.y() / x_S.z() + K.cy;
-        if (u < 0.0 || u >= K.width || v < 0.0 || v >= K.height) continue;
-        const double range = x_S.norm();
-        if (range < K.range_min || range > K.range_max) continue;
+        if (!in_view(x)) continue;
+        const double range = (x - o).norm();
         const Eigen::Vector3d d = (x - o) / range;
         const double limit = range - params.tolerance;
         bool hidden = false;
@@ -105,6 +99,31 @@ std::vector<Eigen::Vector3d> visible_surface_samples(const std::vector<const mes
     }
   }
   return out;
+}
+
+}  // namespace
+
+std::vector<Eigen::Vector3d> visible_surface_samples(const std::vector<const mesh::TriangleMesh*>& meshes,
+                                                     const mapping::DepthIntrinsics& K, const Eigen::Isometry3d& T_W_S,
+                                                     const VisibleSurfaceParams& params) {
+  const Eigen::Isometry3d T_S_W = T_W_S.inverse();
+  return samples_seen_from(meshes, T_W_S.translation(), params, [&](const Eigen::Vector3d& x) {
+    const Eigen::Vector3d x_S = T_S_W * x;
+    if (x_S.z() <= 0.0) return false;
+    const double u = K.fx * x_S.x() / x_S.z() + K.cx, v = K.fy * x_S.y() / x_S.z() + K.cy;
+    if (u < 0.0 || u >= K.width || v < 0.0 || v >= K.height) return false;
+    const double range = x_S.norm();
+    return range >= K.range_min && range <= K.range_max;
+  });
+}
+
+std::vector<Eigen::Vector3d> surface_samples_seen_from(const std::vector<const mesh::TriangleMesh*>& meshes,
+                                                       const Eigen::Vector3d& o_W, double range_min, double range_max,
+                                                       const VisibleSurfaceParams& params) {
+  return samples_seen_from(meshes, o_W, params, [&](const Eigen::Vector3d& x) {
+    const double range = (x - o_W).norm();
+    return range >= range_min && range <= range_max;
+  });
 }
 
 double surface_coverage(const vps::Voxmap& vm, const std::vector<Eigen::Vector3d>& samples, int reach) {

@@ -32,6 +32,13 @@ std::vector<Eigen::Vector3d> visible_surface_samples(const std::vector<const mes
                                                      const mapping::DepthIntrinsics& K, const Eigen::Isometry3d& T_W_S,
                                                      const VisibleSurfaceParams& params);
 
+// Samples of `meshes` (frame W) a camera whose optical centre is o_W could
+// see in any direction (a pan-tilt head's reach: faces turned toward o_W,
+// unoccluded, within the range limits), within params.region.
+std::vector<Eigen::Vector3d> surface_samples_seen_from(const std::vector<const mesh::TriangleMesh*>& meshes,
+                                                       const Eigen::Vector3d& o_W, double range_min, double range_max,
+                                                       const VisibleSurfaceParams& params);
+
 // Fraction of samples (frame of vm) within `reach` voxels of a surface voxel
 // of vm; 0 for no samples.
 double surface_coverage(const vps::Voxmap& vm, const std::vector<Eigen::Vector3d>& samples, int reach = 1);

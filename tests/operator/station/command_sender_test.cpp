@@ -242,7 +242,7 @@ TEST(CommandSender, RejectsRatesOutsideTheWireContract) {
   hemm::NewestMailbox<ho::StationSetpoint> box;
   auto send = [](const hw::StreamMessage&) { return true; };
   auto clock = [] { return std::int64_t{0}; };
-  EXPECT_THROW(ho::CommandSender(io, box, send, nullptr, nullptr, ho::CommandSenderParams{50.0, 0}, clock),
+  EXPECT_THROW(ho::CommandSender(io, box, send, nullptr, nullptr, ho::CommandSenderParams{50.0, 0, false, {}}, clock),
                std::invalid_argument);
   EXPECT_THROW(ho::CommandSender(io, box, nullptr, nullptr, nullptr, ho::CommandSenderParams{}, clock),
                std::invalid_argument);

@@ -530,3 +530,156 @@ TEST(SimulatedRobot, AfterEveryStopOnlyANeutralCommandThenAPressedOneMovesTheRob
   r.set_operator_in_control(true);
   EXPECT_FALSE(r.armed());
 }
+
+// ---------------------------------------------------------------- pan-tilt head (issue 24)
+// The SIMULATED pan-tilt head facing the west wall (inner face x = -0.95)
+// from the origin, off-centre on the mast (head_y_m 0.05): the operator's
+// gaze alternates between two points on the wall; every frame, taken while
+// the head moves or stands, carries its pose at acquisition: the truth that
+// of the head's true joints in that very step (MuJoCo's base pose), every
+// return placed with it on the wall or the floor, and the reported pose off
+// it by the encoders' bias and noise only. Once settled the optical axis
+// goes through the gaze point; without commands the head goes home.
+TEST(PanTiltHead, FramesCarryTheHeadsPoseAtAcquisitionWhileItMoves) {
+  constexpr double kDeg = std::numbers::pi / 180.0;
+  hemm::config::RobotConfig cfg;
+  cfg.mutable_depth_camera()->set_enabled(true);
+  cfg.mutable_depth_camera()->set_mount("pan-tilt");
+  cfg.mutable_depth_camera()->set_head_y_m(0.05);
+  hr::SimulatedRobot r;
+  ASSERT_FALSE(r.load(cfg, kScene));
+  r.set_base_pose_sim({0.0, 0.0, std::numbers::pi});
+  r.set_operator_in_control(true);
+  const hr::SimDepthCameraParams cam = hr::depth_camera_params_from_config(cfg);
+  ASSERT_TRUE(cam.pan_tilt);
+  ASSERT_FALSE(r.enable_depth_camera(cam));
+  const Eigen::Vector3d targets[2] = {{-0.95, 0.45, 0.85}, {-0.95, -0.40, 1.15}};
+  std::uint64_t seq = 0;
+  int frames = 0, moving_frames = 0, settled_checks = 0;
+  double last_pan = 0.0;
+  for (int phase = 0; phase < 4; ++phase) {
+    const Eigen::Vector3d& target = targets[phase % 2];
+    for (int ms = 0; ms < 1000; ++ms) {
+      if (ms % 10 == 0) {
+        hr::BaseArmCommand c;
+        c.mode = hemm::wire::MODE_EXPLORATION;
+        c.seq = ++seq;
+        c.gaze = {true, true, target};
+        ASSERT_FALSE(r.set_command(c, r.time_ns()));
+      }
+      r.step(1);
+      const auto imgs = r.take_depth_images();
+      if (imgs.empty()) continue;
+      ASSERT_EQ(imgs.size(), 1u);  // inline casting: the frame of this step
+      const hemm::mapping::DepthImage& img = imgs.front();
+      const hr::RobotStateSim st = r.state();
+      ASSERT_TRUE(st.head.present);
+      ++frames;
+      // The truth's optical axis, in R (the base's true yaw), is the head's
+      // true pan and tilt of this step: within 2e-4 rad, the chassis' own
+      // pitch and roll on its wheels (MuJoCo's 3D base pose), while one step
+      // late would be off by up to the head's rate times 1 ms, 1.6e-3 rad.
+      const Eigen::Vector3d z_W = img.T_W_S_truth.linear().col(2);
+      const Eigen::Vector3d z_R = Eigen::AngleAxisd(-st.T_W_R_truth.theta, Eigen::Vector3d::UnitZ()) * z_W;
+      EXPECT_NEAR(std::atan2(z_R.y(), z_R.x()), st.head.pan_truth, 2e-4);
+      EXPECT_NEAR(std::atan2(-z_R.z(), z_R.head<2>().norm()), st.head.tilt_truth, 2e-4);
+      if (std::abs(st.head.pan_truth - last_pan) > 0.5 * kDeg) ++moving_frames;
+      last_pan = st.head.pan_truth;
+      // Reported against truth: the encoders' bias (0.3 and -0.2 deg) and noise (0.05 deg).
+      const Eigen::Isometry3d E = img.T_W_S_truth.inverse() * img.T_W_S;
+      const double angle = Eigen::AngleAxisd(E.linear()).angle();
+      EXPECT_GT(angle, 0.2 * kDeg);
+      EXPECT_LT(angle, 0.6 * kDeg);
+      EXPECT_LT(E.translation().norm(), 0.01);
+      // Every return placed with the truth lies on the wall's face or the floor.
+      for (int v = 0; v < img.K.height; v += 3)
+        for (int u = 0; u < img.K.width; u += 3) {
+          const auto i = static_cast<std::size_t>(v * img.K.width + u);
+          if (img.status[i] != hemm::mapping::DepthStatus::kValid) continue;
+          const Eigen::Vector3d ray = hemm::mapping::pixel_ray_z1(img.K, u, v);
+          const Eigen::Vector3d x = img.T_W_S_truth * (img.depth[i] * ray);
+          const double rm = img.depth[i] * ray.norm();
+          EXPECT_LT(std::min(std::abs(x.x() + 0.95), std::abs(x.z())), 5 * (cam.sigma_0 + cam.sigma_2 * rm * rm) + 1e-4)
+              << x.transpose();
+        }
+      if (ms > 900) {
+        // Settled: the optical axis meets the wall at the gaze point (truth),
+        // and within the encoders' error from the reported pose (~6 mm at 0.9 m).
+        for (const auto& [T, tol] : {std::pair{img.T_W_S_truth, 0.008}, std::pair{img.T_W_S, 0.02}}) {
+          const Eigen::Vector3d o = T.translation(), d = T.linear().col(2);
+          const Eigen::Vector3d hit = o + d * ((-0.95 - o.x()) / d.x());
+          EXPECT_LT((hit - target).norm(), tol) << hit.transpose();
+        }
+        ++settled_checks;
+      }
+    }
+  }
+  EXPECT_EQ(frames, 4000 / 67);  // 15 Hz: a frame every 67 steps
+  EXPECT_GT(moving_frames, 20);
+  EXPECT_GE(settled_checks, 4);
+  // No more commands: the watchdog expires and the head goes home (pan 0, tilt 35 deg).
+  r.step(1500);
+  const hr::RobotStateSim st = r.state();
+  EXPECT_NEAR(st.head.pan_truth, 0.0, 0.001);
+  EXPECT_NEAR(st.head.tilt_truth, 35 * kDeg, 0.001);
+  EXPECT_FALSE(st.head.gaze_active);
+  EXPECT_EQ(st.head.gaze_refusals, 0u);
+}
+
+TEST(PanTiltHead, BadGazeTargetsAreRefusedAndTheHeadHolds) {
+  constexpr double kDeg = std::numbers::pi / 180.0;
+  hemm::config::RobotConfig cfg;
+  cfg.mutable_depth_camera()->set_enabled(true);
+  cfg.mutable_depth_camera()->set_mount("pan-tilt");
+  hr::SimulatedRobot r;
+  ASSERT_FALSE(r.load(cfg, kScene));
+  r.set_operator_in_control(true);
+  ASSERT_FALSE(r.enable_depth_camera(hr::depth_camera_params_from_config(cfg)));
+  // The robot at the origin facing +x: a point 1 m away at pan 30 deg, tilt
+  // about 20 deg from the head (its height above W's floor is the base's
+  // plus 1.10 m; only the pan is checked).
+  const Eigen::Vector3d head_W(0.10, 0.0, 1.10);
+  hr::BaseArmCommand c;
+  c.mode = hemm::wire::MODE_EXPLORATION;
+  auto send = [&](const Eigen::Vector3d& p, std::uint64_t seq) {
+    c.seq = seq;
+    c.gaze = {true, true, p};
+    return r.set_command(c, r.time_ns());
+  };
+  const Eigen::Vector3d good = head_W + Eigen::Vector3d(std::cos(20 * kDeg) * std::cos(30 * kDeg),
+                                                        std::cos(20 * kDeg) * std::sin(30 * kDeg), -std::sin(20 * kDeg));
+  for (int k = 0; k < 100; ++k) {
+    ASSERT_FALSE(send(good, 1));
+    r.step(10);
+  }
+  const hr::RobotStateSim s0 = r.state();
+  EXPECT_TRUE(s0.head.gaze_active);
+  EXPECT_NEAR(s0.head.pan_truth, 30 * kDeg, 0.2 * kDeg);
+  // A non-finite target: the command is rejected as a whole, nothing changes.
+  const std::uint64_t rejected = r.rejected_commands();
+  EXPECT_TRUE(send(Eigen::Vector3d(std::nan(""), 0, 1), 2));
+  EXPECT_EQ(r.rejected_commands(), rejected + 1);
+  // Beyond the pan limit (behind the robot): refused by the head, counted; it holds.
+  for (int k = 0; k < 30; ++k) {
+    ASSERT_FALSE(send(Eigen::Vector3d(-2.0, 0.1, 1.0), 3 + k));
+    r.step(10);
+  }
+  const hr::RobotStateSim s1 = r.state();
+  EXPECT_EQ(s1.head.gaze_refusals, 30u);
+  EXPECT_EQ(s1.head.last_gaze_refusal, static_cast<int>(hr::GazeRefusal::kPanLimit));
+  EXPECT_EQ(s1.head.last_gaze_refused_seq, 32u);
+  EXPECT_NEAR(s1.head.pan_truth, s0.head.pan_truth, 0.01 * kDeg);
+  // Too far and too near are refused too.
+  ASSERT_FALSE(send(Eigen::Vector3d(8.0, 0.0, 1.0), 40));
+  ASSERT_FALSE(send(head_W + Eigen::Vector3d(0.1, 0.0, 0.0), 41));
+  EXPECT_EQ(r.state().head.last_gaze_refusal, static_cast<int>(hr::GazeRefusal::kTooNear));
+  EXPECT_EQ(r.state().head.gaze_refusals, 32u);
+  // Link lost: home, though commands (good ones) keep coming.
+  r.set_link_lost(true);
+  for (int k = 0; k < 150; ++k) {
+    send(good, 50 + k);
+    r.step(10);
+  }
+  EXPECT_NEAR(r.state().head.pan_truth, 0.0, 0.001);
+  EXPECT_FALSE(r.state().head.gaze_active);
+}

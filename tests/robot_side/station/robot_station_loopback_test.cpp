@@ -999,3 +999,72 @@ TEST(RobotStationLoopback, AnOperatorsEStopIsNeverRefusedEvenWhenTheRequestQueue
   EXPECT_GE(judged, 1) << "the queue was never full around an e-stop: nothing judged";
   EXPECT_TRUE(robot.station->statistics().estop);
 }
+
+// Issue 24: the operator's gaze (Command.gaze) over real sockets turns the
+// SIMULATED pan-tilt head, whose state comes back in RobotState.head; a
+// Command with a non-finite gaze is malformed (counted) and changes nothing;
+// without commands the head goes home.
+TEST(RobotStationLoopback, AGazeCommandTurnsTheHeadAndAMalformedOneChangesNothing) {
+  constexpr double kDeg = 3.14159265358979323846 / 180.0;
+  hemm::config::RobotConfig cfg = test_config();
+  cfg.mutable_depth_camera()->set_enabled(true);
+  cfg.mutable_depth_camera()->set_mount("pan-tilt");
+  RobotSide robot(cfg);
+  robot.start();
+  FakeOperator op(robot.server->session_port(), true);
+  ASSERT_TRUE(op.wait_connected());
+  ASSERT_TRUE(wait_until([&] { auto s = op.last_state(); return s && s->has_head(); }, 2.0));
+  const hw::RobotState s0 = *op.last_state();
+  EXPECT_NEAR(s0.head().tilt_truth(), 35 * kDeg, 1e-6);  // home: the mast camera's view
+  op.send_frame(mode_change(hw::MODE_EXPLORATION, 21));
+  ASSERT_TRUE(wait_until([&] { return op.ack_for(21).has_value(); }, 2.0));
+  // A point 1.2 m from the head at pan -40 deg, tilt 25 deg, in the odometry frame W.
+  const double x = s0.t_w_r_odom().x(), y = s0.t_w_r_odom().y(), th = s0.t_w_r_odom().theta();
+  const double pan = -40 * kDeg, tilt = 25 * kDeg, r = 1.2;
+  const double fx = 0.10 + r * std::cos(tilt) * std::cos(pan), fy = r * std::cos(tilt) * std::sin(pan);
+  hw::Command c;
+  c.set_mode(hw::MODE_EXPLORATION);
+  c.mutable_gaze()->set_active(true);
+  c.mutable_gaze()->mutable_point_w()->set_x(x + std::cos(th) * fx - std::sin(th) * fy);
+  c.mutable_gaze()->mutable_point_w()->set_y(y + std::sin(th) * fx + std::cos(th) * fy);
+  c.mutable_gaze()->mutable_point_w()->set_z(1.10 - r * std::sin(tilt));
+  op.set_command(c);
+  // 40 deg at 90 deg/s and a 0.08 s lag: settled within ~0.8 s; 3 s allowed (a loaded VM).
+  ASSERT_TRUE(wait_until([&] {
+    auto s = op.last_state();
+    return s && std::abs(s->head().pan_truth() - pan) < 0.2 * kDeg;
+  }, 3.0)) << op.last_state()->head().pan_truth();
+  sleep_s(0.3);
+  const hw::RobotState s1 = *op.last_state();
+  EXPECT_TRUE(s1.head().gaze_active());
+  EXPECT_NEAR(s1.head().pan_truth(), pan, 0.2 * kDeg);
+  // Tilt: the base origin's height above the floor shifts it slightly; the pan is exact.
+  EXPECT_NEAR(s1.head().tilt_truth(), tilt, 3 * kDeg);
+  EXPECT_NEAR(s1.head().pan(), s1.head().pan_truth() + 0.3 * kDeg, 0.25 * kDeg);  // encoder bias 0.3 deg, noise 0.05
+  EXPECT_EQ(s1.head().gaze_refusals(), 0u);
+
+  // Malformed: the gaze target not finite. Counted, the head stays.
+  const auto malformed0 = robot.station->statistics().commands_malformed;
+  hw::Command bad = c;
+  bad.mutable_gaze()->mutable_point_w()->set_y(std::nan(""));
+  op.set_command(bad);
+  sleep_s(0.2);  // shorter than the gaze timeout (0.5 s): a hold is not a return home
+  const hw::RobotState s2 = *op.last_state();
+  EXPECT_GT(robot.station->statistics().commands_malformed, malformed0 + 5);
+  EXPECT_NEAR(s2.head().pan_truth(), s1.head().pan_truth(), 0.05 * kDeg);
+  EXPECT_NEAR(s2.head().tilt_truth(), s1.head().tilt_truth(), 0.05 * kDeg);
+  EXPECT_EQ(s2.head().gaze_refusals(), 0u);
+
+  // Out of range (behind the robot): refused by the head, counted and reported.
+  hw::Command behind = c;
+  behind.mutable_gaze()->mutable_point_w()->set_x(x - 2.0 * std::cos(th));
+  behind.mutable_gaze()->mutable_point_w()->set_y(y - 2.0 * std::sin(th));
+  op.set_command(behind);
+  ASSERT_TRUE(wait_until([&] { return op.last_state()->head().gaze_refusals() > 3; }, 2.0));
+  EXPECT_EQ(op.last_state()->head().last_gaze_refusal(), hw::GAZE_REFUSAL_PAN_LIMIT);
+
+  // No commands: the watchdog expires, the head goes home.
+  op.set_command(std::nullopt);
+  ASSERT_TRUE(wait_until([&] { return std::abs(op.last_state()->head().pan_truth()) < 0.01 * kDeg; }, 3.0));
+  EXPECT_FALSE(op.last_state()->head().gaze_active());
+}
