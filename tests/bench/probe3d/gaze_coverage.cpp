@@ -168,7 +168,8 @@ int main(int argc, char** argv) {
   std::printf("\n");
 
   ToolPath path;
-  path.tr = ho::make_hand6_trajectory("explore-table", path.origin_R);
+  // home.xml's route, checked against the rigid hand's limits as the station does.
+  path.tr = ho::load_hand6_route(kScene, "explore-table", path.origin_R, hemm::device::rigid_hand_limits(1).ee[0]);
 
   const std::string csv_path = out_dir + "/gaze_coverage.csv";
   std::FILE* csv = std::fopen(csv_path.c_str(), "w");
