@@ -20,7 +20,8 @@
 # (ports P, P+1 for the robot and P+100, P+101 for the relay; P default 47300;
 # --views: both stations write PNGs of their live view every 2 s into
 # DIR/<rtt>ms/{operator,robot}_view/, on the caller's X display.)
-# Takes about 75 s per round trip.
+# Takes about 75 s per round trip. HEMM_EXPLORE3D_OPERATOR_ARGS (words) are
+# passed on to hemm-operator, e.g. "--shape-completion-3d off --unknown-solid off".
 set -euo pipefail
 
 usage() {
@@ -103,6 +104,7 @@ run() {  # RTT_MS
   local rc=0
   "$bin/hemm-operator" --config "$cfg/$opcfg" --session-port "$port" --stream-port "$stream" \
     --log "$dir/servo.csv" --duration "$secs" --log-level warn --station-json "$dir/station.json" "${op_view[@]}" \
+    ${HEMM_EXPLORE3D_OPERATOR_ARGS:-} \
     >"$dir/operator.txt" 2>"$dir/operator.log" || rc=$?
   kill -INT "$robot" 2>/dev/null || true
   wait "$robot" 2>/dev/null || true

@@ -276,6 +276,8 @@ std::vector<FieldIssue> validate_operator_config(const pb::Message& m) {
     out.push_back({"probe_3d.tool_tick_margin_us", "must be within [0, 100000]"});
   if (!(p3.tool_contact_stiffness() > 0 && p3.tool_contact_stiffness() <= 1e10))
     out.push_back({"probe_3d.tool_contact_stiffness", "must be within (0, 1e10] N/m^3"});
+  if (!(p3.inferred_stiffness() > 0 && p3.inferred_stiffness() <= 1))
+    out.push_back({"probe_3d.inferred_stiffness", "must be within (0, 1] (1: full stiffness)"});
   if (p3.tool_hand_script() != "explore-table" && p3.tool_hand_script() != "explore-block")
     out.push_back({"probe_3d.tool_hand_script", "must be \"explore-table\" or \"explore-block\""});
   return out;
