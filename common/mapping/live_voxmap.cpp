@@ -68,6 +68,7 @@ bool clip_segment(const Eigen::AlignedBox3d& box, const Eigen::Vector3d& a, cons
 // range_max along a no-return ray; 0 where the pixel says nothing). The
 // snapshot asks them whether a voxel it would put behind a seen surface was
 // passed through by a ray: free-space evidence beats the plane-side guess.
+constexpr double kFreeMargin = 0.006;  // m before a hit the free-space record reaches: ~3 sigma of the range noise at 1 m
 constexpr std::size_t kSeenFrames = 3;  // 0.2 s at 15 Hz; 19 kB each at 80 x 60
 
 struct SeenFrame {
@@ -188,11 +189,14 @@ struct LiveVoxmap::Impl {
 
   // Amanatides-Woo walk over the voxels of a -> b (clipped to the ROI),
   // applying a miss to every stored cell on the way.
-  void clear(const Eigen::Vector3d& a0, const Eigen::Vector3d& b0) {
+  // miss false: only the free-space record is marked (the last stretch
+  // before a hit, closer than clear_margin: see integrate()).
+  void clear(const Eigen::Vector3d& a0, const Eigen::Vector3d& b0, bool miss = true) {
     double t0 = 0, t1 = 0;
     if (!clip_segment(p.roi, a0, b0, &t0, &t1)) return;
+    if (!miss && free_grid.empty()) return;
     const Eigen::Vector3d a = a0 + t0 * (b0 - a0), b = a0 + t1 * (b0 - a0);
-    ++stats.rays_cleared;
+    if (miss) ++stats.rays_cleared;
     const double s = p.voxel_size;
     const Eigen::Vector3d d = b - a;
     Eigen::Vector3i v = index(a);
@@ -219,7 +223,7 @@ struct LiveVoxmap::Impl {
         const std::ptrdiff_t o = free_slot(v);
         if (o >= 0) free_grid[static_cast<std::size_t>(o)] = 1;
       }
-      auto it = cells.find(key_of(v));
+      auto it = miss ? cells.find(key_of(v)) : cells.end();
       if (it != cells.end()) {
         ++stats.voxels_cleared;
         it->second.log_odds += p.log_odds_miss;
@@ -353,6 +357,12 @@ void LiveVoxmap::integrate(const DepthChunkData& c) {
     const Eigen::Vector3d x(q.x, q.y, q.z);
     const double len = (x - o).norm();
     if (len > p.clear_margin) m.clear(o, o + (x - o) * ((len - p.clear_margin) / len));
+    // The free-space record goes on to kFreeMargin before the hit: the
+    // clear margin keeps a grazing ray off the surface's own cells'
+    // occupancy, but as "unseen" it would put the unknown boundary 1.5 cm
+    // proud of every seen surface's edge.
+    if (len > p.clear_margin && p.clear_margin > kFreeMargin)
+      m.clear(o + (x - o) * ((len - p.clear_margin) / len), o + (x - o) * ((len - kFreeMargin) / len), false);
   }
   for (const auto& q : kept->points) {
     const Eigen::Vector3d x(q.x, q.y, q.z);

@@ -696,7 +696,7 @@ void complete_shapes_3d(const Shape3dParams& p, const std::vector<CellSample3>& 
       Fit f;
       const bool passed = kind == 0   ? fit_sphere(p, local, obj, f)
                           : kind == 1 ? fit_cylinder(p, local, obj, out, f)
-                                      : fit_box(p, local, obj, out, f);
+                                      : fit_box(p, cells, obj, out, f);
       if (!passed) continue;
       if (free_share(p, f.q, seen_free) > p.max_free_share) {
         ++out.refused_free;
@@ -723,19 +723,21 @@ void complete_shapes_3d(const Shape3dParams& p, const std::vector<CellSample3>& 
     }
     if (!ok) continue;
     fit.q.points = static_cast<std::uint32_t>(obj.size());
+    const auto id = static_cast<std::int32_t>(out.primitives.size());
     out.primitives.push_back(fit.q);
-  }
-  // A primitive stands for every cell on or inside it, the support's
-  // included: where the table meets a box, the table cells' normals are
-  // blended with the box's face (5 cm PCL normals), and their raw patches
-  // would put solid in front of the fitted face.
-  for (std::size_t k = 0; k < cells.size(); ++k)
-    for (std::size_t id = 0; id < out.primitives.size() && out.owner[k] < 0; ++id) {
+    // The primitive stands for its object's cells on or inside it, and the
+    // support's: where the table meets a box, the table cells' normals are
+    // blended with the box's face (5 cm PCL normals), and their raw patches
+    // would put solid in front of the fitted face. Never another object's.
+    auto own = [&](std::uint32_t k) {
       Vector3d g;
       bool kink = false;
-      if (primitive_sdf(out.primitives[id], cells[k].p, &g, &kink, 0.0) <= 2.0 * tol)
-        out.owner[k] = static_cast<std::int32_t>(id);
-    }
+      if (out.owner[k] < 0 && primitive_sdf(fit.q, cells[k].p, &g, &kink, 0.0) <= 2.0 * tol) out.owner[k] = id;
+    };
+    for (std::uint32_t k : obj) own(k);
+    for (std::uint32_t k = 0; k < cells.size(); ++k)
+      if (taken[k]) own(k);
+  }
 }
 
 }  // namespace hemm::mapping

@@ -15,7 +15,8 @@
 //     at least min_support_share of the cells (the table); its cells are not
 //     fitted further, and boxes standing on it are extended down to it.
 //  2. Objects: the other cells clustered by proximity (cluster_tolerance),
-//     their normals estimated afresh over fit_normal_radius.
+//     their normals estimated afresh over fit_normal_radius for the curved
+//     primitives.
 //  3. Per object, in this order, the first that is accepted:
 //     - a sphere (SACMODEL_SPHERE): inliers explain min_inlier_ratio of the
 //       object, RMS under max_rms, radius in range, seen from outside, and
@@ -48,8 +49,8 @@
 //  4. Temporal coherence: a primitive of the previous completion is kept
 //     for an object whose cells still lie on it (min_inlier_ratio of them
 //     within inlier_distance) when this map alone does not pass.
-//  A primitive stands for every cell within 2 inlier_distance of its
-//  surface or inside it (Shape3dModel::owner), the support's included.
+//  A primitive stands for its object's and the support's cells within 2
+//  inlier_distance of its surface or inside it (Shape3dModel::owner).
 //
 // Thresholds and why are at the parameters. RANSAC is seeded (PCL's fixed
 // seed): one map gives one model.
@@ -73,9 +74,11 @@ struct Shape3dParams {
   double normal_angle = 0.45;        // rad (26 deg): inliers' normals agree with the model's (5 cm PCL normals)
   double max_rms = 0.004;            // m: a fit worse than this is not rendered
   double cluster_tolerance = 0.025;  // m: cells closer than this are one object (2.5 cells)
-  // Objects' normals are estimated afresh (PCL) over this radius: the live
-  // voxmap's 5 cm (two image rows on a grazed table) blurs a 4 cm mug's
-  // side; 2.5 cm holds ~20 cells on a surface. 0 keeps the given normals.
+  // Spheres and cylinders take normals estimated afresh (PCL) over this
+  // radius: the live voxmap's 5 cm (two image rows on a grazed table) blurs
+  // a 4 cm mug's side; 2.5 cm holds ~20 cells on a surface. Boxes keep the
+  // given ones: a top seen at 11 degrees has rows 2.8 cm apart, and one row
+  // leaves the normal anywhere across it. 0 keeps the given normals.
   double fit_normal_radius = 0.025;
   std::size_t min_points = 12;       // an object with fewer cells keeps its raw voxels
   std::size_t max_objects = 32;      // the largest objects first
