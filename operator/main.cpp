@@ -114,11 +114,11 @@ void add_options(CLI::App* app, OperatorArgs* a, RawArgs* raw) {
   app->add_option("--shape-completion-3d", a->shape_completion_3d,
                   "live voxmap (probe_3d): on: boxes, cylinders and spheres fitted to the seen surface (PCL sample "
                   "consensus) give objects' unseen sides their likely shape, flagged inferred; off: the raw voxmap "
-                  "(overrides probe_3d.shape_completion, default on)")
+                  "(overrides probe_3d.shape_completion, default off)")
       ->check(CLI::IsMember({"on", "off"}));
   app->add_option("--unknown-solid", a->unknown_solid,
                   "live voxmap (probe_3d): on: space no ray has seen is solid, flagged inferred; off: free beside the "
-                  "seen surfaces (overrides probe_3d.unknown_solid, default on)")
+                  "seen surfaces (overrides probe_3d.unknown_solid, default off)")
       ->check(CLI::IsMember({"on", "off"}));
   app->add_option("--inferred-stiffness", a->inferred_stiffness,
                   "stiffness on inferred surfaces (a fitted primitive's unseen side, unknown space): full, or a "
