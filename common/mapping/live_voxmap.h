@@ -43,9 +43,8 @@
 // Unknown is solid (params.unknown_solid): every ray also marks the voxels
 // it passed through in a free-space record, one byte per voxel of the
 // region of interest (a 0.6 m cube at 1 cm: 216 kB). A hit does not unmark
-// its voxel: the robot's own arm, seen by the camera where the tool goes,
-// would leave a trail of "unseen" space along the tool's path (what is there
-// now is a seen surface, and those take precedence). In the snapshot, voxels whose value is not a seen surface within
+// its voxel: what is there now is a seen surface, and seen surfaces take
+// precedence over the record anyway. In the snapshot, voxels whose value is not a seen surface within
 // its rim nor a primitive (far outside, or the shadow rule's guess beyond a
 // patch's rim) take the signed distance to the boundary between space rays
 // passed through and space no ray has seen (inside: not seen), if it is
