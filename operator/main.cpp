@@ -116,6 +116,18 @@ void add_options(CLI::App* app, OperatorArgs* a, RawArgs* raw) {
                   "their fit is good (a round object's unseen back, a wall through dropouts); off: raw map segments "
                   "and shadow edges only (default on)")
       ->check(CLI::IsMember({"on", "off"}));
+  app->add_option("--shape-completion-3d", a->shape_completion_3d,
+                  "live voxmap (probe_3d): on: boxes, cylinders and spheres fitted to the seen surface (PCL sample "
+                  "consensus) give objects' unseen sides their likely shape, flagged inferred; off: the raw voxmap "
+                  "(overrides probe_3d.shape_completion, default off)")
+      ->check(CLI::IsMember({"on", "off"}));
+  app->add_option("--unknown-solid", a->unknown_solid,
+                  "live voxmap (probe_3d): on: space no ray has seen is solid, flagged inferred; off: free beside the "
+                  "seen surfaces (overrides probe_3d.unknown_solid, default off)")
+      ->check(CLI::IsMember({"on", "off"}));
+  app->add_option("--inferred-stiffness", a->inferred_stiffness,
+                  "stiffness on inferred surfaces (a fitted primitive's unseen side, unknown space): full, or a "
+                  "factor in (0, 1] (overrides probe_3d.inferred_stiffness, default full)");
   app->add_option("--station-json", a->station_json,
                   "write the station summary (servo timing, model, commands, logs, final predicted pose, "
                   "nav-to-goal state) as JSON to this file at exit");
@@ -227,6 +239,22 @@ bool load_config(OperatorArgs* a, config::OperatorConfig* cfg) {
   }
   if (!a->device_type.empty()) cfg->mutable_device()->set_type(a->device_type);
   if (a->servo_cpu_given) cfg->mutable_servo()->set_cpu(a->servo_cpu);
+  if (!a->shape_completion_3d.empty()) cfg->mutable_probe_3d()->set_shape_completion(a->shape_completion_3d == "on");
+  if (!a->unknown_solid.empty()) cfg->mutable_probe_3d()->set_unknown_solid(a->unknown_solid == "on");
+  if (!a->inferred_stiffness.empty()) {
+    // "full" or a factor; the config's validation range applies to both.
+    double f = 1.0;
+    if (a->inferred_stiffness != "full") {
+      char* end = nullptr;
+      f = std::strtod(a->inferred_stiffness.c_str(), &end);
+      if (end == a->inferred_stiffness.c_str() || *end != '\0' || !(f > 0.0 && f <= 1.0)) {
+        std::cerr << "hemm-operator: --inferred-stiffness '" << a->inferred_stiffness
+                  << "': \"full\" or a factor within (0, 1]\n";
+        return false;
+      }
+    }
+    cfg->mutable_probe_3d()->set_inferred_stiffness(f);
+  }
   if (!a->simulated_hardware.empty()) cfg->mutable_servo()->set_simulated_hardware(a->simulated_hardware);
   if (auto why = rt::check_cpu(cfg->servo().cpu())) {
     std::cerr << "hemm-operator: " << (a->servo_cpu_given ? "--servo-cpu" : "servo.cpu") << " "

@@ -339,6 +339,8 @@ std::vector<FieldIssue> validate_operator_config(const pb::Message& m) {
     out.push_back({"probe_3d.tool_hand_script", "must name an explore6 route of tool_hand_route (e.g. \"explore-table\")"});
   if (shell && p3.tool_hand_route().empty())
     out.push_back({"probe_3d.tool_hand_route", "must name the scene file whose header holds the route"});
+  if (!(p3.inferred_stiffness() > 0 && p3.inferred_stiffness() <= 1))
+    out.push_back({"probe_3d.inferred_stiffness", "must be within (0, 1] (1: full stiffness)"});
   return out;
 }
 

@@ -68,6 +68,7 @@ bool clip_segment(const Eigen::AlignedBox3d& box, const Eigen::Vector3d& a, cons
 // range_max along a no-return ray; 0 where the pixel says nothing). The
 // snapshot asks them whether a voxel it would put behind a seen surface was
 // passed through by a ray: free-space evidence beats the plane-side guess.
+constexpr double kFreeMargin = 0.006;  // m before a hit the free-space record reaches: ~3 sigma of the range noise at 1 m
 constexpr std::size_t kSeenFrames = 3;  // 0.2 s at 15 Hz; 19 kB each at 80 x 60
 
 struct SeenFrame {
@@ -84,6 +85,40 @@ struct LiveVoxmap::Impl {
   LiveVoxmapStats stats;
   std::unordered_map<std::uint64_t, Cell> cells;
   std::deque<SeenFrame> seen;  // oldest first
+  // Free-space record (unknown_solid): 1 where a ray passed through the
+  // voxel, over the ROI's voxels [free_lo, free_lo + free_dims).
+  std::vector<std::uint8_t> free_grid;
+  Eigen::Vector3i free_lo = Eigen::Vector3i::Zero(), free_dims = Eigen::Vector3i::Zero();
+  // The newest snapshot's completion (temporal coherence) and report.
+  mutable Shape3dModel shapes;
+  mutable LiveVoxmapSnapshotReport snap_stats;
+
+  // The free grid's slot of voxel v, or -1 outside the ROI's voxels.
+  std::ptrdiff_t free_slot(const Eigen::Vector3i& v) const {
+    const Eigen::Vector3i l = v - free_lo;
+    if ((l.array() < 0).any() || (l.array() >= free_dims.array()).any()) return -1;
+    return (static_cast<std::ptrdiff_t>(l.z()) * free_dims.y() + l.y()) * free_dims.x() + l.x();
+  }
+  void place_free_grid() {
+    if (!p.unknown_solid) return;
+    const Eigen::Vector3i lo = index(p.roi.min()), hi = index(p.roi.max());
+    const Eigen::Vector3i dims = (hi - lo).cwiseMax(Eigen::Vector3i::Constant(-1)) + Eigen::Vector3i::Constant(1);
+    std::vector<std::uint8_t> next(static_cast<std::size_t>(dims.x()) * dims.y() * dims.z(), 0);
+    // What the old record knew of the new ROI is kept.
+    for (int z = 0; z < dims.z(); ++z)
+      for (int y = 0; y < dims.y(); ++y)
+        for (int x = 0; x < dims.x(); ++x) {
+          const std::ptrdiff_t o = free_grid.empty() ? -1 : free_slot(lo + Eigen::Vector3i(x, y, z));
+          if (o >= 0) next[(static_cast<std::size_t>(z) * dims.y() + y) * dims.x() + x] = free_grid[static_cast<std::size_t>(o)];
+        }
+    free_grid.swap(next);
+    free_lo = lo;
+    free_dims = dims;
+  }
+  bool is_free(const Eigen::Vector3i& v) const {
+    const std::ptrdiff_t o = free_slot(v);
+    return o >= 0 && free_grid[static_cast<std::size_t>(o)] != 0;
+  }
 
   // The frame a chunk belongs to (its cloud id and image size), begun afresh
   // (replacing the oldest) for a new cloud.
@@ -134,6 +169,19 @@ struct LiveVoxmap::Impl {
     return false;
   }
 
+  // True if x (W) lies in the view of a kept frame (in front of its camera,
+  // inside its image, within range_max): what the camera looked at, whether
+  // a ray reached it or a surface hid it.
+  bool in_view(const Eigen::Vector3d& x) const {
+    for (const SeenFrame& f : seen) {
+      const Eigen::Vector3d q = f.T_S_W * x;
+      if (q.z() <= 0.0 || q.norm() > f.K.range_max) continue;
+      const double u = f.K.fx * q.x() / q.z() + f.K.cx, v = f.K.fy * q.y() / q.z() + f.K.cy;
+      if (u >= 0.0 && v >= 0.0 && u < f.K.width && v < f.K.height) return true;
+    }
+    return false;
+  }
+
   Eigen::Vector3i index(const Eigen::Vector3d& x) const {
     return {static_cast<int>(std::floor(x.x() / p.voxel_size)), static_cast<int>(std::floor(x.y() / p.voxel_size)),
             static_cast<int>(std::floor(x.z() / p.voxel_size))};
@@ -141,11 +189,14 @@ struct LiveVoxmap::Impl {
 
   // Amanatides-Woo walk over the voxels of a -> b (clipped to the ROI),
   // applying a miss to every stored cell on the way.
-  void clear(const Eigen::Vector3d& a0, const Eigen::Vector3d& b0) {
+  // miss false: only the free-space record is marked (the last stretch
+  // before a hit, closer than clear_margin: see integrate()).
+  void clear(const Eigen::Vector3d& a0, const Eigen::Vector3d& b0, bool miss = true) {
     double t0 = 0, t1 = 0;
     if (!clip_segment(p.roi, a0, b0, &t0, &t1)) return;
+    if (!miss && free_grid.empty()) return;
     const Eigen::Vector3d a = a0 + t0 * (b0 - a0), b = a0 + t1 * (b0 - a0);
-    ++stats.rays_cleared;
+    if (miss) ++stats.rays_cleared;
     const double s = p.voxel_size;
     const Eigen::Vector3d d = b - a;
     Eigen::Vector3i v = index(a);
@@ -166,8 +217,13 @@ struct LiveVoxmap::Impl {
       }
     }
     const int max_steps = (end - v).cwiseAbs().sum() + 1;
+    const bool record = !free_grid.empty();
     for (int i = 0; i <= max_steps; ++i) {
-      auto it = cells.find(key_of(v));
+      if (record) {
+        const std::ptrdiff_t o = free_slot(v);
+        if (o >= 0) free_grid[static_cast<std::size_t>(o)] = 1;
+      }
+      auto it = miss ? cells.find(key_of(v)) : cells.end();
       if (it != cells.end()) {
         ++stats.voxels_cleared;
         it->second.log_odds += p.log_odds_miss;
@@ -226,10 +282,18 @@ std::optional<std::string> LiveVoxmap::check(const LiveVoxmapParams& p) {
   if (p.min_support < 1) return "live voxmap: min_support must be positive";
   if (!(p.min_view_cosine >= 0.0 && p.min_view_cosine < 1.0)) return "live voxmap: min_view_cosine must be in [0, 1)";
   if (p.max_cells < 1) return "live voxmap: max_cells must be positive";
+  if (const std::string e = validate(p.shapes); p.shape_completion && !e.empty()) return "live voxmap: " + e;
+  if (p.unknown_solid) {
+    const Eigen::Vector3d n = p.roi.sizes() / p.voxel_size;
+    if (n.x() * n.y() * n.z() > 64e6) return "live voxmap: region of interest too large for the free-space record (64 M voxels)";
+  }
   return std::nullopt;
 }
 
-LiveVoxmap::LiveVoxmap(const LiveVoxmapParams& params) : impl_(std::make_unique<Impl>()) { impl_->p = params; }
+LiveVoxmap::LiveVoxmap(const LiveVoxmapParams& params) : impl_(std::make_unique<Impl>()) {
+  impl_->p = params;
+  impl_->place_free_grid();
+}
 LiveVoxmap::~LiveVoxmap() = default;
 LiveVoxmap::LiveVoxmap(LiveVoxmap&&) noexcept = default;
 LiveVoxmap& LiveVoxmap::operator=(LiveVoxmap&&) noexcept = default;
@@ -293,6 +357,12 @@ void LiveVoxmap::integrate(const DepthChunkData& c) {
     const Eigen::Vector3d x(q.x, q.y, q.z);
     const double len = (x - o).norm();
     if (len > p.clear_margin) m.clear(o, o + (x - o) * ((len - p.clear_margin) / len));
+    // The free-space record goes on to kFreeMargin before the hit: the
+    // clear margin keeps a grazing ray off the surface's own cells'
+    // occupancy, but as "unseen" it would put the unknown boundary 1.5 cm
+    // proud of every seen surface's edge.
+    if (len > p.clear_margin && p.clear_margin > kFreeMargin)
+      m.clear(o + (x - o) * ((len - p.clear_margin) / len), o + (x - o) * ((len - kFreeMargin) / len), false);
   }
   for (const auto& q : kept->points) {
     const Eigen::Vector3d x(q.x, q.y, q.z);
@@ -303,17 +373,20 @@ void LiveVoxmap::integrate(const DepthChunkData& c) {
 void LiveVoxmap::set_roi(const Eigen::AlignedBox3d& roi_W) {
   Impl& m = *impl_;
   m.p.roi = roi_W;
+  m.place_free_grid();
   for (auto it = m.cells.begin(); it != m.cells.end();) {
     const Eigen::Vector3d centre = (index_of_key(it->first).cast<double>() + Eigen::Vector3d::Constant(0.5)) * m.p.voxel_size;
     it = roi_W.contains(centre) ? std::next(it) : m.cells.erase(it);
   }
 }
 
-std::optional<std::string> LiveVoxmap::snapshot(vps::Voxmap* out) const {
+std::optional<std::string> LiveVoxmap::snapshot(vps::Voxmap* out, std::int64_t (*now_ns)()) const {
   const Impl& m = *impl_;
   const LiveVoxmapParams& p = m.p;
   const double s = p.voxel_size;
   const int L = p.layers;
+  const std::int64_t t_begin = now_ns != nullptr ? now_ns() : 0;
+  LiveVoxmapSnapshotReport rep;  // into snap_stats at the end
   // Occupied cells: index, mean point, hit count, viewing direction.
   std::vector<Eigen::Vector3i> idx;
   std::vector<Eigen::Vector3d> view, sum_p;
@@ -359,10 +432,70 @@ std::optional<std::string> LiveVoxmap::snapshot(vps::Voxmap* out) const {
       centroid[i] = n > 0 ? Eigen::Vector3d(sp / n) : Eigen::Vector3d(sum_p[i] / hits[i]);
     }
   }
+  // The cells rendered, with their normals toward the sensor.
+  std::vector<Eigen::Vector3d> normal(idx.size(), Eigen::Vector3d::Zero());
+  std::vector<std::uint32_t> rendered;
+  for (std::size_t i = 0; i < idx.size(); ++i) {
+    // A surface needs support: a cell with fewer than min_support cells
+    // within the normal radius (itself included) is not rendered.
+    if (support[i] < p.min_support) continue;
+    const auto& pn = normals.points[i];
+    Eigen::Vector3d n(pn.normal_x, pn.normal_y, pn.normal_z);
+    if (!n.allFinite() || n.norm() < 0.5) continue;
+    if (n.dot(view[i]) < 0) n = -n;
+    // A normal the cell was seen almost edge-on along is not a surface the
+    // sensor could measure: it comes from a neighbourhood of collinear means
+    // (one image row across a surface seen at a grazing angle, rows farther
+    // apart than normal_radius), whose covariance leaves the normal anywhere
+    // in the plane across the row. Such a cell is not rendered.
+    if (n.dot(view[i]) < p.min_view_cosine) continue;
+    normal[i] = n;
+    rendered.push_back(static_cast<std::uint32_t>(i));
+  }
+  const SeenFrame* newest = m.seen.empty() ? nullptr : &m.seen.back();
+  const Eigen::Vector3d newest_origin =
+      newest != nullptr ? Eigen::Vector3d(newest->T_S_W.inverse().translation()) : Eigen::Vector3d::Zero();
+  // Shape completion on the rendered cells (their surface points and normals).
+  std::vector<std::int32_t> owner(idx.size(), -1);
+  Shape3dModel& shapes = m.shapes;
+  if (p.shape_completion) {
+    const std::int64_t t0 = now_ns != nullptr ? now_ns() : 0;
+    std::vector<CellSample3> samples;
+    samples.reserve(rendered.size());
+    // The cells' own means, not the neighbourhood centroids: those are
+    // pulled inward by up to half the normal radius at a surface's edge,
+    // and the edges are what pins a primitive's extents.
+    const double fx = newest != nullptr ? newest->K.fx : 0.0;
+    for (std::uint32_t i : rendered) {
+      const Eigen::Vector3d mean = sum_p[i] / hits[i];
+      samples.push_back(CellSample3{mean, normal[i], view[i], fx > 0.0 ? (mean - newest_origin).norm() / fx : 0.0});
+    }
+    const SeenFree seen_free = [&m](const Eigen::Vector3d& x) { return m.is_free(m.index(x)) || m.seen_free(x); };
+    complete_shapes_3d(p.shapes, samples, seen_free, shapes);
+    for (std::size_t r = 0; r < rendered.size(); ++r) owner[rendered[r]] = shapes.owner[r];
+    for (const Primitive3& q : shapes.primitives) {
+      ++rep.primitives;
+      rep.boxes += q.kind == PrimitiveKind::kBox ? 1 : 0;
+      rep.cylinders += q.kind == PrimitiveKind::kCylinder ? 1 : 0;
+      rep.spheres += q.kind == PrimitiveKind::kSphere ? 1 : 0;
+    }
+    rep.primitives_kept = shapes.kept;
+    rep.primitives_refused_free = shapes.refused_free;
+    for (std::int32_t o : shapes.owner) rep.cells_completed += o >= 0 ? 1 : 0;
+    if (now_ns != nullptr) rep.completion_ns = now_ns() - t0;
+  } else {
+    shapes = Shape3dModel{};
+  }
   Eigen::Vector3i lo = idx[0], hi = idx[0];
   for (const auto& v : idx) {
     lo = lo.cwiseMin(v);
     hi = hi.cwiseMax(v);
+  }
+  // A primitive's unseen back may reach beyond the seen cells.
+  for (const Primitive3& q : shapes.primitives) {
+    const Eigen::AlignedBox3d b = primitive_bounds(q);
+    lo = lo.cwiseMin(m.index(b.min()));
+    hi = hi.cwiseMax(m.index(b.max()));
   }
   const int pad = L + 2;
   const Eigen::Vector3i org = lo - Eigen::Vector3i::Constant(pad);
@@ -383,6 +516,36 @@ std::optional<std::string> LiveVoxmap::snapshot(vps::Voxmap* out) const {
   std::vector<Eigen::Vector3i> block_first;  // the first voxel of each stored block
   // Per voxel, whether it lies in the shadow of some patch (see below).
   std::vector<std::array<std::uint8_t, vps::kBlockVoxels>> shadowed;
+  // Per voxel, where its value comes from (precedence over unknown space).
+  enum Source : std::uint8_t { kNone = 0, kMeasured, kGuess, kFitted };
+  std::vector<std::array<std::uint8_t, vps::kBlockVoxels>> source;
+  const float far_out = vm.far_outside_sdf();
+  std::vector<std::uint8_t> has_surface;
+  // The block holding grid voxel v, allocated (far outside) on first use.
+  auto block_at = [&](const Eigen::Vector3i& v) -> std::size_t {
+    const Eigen::Vector3i b(v.x() >> vps::kBlockShift, v.y() >> vps::kBlockShift, v.z() >> vps::kBlockShift);
+    std::int32_t& t = vm.top[vps::block_linear(vm, b)];
+    if (t == vps::kBlockEmpty) {
+      t = static_cast<std::int32_t>(vm.blocks.size());
+      vps::VoxelBlock blk;
+      for (vps::Voxel& vx : blk.v) vx = vps::Voxel{far_out, {0, 0, 0}, vps::kLayerFarOutside, 0};
+      vm.blocks.push_back(blk);
+      vm.sheet_of_block.push_back(-1);  // point clouds carry no sheets
+      best.emplace_back();
+      best.back().fill(std::numeric_limits<float>::infinity());
+      cheb.emplace_back();
+      cheb.back().fill(std::numeric_limits<std::int8_t>::max());
+      has_surface.push_back(0);
+      best_outside.emplace_back();
+      best_outside.back().fill(vps::Voxel{std::numeric_limits<float>::infinity(), {0, 0, 0}, 0, 0});
+      shadowed.emplace_back();
+      shadowed.back().fill(0);
+      source.emplace_back();
+      source.back().fill(kNone);
+      block_first.push_back(b * vps::kBlockDim);
+    }
+    return static_cast<std::size_t>(t);
+  };
   // A patch's shadow: the space behind it whose line of sight toward where
   // it was seen from crosses its plane within a radius of its centre. Right
   // behind a patch (within its rim) is inside; beyond the rims only a shadow
@@ -398,25 +561,9 @@ std::optional<std::string> LiveVoxmap::snapshot(vps::Voxmap* out) const {
   // over the mug's top; without the spacing term 5 mm voxels left holes
   // under the bench's table, 60 % force error against 26 %.)
   const double shadow_radius = 0.5 * (p.normal_radius + s);
-  const SeenFrame* newest = m.seen.empty() ? nullptr : &m.seen.back();
-  const Eigen::Vector3d newest_origin =
-      newest != nullptr ? Eigen::Vector3d(newest->T_S_W.inverse().translation()) : Eigen::Vector3d::Zero();
-  const float far_out = vm.far_outside_sdf();
-  std::vector<std::uint8_t> has_surface;
-  for (std::size_t i = 0; i < idx.size(); ++i) {
-    // A surface needs support: a cell with fewer than min_support cells
-    // within the normal radius (itself included) is not rendered.
-    if (support[i] < p.min_support) continue;
-    const auto& pn = normals.points[i];
-    Eigen::Vector3d n(pn.normal_x, pn.normal_y, pn.normal_z);
-    if (!n.allFinite() || n.norm() < 0.5) continue;
-    if (n.dot(view[i]) < 0) n = -n;
-    // A normal the cell was seen almost edge-on along is not a surface the
-    // sensor could measure: it comes from a neighbourhood of collinear means
-    // (one image row across a surface seen at a grazing angle, rows farther
-    // apart than normal_radius), whose covariance leaves the normal anywhere
-    // in the plane across the row. Such a cell is not rendered.
-    if (n.dot(view[i]) < p.min_view_cosine) continue;
+  for (std::uint32_t i : rendered) {
+    if (owner[i] >= 0) continue;  // a primitive stands for it
+    const Eigen::Vector3d& n = normal[i];
     const Eigen::Vector3d& c = centroid[i];
     const Eigen::Vector3i base = idx[i] - org;
     double shadow_r = shadow_radius;
@@ -429,27 +576,7 @@ std::optional<std::string> LiveVoxmap::snapshot(vps::Voxmap* out) const {
       for (int dy = -L; dy <= L; ++dy) {
         for (int dx = -L; dx <= L; ++dx) {
           const Eigen::Vector3i v = base + Eigen::Vector3i(dx, dy, dz);
-          const Eigen::Vector3i b(v.x() >> vps::kBlockShift, v.y() >> vps::kBlockShift, v.z() >> vps::kBlockShift);
-          const std::size_t bl = vps::block_linear(vm, b);
-          std::int32_t& t = vm.top[bl];
-          if (t == vps::kBlockEmpty) {
-            t = static_cast<std::int32_t>(vm.blocks.size());
-            vps::VoxelBlock blk;
-            for (vps::Voxel& vx : blk.v) vx = vps::Voxel{far_out, {0, 0, 0}, vps::kLayerFarOutside, 0};
-            vm.blocks.push_back(blk);
-            vm.sheet_of_block.push_back(-1);  // point clouds carry no sheets
-            best.emplace_back();
-            best.back().fill(std::numeric_limits<float>::infinity());
-            cheb.emplace_back();
-            cheb.back().fill(std::numeric_limits<std::int8_t>::max());
-            has_surface.push_back(0);
-            best_outside.emplace_back();
-            best_outside.back().fill(vps::Voxel{std::numeric_limits<float>::infinity(), {0, 0, 0}, 0, 0});
-            shadowed.emplace_back();
-            shadowed.back().fill(0);
-            block_first.push_back(b * vps::kBlockDim);
-          }
-          const auto bi = static_cast<std::size_t>(t);
+          const std::size_t bi = block_at(v);
           const int vi = vps::voxel_in_block(v);
           const Eigen::Vector3d x = vps::voxel_centre(vm, v);
           const auto ch = static_cast<std::int8_t>(std::max({std::abs(dx), std::abs(dy), std::abs(dz)}));
@@ -499,8 +626,8 @@ std::optional<std::string> LiveVoxmap::snapshot(vps::Voxmap* out) const {
     for (std::size_t vi = 0; vi < static_cast<std::size_t>(vps::kBlockVoxels); ++vi) {
       const std::int8_t ch = cheb[bi][vi];
       if (ch == std::numeric_limits<std::int8_t>::max()) continue;
-      if (ch == 0) ++vm.surface_voxels;
       vps::Voxel& vx = blk.v[vi];
+      source[bi][vi] = (vx.flags & vps::kFlagNoGradient) != 0 ? kGuess : kMeasured;
       if (vx.sdf < 0.0f) {
         // Behind the nearest patch's plane but beyond its rim, in no patch's
         // shadow (beside the seen surfaces: above a small top seen edge-on
@@ -522,15 +649,153 @@ std::optional<std::string> LiveVoxmap::snapshot(vps::Voxmap* out) const {
             vx.sdf = o.sdf;
             std::copy(std::begin(o.grad), std::end(o.grad), std::begin(vx.grad));
             vx.flags = o.flags;
+            source[bi][vi] = (o.flags & vps::kFlagNoGradient) != 0 ? kGuess : kMeasured;
           } else {
             vx.sdf = -vx.sdf;
             vx.flags = vps::kFlagNoGradient;
+            source[bi][vi] = kGuess;
           }
         }
       }
       blk.v[vi].layer = static_cast<std::int8_t>(blk.v[vi].sdf < 0.0f ? -ch : ch);
     }
   }
+  // A voxel's layer from its distance (primitives, unknown space): never
+  // more than the Chebyshev distance to a surface voxel, so the contact's
+  // layer test never skips a voxel it should test.
+  auto layer_of = [&](float d) {
+    const int k = std::min(126, static_cast<int>(std::floor(std::abs(d) / s)));
+    return static_cast<std::int8_t>(d < 0.0f ? -k : k);
+  };
+  // Primitives: the union of the raw surfaces and each primitive's solid, in
+  // closed form, over the voxels within the layers of it. Inferred where the
+  // nearest surface point of the primitive has no cell of its own near it.
+  if (!shapes.primitives.empty()) {
+    std::unordered_map<std::uint64_t, std::uint32_t> cell_at;  // rendered cells owned by a primitive
+    for (std::uint32_t i : rendered)
+      if (owner[i] >= 0) cell_at.emplace(key_of(idx[i]), i);
+    const Eigen::Vector3i dims = vm.dims();
+    for (std::size_t qi = 0; qi < shapes.primitives.size(); ++qi) {
+      const Primitive3& q = shapes.primitives[qi];
+      const Eigen::AlignedBox3d b = primitive_bounds(q);
+      const Eigen::Vector3i v0 = (m.index(b.min()) - org - Eigen::Vector3i::Constant(L + 1)).cwiseMax(0);
+      const Eigen::Vector3i v1 = (m.index(b.max()) - org + Eigen::Vector3i::Constant(L + 1)).cwiseMin(dims - Eigen::Vector3i::Ones());
+      for (int z = v0.z(); z <= v1.z(); ++z)
+        for (int y = v0.y(); y <= v1.y(); ++y)
+          for (int x = v0.x(); x <= v1.x(); ++x) {
+            const Eigen::Vector3i v(x, y, z);
+            const Eigen::Vector3d c = vps::voxel_centre(vm, v);
+            Eigen::Vector3d g;
+            bool kink = false;
+            const double d = primitive_sdf(q, c, &g, &kink, s);
+            if (d > (L + 0.5) * s) continue;
+            const std::size_t bi = block_at(v);
+            const auto vi = static_cast<std::size_t>(vps::voxel_in_block(v));
+            vps::Voxel& vx = vm.blocks[bi].v[vi];
+            if (!(d < vx.sdf)) continue;  // the union: the nearer solid wins
+            // Seen: an owned cell within 1.5 voxels of the nearest surface point.
+            const Eigen::Vector3d foot = c - d * g;
+            const Eigen::Vector3i fv = m.index(foot);
+            bool seen = false;
+            for (int k = 0; k < 27 && !seen; ++k) {
+              const Eigen::Vector3i nv = fv + Eigen::Vector3i(k % 3 - 1, (k / 3) % 3 - 1, k / 9 - 1);
+              const auto it = cell_at.find(key_of(nv));
+              seen = it != cell_at.end() && owner[it->second] == static_cast<std::int32_t>(qi) &&
+                     (sum_p[it->second] / hits[it->second] - foot).squaredNorm() <= 2.25 * s * s;
+            }
+            vx.sdf = static_cast<float>(d);
+            for (int a = 0; a < 3; ++a) vx.grad[a] = static_cast<std::int16_t>(std::lround(g[a] * vps::kGradScale));
+            vx.flags = static_cast<std::uint8_t>((kink ? vps::kFlagNoGradient : 0) | (seen ? 0 : vps::kFlagInferred));
+            vx.layer = layer_of(vx.sdf);
+            if (vx.layer == 0) has_surface[bi] = 1;
+            source[bi][vi] = kFitted;
+          }
+    }
+  }
+  // Unknown is solid: voxels not holding a seen surface or a primitive take
+  // the signed distance to the boundary of the space rays passed through
+  // when that is nearer inside (free: +distance to the nearest unseen voxel;
+  // unseen: -distance to the nearest free voxel; half a voxel off the
+  // centres). Exact nearest voxels by a search over the layers' cube, once
+  // per stored voxel that needs it.
+  if (p.unknown_solid && !m.free_grid.empty()) {
+    const std::int64_t t0 = now_ns != nullptr ? now_ns() : 0;
+    // A voxel of W's grid is unseen: in the ROI's record and not free.
+    auto unseen = [&](const Eigen::Vector3i& w) {
+      const std::ptrdiff_t o = m.free_slot(w);
+      return o >= 0 && m.free_grid[static_cast<std::size_t>(o)] == 0;
+    };
+    for (std::size_t bi = 0; bi < vm.blocks.size(); ++bi) {
+      // A block with no free voxel within the layers of it (deep in unseen
+      // space, e.g. under the table) needs no search: all of it is as deep
+      // as the layers reach.
+      bool free_near = false;
+      {
+        const Eigen::Vector3i w0 = block_first[bi] + org - Eigen::Vector3i::Constant(L);
+        const int n = vps::kBlockDim + 2 * L;
+        for (int z = 0; z < n && !free_near; ++z)
+          for (int y = 0; y < n && !free_near; ++y)
+            for (int x = 0; x < n && !free_near; ++x) {
+              const Eigen::Vector3i u = w0 + Eigen::Vector3i(x, y, z);
+              free_near = m.free_slot(u) >= 0 && !unseen(u);
+            }
+      }
+      for (std::size_t vi = 0; vi < static_cast<std::size_t>(vps::kBlockVoxels); ++vi) {
+        const std::uint8_t src = source[bi][vi];
+        if (src == kMeasured || src == kFitted) continue;
+        const auto i = static_cast<int>(vi);
+        const Eigen::Vector3i v = block_first[bi] + Eigen::Vector3i(i & (vps::kBlockDim - 1),
+                                                                    (i >> vps::kBlockShift) & (vps::kBlockDim - 1),
+                                                                    i >> (2 * vps::kBlockShift));
+        const Eigen::Vector3i w = v + org;  // W's voxel index
+        if (m.free_slot(w) < 0) continue;   // outside the ROI: nothing recorded
+        const bool in = unseen(w);
+        if (!in) continue;  // free space keeps its value (outside)
+        // Unseen, and the camera looked there: hidden behind what it saw.
+        // Out of every kept frame's view is no evidence either way (a mast
+        // camera's image ends below the height the tool comes down from):
+        // not made solid.
+        if (!m.in_view(vps::voxel_centre(vm, v))) continue;
+        // The nearest free voxel within the layers: shells of growing
+        // Chebyshev radius k, until k^2 exceeds the best squared distance.
+        int best2 = std::numeric_limits<int>::max();
+        Eigen::Vector3i bestd = Eigen::Vector3i::Zero();
+        for (int k = 1; free_near && k <= L && k * k < best2; ++k)
+          for (int dz = -k; dz <= k; ++dz)
+            for (int dy = -k; dy <= k; ++dy)
+              for (int dx = -k; dx <= k; dx += (std::abs(dz) == k || std::abs(dy) == k) ? 1 : 2 * k) {
+                const int d2 = dx * dx + dy * dy + dz * dz;
+                if (d2 >= best2) continue;
+                const Eigen::Vector3i u = w + Eigen::Vector3i(dx, dy, dz);
+                if (m.free_slot(u) >= 0 && !unseen(u)) {
+                  best2 = d2;
+                  bestd = Eigen::Vector3i(dx, dy, dz);
+                }
+              }
+        vps::Voxel& vx = vm.blocks[bi].v[vi];
+        const double dist = best2 == std::numeric_limits<int>::max() ? (L + 1) * s : (std::sqrt(best2) - 0.5) * s;
+        const auto d = static_cast<float>(-dist);
+        if (!(d < vx.sdf)) continue;
+        vx.sdf = d;
+        const Eigen::Vector3d g = best2 == std::numeric_limits<int>::max() ? Eigen::Vector3d::UnitZ()
+                                                                             : Eigen::Vector3d(bestd.cast<double>().normalized());
+        for (int a = 0; a < 3; ++a) vx.grad[a] = static_cast<std::int16_t>(std::lround(g[a] * vps::kGradScale));
+        vx.flags = vps::kFlagNoGradient | vps::kFlagInferred;  // a voxel staircase: no gradient to trust
+        vx.layer = layer_of(vx.sdf);
+        if (vx.layer == 0) has_surface[bi] = 1;
+        ++rep.voxels_unknown;
+      }
+    }
+    if (now_ns != nullptr) rep.unknown_ns = now_ns() - t0;
+  }
+  for (std::size_t bi = 0; bi < vm.blocks.size(); ++bi)
+    for (std::size_t vi = 0; vi < static_cast<std::size_t>(vps::kBlockVoxels); ++vi) {
+      const vps::Voxel& vx = vm.blocks[bi].v[vi];
+      if (source[bi][vi] == kNone && vx.layer == vps::kLayerFarOutside) continue;
+      if (vx.layer == 0) ++vm.surface_voxels;
+      rep.voxels_primitive += source[bi][vi] == kFitted ? 1 : 0;
+      rep.voxels_inferred += (vx.flags & vps::kFlagInferred) != 0 ? 1 : 0;
+    }
   // Coarse block distance to the nearest block with surface voxels
   // (Chebyshev, breadth first over the 26-neighbourhood), for culling.
   vm.coarse.assign(nblocks, 255);
@@ -568,6 +833,8 @@ std::optional<std::string> LiveVoxmap::snapshot(vps::Voxmap* out) const {
   // at least c - 1 whole blocks between, plus one voxel.
   for (std::uint8_t& c : vm.coarse)
     if (c != 0) c = static_cast<std::uint8_t>(std::min(255, (c - 1) * vps::kBlockDim + 1));
+  if (now_ns != nullptr) rep.snapshot_ns = now_ns() - t_begin;
+  m.snap_stats = rep;
   *out = std::move(vm);
   return std::nullopt;
 }
@@ -584,6 +851,10 @@ std::size_t LiveVoxmap::memory_bytes() const {
   return c.size() * (sizeof(std::pair<const std::uint64_t, Cell>) + sizeof(void*)) + c.bucket_count() * sizeof(void*);
 }
 const LiveVoxmapStats& LiveVoxmap::stats() const { return impl_->stats; }
+const LiveVoxmapSnapshotReport& LiveVoxmap::snapshot_report() const { return impl_->snap_stats; }
+const Shape3dModel& LiveVoxmap::shapes() const { return impl_->shapes; }
+std::size_t LiveVoxmap::free_space_bytes() const { return impl_->free_grid.capacity(); }
+bool LiveVoxmap::recorded_free(const Eigen::Vector3d& x) const { return impl_->is_free(impl_->index(x)); }
 const LiveVoxmapParams& LiveVoxmap::params() const { return impl_->p; }
 
 }  // namespace hemm::mapping

@@ -11,6 +11,7 @@
 #include <pcl/sample_consensus/sac_model_circle.h>
 #include <pcl/sample_consensus/sac_model_line.h>
 
+#include "common/mapping/sample_consensus_fit.h"
 #include "common/math/geometry2.h"
 
 namespace hemm::mapping {
@@ -132,34 +133,6 @@ Cloud::Ptr to_cloud(const std::vector<Point>& pts, const std::vector<std::uint32
   return c;
 }
 
-// Largest angular gap of angles (sorted in place) -> the arc they span.
-double arc_spanned(std::vector<double>& ang) {
-  if (ang.size() < 2) return 0.0;
-  std::sort(ang.begin(), ang.end());
-  double gap = ang.front() + 2.0 * std::numbers::pi - ang.back();
-  for (std::size_t i = 1; i < ang.size(); ++i) gap = std::max(gap, ang[i] - ang[i - 1]);
-  return 2.0 * std::numbers::pi - gap;
-}
-
-// RANSAC (PCL) for one model over a cloud, then a least-squares refinement
-// on its inliers. False when no model was found.
-template <typename Model>
-bool ransac_fit(const ShapeParams& p, const typename Model::Ptr& model, Eigen::VectorXf& coeff) {
-  pcl::RandomSampleConsensus<pcl::PointXYZ> sac(model, p.inlier_distance);
-  sac.setMaxIterations(p.max_iterations);
-  if (!sac.computeModel()) return false;
-  pcl::Indices inliers;
-  sac.getInliers(inliers);
-  Eigen::VectorXf raw;
-  sac.getModelCoefficients(raw);
-  if (inliers.size() < model->getSampleSize() + 1) {
-    coeff = raw;
-    return true;
-  }
-  model->optimizeModelCoefficients(inliers, raw, coeff);
-  return coeff.allFinite();
-}
-
 struct LineFit {
   Vector2d point, dir;  // unit dir
   std::vector<std::uint32_t> inliers;  // point indices (global)
@@ -173,7 +146,9 @@ bool fit_line(const ShapeParams& p, const std::vector<Point>& pts, const std::ve
   Cloud::Ptr cloud = to_cloud(pts, idx);
   pcl::SampleConsensusModelLine<pcl::PointXYZ>::Ptr model(new pcl::SampleConsensusModelLine<pcl::PointXYZ>(cloud));
   Eigen::VectorXf c;
-  if (!ransac_fit<pcl::SampleConsensusModelLine<pcl::PointXYZ>>(p, model, c) || c.size() < 6) return false;
+  if (!ransac_refined<pcl::SampleConsensusModelLine<pcl::PointXYZ>>(model, p.inlier_distance, p.max_iterations, c) ||
+      c.size() < 6)
+    return false;
   Vector2d d(c[3], c[4]);
   if (!(d.norm() > 1e-9)) return false;
   out.point = Vector2d(c[0], c[1]);
@@ -199,7 +174,10 @@ bool fit_circle(const ShapeParams& p, const std::vector<Point>& pts, const std::
   pcl::SampleConsensusModelCircle2D<pcl::PointXYZ>::Ptr model(
       new pcl::SampleConsensusModelCircle2D<pcl::PointXYZ>(cloud));
   Eigen::VectorXf c;
-  if (!ransac_fit<pcl::SampleConsensusModelCircle2D<pcl::PointXYZ>>(p, model, c) || c.size() < 3) return false;
+  if (!ransac_refined<pcl::SampleConsensusModelCircle2D<pcl::PointXYZ>>(model, p.inlier_distance, p.max_iterations,
+                                                                       c) ||
+      c.size() < 3)
+    return false;
   out.centre = Vector2d(c[0], c[1]);
   out.radius = std::abs(static_cast<double>(c[2]));
   double ss = 0.0;

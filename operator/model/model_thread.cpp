@@ -403,10 +403,19 @@ void ModelThread::step_voxmap(std::int64_t now_ns) {
     const std::int64_t b0 = steady_now_ns();
     auto vm = std::make_shared<vps::Voxmap>();
     std::shared_ptr<const vps::Voxmap> retired;  // released after the lock
-    if (!voxmap_->snapshot(vm.get())) {
+    if (!voxmap_->snapshot(vm.get(), &steady_now_ns)) {
       if (depth_reg_) mapping::surface_from_voxmap(*vm, &reg_surface_);
       st.snapshot_bytes = vm->memory_bytes();
       ++st.builds;
+      // The shape completion and unknown space of this build, and their cost.
+      st.newest = voxmap_->snapshot_report();
+      const double cms = 1e-6 * static_cast<double>(st.newest.completion_ns);
+      const double ums = 1e-6 * static_cast<double>(st.newest.unknown_ns);
+      st.max_completion_ms = std::max(st.max_completion_ms, cms);
+      st.sum_completion_ms += cms;
+      st.max_unknown_ms = std::max(st.max_unknown_ms, ums);
+      st.sum_unknown_ms += ums;
+      st.free_space_bytes = voxmap_->free_space_bytes();
       std::lock_guard<std::mutex> lock(voxmap_mu_);
       retired = std::exchange(voxmap_published_, std::move(vm));
       voxmap_published_builds_ = st.builds;
@@ -417,6 +426,7 @@ void ModelThread::step_voxmap(std::int64_t now_ns) {
     const double ms = static_cast<double>(steady_now_ns() - b0) * 1e-6;
     st.last_build_ms = ms;
     st.max_build_ms = std::max(st.max_build_ms, ms);
+    st.sum_build_ms += ms;
   }
   st.cells = voxmap_->cells();
   st.occupied_cells = voxmap_->occupied_cells();

@@ -150,7 +150,14 @@ struct VoxmapStats {
   std::size_t memory_bytes = 0;         // the LiveVoxmap's cells
   std::size_t snapshot_bytes = 0;       // the newest vps::Voxmap
   double last_integrate_ms = 0.0, max_integrate_ms = 0.0;  // one step's chunks
-  double last_build_ms = 0.0, max_build_ms = 0.0;
+  double last_build_ms = 0.0, max_build_ms = 0.0, sum_build_ms = 0.0;
+  // The newest build's 3D shape completion and unknown space, and their CPU
+  // per build (the voxmap thread's wall time inside the build: that thread
+  // does nothing else meanwhile), max and summed over the builds.
+  mapping::LiveVoxmapSnapshotReport newest;
+  double max_completion_ms = 0.0, sum_completion_ms = 0.0;
+  double max_unknown_ms = 0.0, sum_unknown_ms = 0.0;
+  std::size_t free_space_bytes = 0;     // the free-space record (unknown_solid)
   std::uint64_t roi_moves = 0;          // times the region of interest was moved
   std::uint64_t restarts = 0;           // cleared for a restarted robot (new frame epoch)
   std::uint64_t old_epoch_chunks = 0;   // chunks of a robot that restarted since: dropped

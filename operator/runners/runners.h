@@ -42,6 +42,8 @@ struct OperatorArgs {
   bool script_given = false;  // --script was on the command line
   std::vector<Eigen::Vector2d> goal_route, probe_line;
   std::string shape_completion = "on";
+  // The live voxmap's switches (empty: the config's probe_3d values).
+  std::string shape_completion_3d, unknown_solid, inferred_stiffness;
   std::string station_json, servo_log, replay_file, record_path, replay_json;
   double replay_speed = 1.0;
   std::vector<std::string> export_mcap;  // REC OUT, or empty

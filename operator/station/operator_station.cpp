@@ -33,6 +33,8 @@ void apply_probe3d_config(const config::Probe3dConfig& c, OperatorStationOptions
   // Two image rows of the SIMULATED mast camera on a table top (live_voxmap.h).
   o->model.voxmap.normal_radius = std::max(0.05, 2.5 * c.voxel_size_m());
   o->model.voxmap.clear_margin = std::max(o->model.voxmap.clear_margin, 1.5 * c.voxel_size_m());
+  o->model.voxmap.shape_completion = c.shape_completion();
+  o->model.voxmap.unknown_solid = c.unknown_solid();
   o->model.voxmap_roi_R = Eigen::AlignedBox3d(Eigen::Vector3d(c.roi_x_min_m(), -c.roi_half_width_m(), c.roi_z_min_m()),
                                               Eigen::Vector3d(c.roi_x_max_m(), c.roi_half_width_m(), c.roi_z_max_m()));
   o->model.voxmap_rate_hz = c.rebuild_rate_hz();
@@ -54,6 +56,7 @@ void apply_probe3d_config(const config::Probe3dConfig& c, OperatorStationOptions
     o->task.tool6.calibration_voxel = c.voxel_size_m();
     o->task.tool6.calibration_layers = o->model.voxmap.layers;
     o->task.tool6.contact_stiffness = c.tool_contact_stiffness();
+    o->task.tool6.inferred_stiffness_scale = c.inferred_stiffness();
     o->task.tool6.origin_R = Eigen::Vector3d(c.origin_x_m(), 0.0, c.origin_z_m());
     o->hand6_script = c.tool_hand_script();
     o->hand6_route_file = c.tool_hand_route();  // as given: relative to the config file (station_runner resolves it)
@@ -157,7 +160,11 @@ std::string to_string(const OperatorStationSummary& s) {
     o << "nav-to-goal: goal=(" << s.goal_W.x() << ", " << s.goal_W.y() << ") arrived=" << (s.arrived ? "yes" : "no")
       << " distance_m=" << s.goal_distance_m << " first_arrival_s=" << s.first_arrival_s
       << " arrivals=" << s.arrivals << " goal " << s.goal_index + 1 << "/" << s.route_size << "\n";
-  if (s.has_tool6) o << "tool6 budget: " << to_string(s.tool6_budget) << "\n";
+  if (s.has_tool6) {
+    o << "tool6 budget: " << to_string(s.tool6_budget) << "\n";
+    o << "tool6 inferred force share: " << s.tool6_inferred_force_share << " (" << s.tool6_inferred_contact_ticks
+      << " of " << s.tool6_contact_ticks << " contact ticks)\n";
+  }
   return o.str();
 }
 
@@ -245,6 +252,25 @@ report::OperatorStation to_report(const OperatorStationSummary& s) {
       m.set_depth_reg_mean_point_error_after_m(dr.sum_point_error_after_m / n);
     }
   }
+  m.set_voxmap_primitives(vx.newest.primitives);
+  m.set_voxmap_boxes(vx.newest.boxes);
+  m.set_voxmap_cylinders(vx.newest.cylinders);
+  m.set_voxmap_spheres(vx.newest.spheres);
+  m.set_voxmap_primitives_kept(vx.newest.primitives_kept);
+  m.set_voxmap_primitives_refused_free(vx.newest.primitives_refused_free);
+  m.set_voxmap_cells_completed(vx.newest.cells_completed);
+  m.set_voxmap_voxels_primitive(vx.newest.voxels_primitive);
+  m.set_voxmap_voxels_inferred(vx.newest.voxels_inferred);
+  m.set_voxmap_voxels_unknown(vx.newest.voxels_unknown);
+  const double builds = std::max<double>(1.0, static_cast<double>(vx.builds));
+  m.set_voxmap_last_completion_ms(1e-6 * static_cast<double>(vx.newest.completion_ns));
+  m.set_voxmap_max_completion_ms(vx.max_completion_ms);
+  m.set_voxmap_mean_completion_ms(vx.sum_completion_ms / builds);
+  m.set_voxmap_last_unknown_ms(1e-6 * static_cast<double>(vx.newest.unknown_ns));
+  m.set_voxmap_max_unknown_ms(vx.max_unknown_ms);
+  m.set_voxmap_mean_unknown_ms(vx.sum_unknown_ms / builds);
+  m.set_voxmap_free_space_bytes(vx.free_space_bytes);
+  m.set_voxmap_mean_build_ms(vx.sum_build_ms / builds);
   report::CommandStream& c = *r.mutable_commands();
   c.set_sent(s.commands.commands_sent);
   c.set_send_failures(s.commands.send_failures);
@@ -273,7 +299,12 @@ report::OperatorStation to_report(const OperatorStationSummary& s) {
   ar.set_last_reason(short_name(s.arm_refusals.last_reason));
   ar.set_last_seq(s.arm_refusals.last_seq);
   ar.set_bad_reports(s.arm_refusals.errors);
-  if (s.has_tool6) to_report(s.tool6_budget, r.mutable_tool6_budget());
+  if (s.has_tool6) {
+    to_report(s.tool6_budget, r.mutable_tool6_budget());
+    r.set_tool6_inferred_force_share(s.tool6_inferred_force_share);
+    r.set_tool6_contact_ticks(s.tool6_contact_ticks);
+    r.set_tool6_inferred_contact_ticks(s.tool6_inferred_contact_ticks);
+  }
   report::Logs& l = *r.mutable_logs();
   l.set_servo_written(s.servo_log_written);
   l.set_servo_dropped(s.servo_log_dropped);
@@ -614,6 +645,9 @@ OperatorStationSummary OperatorStation::summary() const {
     s.tool6_budget.params = t->budget().params();
     s.tool6_budget.calibration = t->calibration();
     s.tool6_budget.stats = t->budget().stats();
+    s.tool6_inferred_force_share = t->inferred_force_share();
+    s.tool6_contact_ticks = t->contact_ticks();
+    s.tool6_inferred_contact_ticks = t->inferred_contact_ticks();
   }
   return s;
 }

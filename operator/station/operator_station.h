@@ -105,6 +105,8 @@ struct OperatorStationSummary {
   // The 6-DoF tool's time-critical budget (probe_3d tool "pointshell").
   bool has_tool6 = false;
   WorkBudgetSummary tool6_budget;
+  double tool6_inferred_force_share = 0.0;  // Tool6Explorer::inferred_force_share
+  std::uint64_t tool6_contact_ticks = 0, tool6_inferred_contact_ticks = 0;
 };
 std::string to_string(const OperatorStationSummary& s);
 // The summary as a report message (proto/report.proto: units in the keys;

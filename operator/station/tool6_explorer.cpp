@@ -19,6 +19,8 @@ std::string validate(const Tool6Params& p) {
   if (!(std::isfinite(p.contact_stiffness) && p.contact_stiffness > 0 && p.contact_stiffness <= 1e10))
     return "contact stiffness must be in (0, 1e10] N/m^3";
   if (p.budget < 1) return "work budget must be >= 1";
+  if (!(p.inferred_stiffness_scale > 0 && p.inferred_stiffness_scale <= 1))
+    return "inferred stiffness scale must be in (0, 1]";
   if (p.tick_budget_ns < 0 || p.tick_budget_ns > 100'000'000 || p.tick_margin_ns < 0 ||
       p.tick_margin_ns > 100'000'000)
     return "tick budget and margin must be in [0, 100 ms]";
@@ -57,6 +59,7 @@ Tool6Explorer::Tool6Explorer(const Tool6Params& p) : p_(p) {
   d.max_rot_stiffness = p.limits.max_rotational_stiffness;
   params_.coupling = vps::design_coupling(tool_.mass, tool_.inertia_com, d).params;
   params_.contact.stiffness = p.contact_stiffness;
+  params_.contact.inferred_stiffness_scale = p.inferred_stiffness_scale;
   params_.budget = p.budget;
   vps::init_tool_state(tool_, &state_);
   vps::TimeBudgetParams tb;
@@ -104,6 +107,16 @@ void Tool6Explorer::tick(const device::EndEffectorSample& s, const math::Pose2& 
   vps::probe_tool_tick(params_, tool_, vm, goal, &state_);
   const int levels = state_.contact.levels_completed;
   budget_.end(steady_now_ns(), work(), levels, levels >= tool_.shell.levels);
+  // How much of what is displayed came from inferred voxels (run totals).
+  if (state_.contact.contacts > 0) {
+    const double felt = state_.device.force.norm();
+    ++contact_ticks_;
+    if (state_.contact.inferred_contacts > 0) ++inferred_contact_ticks_;
+    if (std::isfinite(felt)) {
+      felt_sum_ += felt;
+      felt_inferred_sum_ += felt * vps::inferred_share(state_.contact);
+    }
+  }
 }
 
 void Tool6Explorer::write(double gain, device::EndEffectorCommand& c) const noexcept {

@@ -55,6 +55,8 @@ struct Tool6Params {
   // 10.7 N (a 3.6 mm lead of the hand on the LWR-class coupling's 3000 N/m),
   // a quarter of the 1 cm live voxmap's voxel.
   double contact_stiffness = 3e7;
+  // Factor on inferred voxels' stiffness (vps::ContactParams), in (0, 1].
+  double inferred_stiffness_scale = 1.0;
   std::int64_t budget = 4000;  // VPS work per tick (sphere nodes + points): time-critical mode
   // ... and in time (0: none): at most this per tick, ending tick_margin_ns
   // before the tick's deadline; the cost per unit calibrated on a box voxmap
@@ -102,6 +104,12 @@ class Tool6Explorer {
   const vps::TickWorkBudget& budget() const noexcept { return budget_; }
   // The work of the last tick (0 without a voxmap).
   std::int64_t work() const noexcept { return state_.contact.nodes_visited + state_.contact.points_tested; }
+  // Over the run so far: the share of the displayed force that came from
+  // inferred voxels (each tick's |F| weighted by its contact's
+  // vps::inferred_share), and the ticks in contact (with inferred contact).
+  double inferred_force_share() const noexcept { return felt_sum_ > 0.0 ? felt_inferred_sum_ / felt_sum_ : 0.0; }
+  std::uint64_t contact_ticks() const noexcept { return contact_ticks_; }
+  std::uint64_t inferred_contact_ticks() const noexcept { return inferred_contact_ticks_; }
 
  private:
   Tool6Params p_;
@@ -113,6 +121,8 @@ class Tool6Explorer {
   Eigen::Isometry3d goal_W_ = Eigen::Isometry3d::Identity();
   Eigen::Matrix3d R_W_D_ = Eigen::Matrix3d::Identity();
   std::uint64_t voxmap_build_ = 0;  // the build the pair state belongs to
+  double felt_sum_ = 0.0, felt_inferred_sum_ = 0.0;
+  std::uint64_t contact_ticks_ = 0, inferred_contact_ticks_ = 0;
   bool valid_ = false;
 };
 

@@ -29,7 +29,12 @@ void build_operator_scene(const ViewModel& model, const StationLogRecord* tick, 
   }
   // The live voxmap: its surface cubes (model.voxmap_cubes, frame W).
   const Eigen::Vector3d cube_half = Eigen::Vector3d::Constant(model.voxmap_cubes.half);
-  for (const Eigen::Vector3d& c : model.voxmap_cubes.centres) out.box(c, 0.0, cube_half, view_colours::kVoxmap);
+  // Inferred surfaces (a fitted primitive's unseen side, unknown space) apart.
+  for (std::size_t i = 0; i < model.voxmap_cubes.centres.size(); ++i) {
+    const bool inferred = i < model.voxmap_cubes.inferred.size() && model.voxmap_cubes.inferred[i] != 0;
+    out.box(model.voxmap_cubes.centres[i], 0.0, cube_half,
+            inferred ? view_colours::kVoxmapInferred : view_colours::kVoxmap);
+  }
   const double top = 2.0 * st.robot_half.z();
   // The last received pose: an outline of the footprint with its heading.
   if (model.have_state) {

@@ -38,6 +38,7 @@ inline constexpr view::Rgba kMapShadow{0.55f, 0.55f, 0.60f, 0.45f};
 inline constexpr view::Rgba kMapFitted{0.15f, 0.70f, 0.65f, 0.85f};
 // The live voxmap's surface (built from the robot's depth clouds).
 inline constexpr view::Rgba kVoxmap{0.85f, 0.80f, 0.50f, 0.9f};
+inline constexpr view::Rgba kVoxmapInferred{0.55f, 0.35f, 0.85f, 0.55f};  // surfaces nobody saw: violet, see-through
 inline constexpr view::Rgba kRobot{0.10f, 0.30f, 0.95f, 1.0f};
 inline constexpr view::Rgba kRobotReceived{0.20f, 0.90f, 0.95f, 1.0f};
 inline constexpr view::Rgba kProxy{0.10f, 0.85f, 0.15f, 1.0f};

@@ -6,6 +6,7 @@
 
 #include <Eigen/Core>
 #include <cstddef>
+#include <cstdint>
 #include <vector>
 
 namespace hemm::vps {
@@ -14,9 +15,12 @@ struct Voxmap;
 
 namespace hemm::op {
 
-// Cubes of edge 2 * half, centres in the voxmap's frame.
+// Cubes of edge 2 * half, centres in the voxmap's frame; inferred[i]: most
+// of cube i's surface voxels are vps::kFlagInferred (a surface nobody saw,
+// drawn in another colour).
 struct VoxmapCubes {
   std::vector<Eigen::Vector3d> centres;
+  std::vector<std::uint8_t> inferred;
   double half = 0.0;
   std::size_t surface_voxels = 0;  // before merging
 };

@@ -210,7 +210,7 @@ std::optional<VpsError> deserialize_vps(const std::uint8_t* data, std::size_t si
     const std::int32_t si = vm.sheet_of_block[b];
     if (si < -1 || si >= static_cast<std::int64_t>(nsheets)) return VpsError{"invalid sheet block index"};
     for (const Voxel& v : vm.blocks[b].v) {
-      if (!std::isfinite(v.sdf) || v.layer == -128 || v.flags > (kFlagThin | kFlagSheet | kFlagNoGradient) ||
+      if (!std::isfinite(v.sdf) || v.layer == -128 || v.flags > (kFlagThin | kFlagSheet | kFlagNoGradient | kFlagInferred) ||
           ((v.flags & kFlagSheet) != 0 && si < 0))
         return VpsError{"invalid voxel value"};
     }

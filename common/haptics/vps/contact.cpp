@@ -106,7 +106,9 @@ class PairEval {
     for (int l = 0; l < kMaxShellLevels; ++l) {
       F_[l].setZero();
       tau_[l].setZero();
+      Finf_[l].setZero();
     }
+    inferred_scale_ = params.inferred_stiffness_scale;
   }
 
   int levels() const { return valid_ ? ps_.levels : 0; }
@@ -175,6 +177,7 @@ class PairEval {
     const int l = std::clamp(level_used, 0, kMaxShellLevels - 1);
     const Eigen::Matrix3d R_W_V = T_W_V_.linear();
     out_.on_shell.force = R_W_V * F_[l];
+    out_.inferred_force = R_W_V * Finf_[l];
     out_.on_shell.torque = R_W_V * tau_[l];
     out_.on_voxmap.force = -out_.on_shell.force;
     out_.on_voxmap.torque = R_W_V * (-(tau_[l] + (r_V_ - ref_V_).cross(F_[l])));
@@ -218,8 +221,8 @@ class PairEval {
   struct ThroughGroup {
     Eigen::Vector3d u = Eigen::Vector3d::Zero();
     double f = 0.0;
-    Eigen::Vector3d F[kMaxShellLevels], tau[kMaxShellLevels];
-    int contacts = 0;
+    Eigen::Vector3d F[kMaxShellLevels], tau[kMaxShellLevels], Finf[kMaxShellLevels];
+    int contacts = 0, inferred_contacts = 0;
     double max_pen = 0.0;
     void reset(const Eigen::Vector3d& u_in, double f_in) {
       u = u_in;
@@ -227,8 +230,9 @@ class PairEval {
       for (int l = 0; l < kMaxShellLevels; ++l) {
         F[l].setZero();
         tau[l].setZero();
+        Finf[l].setZero();
       }
-      contacts = 0;
+      contacts = inferred_contacts = 0;
       max_pen = 0.0;
     }
   };
@@ -269,8 +273,10 @@ class PairEval {
       for (int l = 0; l < kMaxShellLevels; ++l) {
         F_[l] += t.F[l];
         tau_[l] += t.tau[l];
+        Finf_[l] += t.Finf[l];
       }
       out_.contacts += t.contacts;
+      out_.inferred_contacts += t.inferred_contacts;
       out_.max_penetration = std::max(out_.max_penetration, t.max_pen);
     }
   }
@@ -414,30 +420,41 @@ class PairEval {
     // Past the far face of the wall it came through: summed apart until the
     // pair's other points have said whether the object still reaches back
     // into the wall (keep_or_release_through_points).
+    // A point in an inferred voxel (nobody saw that surface): its stiffness
+    // scaled, its force also summed apart (PairResult::inferred_force).
+    const bool inferred = (vx.flags & kFlagInferred) != 0;
     Eigen::Vector3d* F = F_;
     Eigen::Vector3d* tau = tau_;
+    Eigen::Vector3d* Finf = Finf_;
+    int* inferred_contacts = &out_.inferred_contacts;
     if (through >= 0) {
       ThroughGroup& tg = thr_[through];
       F = tg.F;
       tau = tg.tau;
+      Finf = tg.Finf;
+      inferred_contacts = &tg.inferred_contacts;
       ++tg.contacts;
       tg.max_pen = std::max(tg.max_pen, pen);
     } else {
       ++out_.contacts;
       out_.max_penetration = std::max(out_.max_penetration, pen);
     }
-    const Eigen::Vector3d f = (params_.stiffness * pen) * n;  // per unit weight
+    const double stiff = inferred ? params_.stiffness * inferred_scale_ : params_.stiffness;
+    const Eigen::Vector3d f = (stiff * pen) * n;  // per unit weight
     const Eigen::Vector3d t = (x - r_V_).cross(f);
+    if (inferred) ++*inferred_contacts;
     if (per_level_) {
       const float* w = &ps_.level_weight[ku * kMaxShellLevels];
       for (int l = ps_.point_level[ku]; l < ps_.levels; ++l) {
         F[l] += w[l] * f;
         tau[l] += w[l] * t;
+        if (inferred) Finf[l] += w[l] * f;
       }
     } else {
       const int l = ps_.levels - 1;
       F[l] += ps_.weight[ku] * f;
       tau[l] += ps_.weight[ku] * t;
+      if (inferred) Finf[l] += ps_.weight[ku] * f;
     }
   }
 
@@ -483,7 +500,8 @@ class PairEval {
   float early_out_ = 0;
   bool layered_ = false, valid_ = false;
   int max_layer_ = 1;
-  Eigen::Vector3d F_[kMaxShellLevels], tau_[kMaxShellLevels];
+  Eigen::Vector3d F_[kMaxShellLevels], tau_[kMaxShellLevels], Finf_[kMaxShellLevels];
+  double inferred_scale_ = 1.0;
   ThroughGroup thr_[kThroughGroups + 1];  // the last: overflow, always kept
   int n_thr_ = 0;
   bool overflow_used_ = false;

@@ -54,6 +54,10 @@ struct ContactParams {
   // Sphere nodes no larger than this (voxmap voxels) are not descended: all
   // their points are tested, since their children would hardly be culled.
   double leaf_radius_voxels = 1.0;
+  // Stiffness factor for points whose voxel is kFlagInferred (a surface
+  // nobody saw: a fitted primitive's unseen side, unknown space), in (0, 1]:
+  // 1 renders it like a seen one; below, softer, so the operator can tell.
+  double inferred_stiffness_scale = 1.0;
 };
 
 struct Wrench {
@@ -70,7 +74,18 @@ struct PairResult {
   int nodes_visited = 0;
   int sheet_points = 0;       // points judged by a sheet plane
   int levels_completed = 0;   // pointshell levels whose force is complete; the wrench is the deepest
+  // The part of on_shell.force from points whose voxel is kFlagInferred
+  // (after inferred_stiffness_scale), and how many such points touched.
+  Eigen::Vector3d inferred_force = Eigen::Vector3d::Zero();
+  int inferred_contacts = 0;
 };
+
+// The share of a contact force that came from inferred voxels:
+// |F_inferred| / (|F_inferred| + |F - F_inferred|), in [0, 1]; 0 without force.
+inline double inferred_share(const PairResult& r) {
+  const double a = r.inferred_force.norm(), b = (r.on_shell.force - r.inferred_force).norm();
+  return a + b > 0.0 ? a / (a + b) : 0.0;
+}
 
 // What one pair remembers from tick to tick: for each pointshell point the
 // position (voxmap frame) where it was last outside a sheet, so its depth is

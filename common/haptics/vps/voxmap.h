@@ -57,6 +57,11 @@ inline constexpr std::int32_t kBlockUniformInside = -2;  // deep inside a closed
 inline constexpr std::uint8_t kFlagThin = 1;        // surface voxel of a thin wall or an open surface
 inline constexpr std::uint8_t kFlagSheet = 2;       // carries a sheet plane (see SheetBlock)
 inline constexpr std::uint8_t kFlagNoGradient = 4;  // gradient unreliable here: interpolate trilinearly
+// The surface this voxel's distance comes from was not observed: a fitted
+// primitive's unseen side or the boundary of space no ray has seen (live
+// voxmap, common/mapping/live_voxmap.h). Solid for safety; the contact
+// reports the force it gives apart and may soften it (ContactParams).
+inline constexpr std::uint8_t kFlagInferred = 8;
 inline constexpr float kGradScale = 32767.0f;        // unit gradient components stored as int16
 inline constexpr std::int64_t kMaxBlocks = 64ll * 1024 * 1024;
 inline constexpr double kMaxVoxelizationWork = 2e9;  // triangle-voxel pairs tested by the SAT pass

@@ -92,9 +92,11 @@ inline Eigen::Isometry3d look_at(const Eigen::Vector3d& eye, const Eigen::Vector
   return T;
 }
 
-// A depth frame of the scene with the camera's noise (sigma 1 mm + 1.5 mm/m^2
-// r^2) and 1 % dropouts, through the wire encoding into the map.
-inline bool observe(const TableScene& scene, const Eigen::Isometry3d& T_W_S, std::uint32_t id, std::mt19937_64& rng,
+// A depth frame of the scene (anything with cast(o, d) -> range or -1) with
+// the camera's noise (sigma 1 mm + 1.5 mm/m^2 r^2) and 1 % dropouts, through
+// the wire encoding into the map.
+template <typename Scene>
+bool observe(const Scene& scene, const Eigen::Isometry3d& T_W_S, std::uint32_t id, std::mt19937_64& rng,
              hm::LiveVoxmap* map) {
   hm::DepthImage img;
   img.cloud_id = id;

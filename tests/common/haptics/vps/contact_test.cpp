@@ -525,3 +525,78 @@ TEST(VpsTimeCritical, LevelsAreNestedAndEachCarriesTheWholeArea) {
 
 }  // namespace
 }  // namespace hemm::vps
+
+namespace hemm::vps {
+namespace {
+
+// Two unit-weight points pressed into the flat top of a box (z = 0.1), one
+// above its x < 0 half, whose voxels are flagged inferred: the inferred
+// force is exactly the first point's K p n, the share p1 / (p1 + p2), and a
+// stiffness scale scales that point's force alone. The field of a box face
+// is exact (the voxmap's distances are exact and the interpolant is exact
+// for planes), so p is the point's depth below z = 0.1.
+TEST(VpsInferred, ShareAndStiffnessScaleAreExactOnTwoPoints) {
+  VoxmapParams vp;
+  vp.voxel_size = 0.005;
+  Voxmap vm;
+  ASSERT_FALSE(build_voxmap(mesh::make_box({0.1, 0.1, 0.1}), vp, &vm, nullptr));
+  int flagged = 0;
+  for (int z = 0; z < vm.dims().z(); ++z)
+    for (int y = 0; y < vm.dims().y(); ++y)
+      for (int x = 0; x < vm.dims().x(); ++x) {
+        const Eigen::Vector3i v(x, y, z);
+        const std::int32_t bi = vm.top[block_linear(vm, Eigen::Vector3i(x >> kBlockShift, y >> kBlockShift, z >> kBlockShift))];
+        if (bi < 0 || voxel_centre(vm, v).x() >= 0.0) continue;
+        vm.blocks[static_cast<std::size_t>(bi)].v[static_cast<std::size_t>(voxel_in_block(v))].flags |= kFlagInferred;
+        ++flagged;
+      }
+  ASSERT_GT(flagged, 0);
+  // Not at voxel centres, not symmetric: depths 1.3 mm and 3.1 mm.
+  const double d1 = 0.0013, d2 = 0.0031;
+  const std::vector<Eigen::Vector3d> pts = {{-0.0312, 0.0117, 0.1 - d1}, {0.0277, -0.0191, 0.1 - d2}};
+  const std::vector<Eigen::Vector3d> nrm = {Eigen::Vector3d::UnitZ(), Eigen::Vector3d::UnitZ()};
+  const std::vector<double> w = {1.0, 1.0};
+  PointShell ps;
+  ASSERT_FALSE(build_pointshell_from_points(pts, nrm, w, 0.005, 1, 1 << 30, Eigen::Vector3d::Zero(), &ps));
+  for (const double scale : {1.0, 0.4}) {
+    ContactParams cp;
+    cp.stiffness = 1000.0;
+    cp.inferred_stiffness_scale = scale;
+    PairResult r;
+    evaluate_pair(vm, Eigen::Isometry3d::Identity(), Eigen::Vector3d::Zero(), ps, Eigen::Isometry3d::Identity(), cp,
+                  nullptr, &r);
+    ASSERT_EQ(r.contacts, 2);
+    EXPECT_EQ(r.inferred_contacts, 1);
+    EXPECT_NEAR(r.inferred_force.z(), scale * cp.stiffness * d1, 1e-5);
+    EXPECT_NEAR(r.on_shell.force.z(), scale * cp.stiffness * d1 + cp.stiffness * d2, 1e-5);
+    EXPECT_NEAR(inferred_share(r), scale * d1 / (scale * d1 + d2), 1e-6);
+    std::printf("scale %.1f: F %.6f N, inferred %.6f N, share %.6f (exact %.6f)\n", scale, r.on_shell.force.z(),
+                r.inferred_force.z(), inferred_share(r), scale * d1 / (scale * d1 + d2));
+  }
+  // Nothing flagged: no inferred force; the same total at scale 1.
+  Voxmap plain;
+  ASSERT_FALSE(build_voxmap(mesh::make_box({0.1, 0.1, 0.1}), vp, &plain, nullptr));
+  ContactParams cp;
+  cp.stiffness = 1000.0;
+  cp.inferred_stiffness_scale = 0.4;
+  PairResult r;
+  evaluate_pair(plain, Eigen::Isometry3d::Identity(), Eigen::Vector3d::Zero(), ps, Eigen::Isometry3d::Identity(), cp,
+                nullptr, &r);
+  EXPECT_EQ(r.inferred_contacts, 0);
+  EXPECT_EQ(inferred_share(r), 0.0);
+  EXPECT_NEAR(r.on_shell.force.z(), cp.stiffness * (d1 + d2), 1e-5);
+  // The budgeted (time-critical) path reports the same, without allocating.
+  cp.inferred_stiffness_scale = 1.0;
+  PairResult b;
+  test::count_allocations_on_this_thread(true);
+  const auto before = test::counted_allocations();
+  evaluate_pair_budgeted(vm, Eigen::Isometry3d::Identity(), Eigen::Vector3d::Zero(), ps, Eigen::Isometry3d::Identity(),
+                         cp, 1000, nullptr, &b);
+  const auto after = test::counted_allocations();
+  test::count_allocations_on_this_thread(false);
+  EXPECT_EQ(after, before);
+  EXPECT_NEAR(b.inferred_force.z(), cp.stiffness * d1, 1e-5);  // level weights are floats
+}
+
+}  // namespace
+}  // namespace hemm::vps
