@@ -17,6 +17,7 @@
 
 #include <gtest/gtest.h>
 
+#include "common/clock/steady_clock.h"
 #include "common/haptics/vps/contact.h"
 #include "common/haptics/vps/voxmap.h"
 #include "common/mapping/live_voxmap.h"
@@ -80,11 +81,6 @@ void observe_from_one_side(const ObjectScene& scene, const Eigen::Vector3d& targ
   }
 }
 
-std::int64_t now_ns() {
-  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch())
-      .count();
-}
-
 const hm::Primitive3* only(const hm::Shape3dModel& m, hm::PrimitiveKind k) {
   const hm::Primitive3* found = nullptr;
   int n = 0;
@@ -120,7 +116,7 @@ TEST(ShapeCompletion3d, ABoxSeenOnTwoFacesIsCompletedToItsTrueUnseenFaces) {
   hm::LiveVoxmap map(params());
   observe_from_one_side(scene, scene.T_W_O.translation(), &map);
   vps::Voxmap vm;
-  ASSERT_FALSE(map.snapshot(&vm, now_ns));
+  ASSERT_FALSE(map.snapshot(&vm, hemm::steady_now_ns));
   const hm::Primitive3* q = only(map.shapes(), hm::PrimitiveKind::kBox);
   ASSERT_NE(q, nullptr);
   std::printf("box: centre %.4f %.4f %.4f half %.4f %.4f %.4f faces %d rms %.4f, completion %.2f ms, unknown space %.2f ms, snapshot %.2f ms\n",
@@ -186,7 +182,7 @@ TEST(ShapeCompletion3d, CylindersStandingAndLyingGetTheirRadiusAndAxis) {
     hm::LiveVoxmap map(params());
     observe_from_one_side(scene, c.T.translation(), &map);
     vps::Voxmap vm;
-    ASSERT_FALSE(map.snapshot(&vm, now_ns));
+    ASSERT_FALSE(map.snapshot(&vm, hemm::steady_now_ns));
     const hm::Primitive3* q = only(map.shapes(), hm::PrimitiveKind::kCylinder);
     ASSERT_NE(q, nullptr) << c.name;
     const double axis_err = angle_between_axes(q->T_W_P.linear().col(2), c.T.linear().col(2));
@@ -218,7 +214,7 @@ TEST(ShapeCompletion3d, ASphereGetsItsCentreAndRadius) {
     hm::LiveVoxmap map(params());
     observe_from_one_side(scene, scene.T_W_O.translation(), &map);
     vps::Voxmap vm;
-    ASSERT_FALSE(map.snapshot(&vm, now_ns));
+    ASSERT_FALSE(map.snapshot(&vm, hemm::steady_now_ns));
     const hm::Primitive3* q = only(map.shapes(), hm::PrimitiveKind::kSphere);
     ASSERT_NE(q, nullptr) << r;
     const double centre_err = (q->T_W_P.translation() - scene.T_W_O.translation()).norm();
@@ -348,7 +344,7 @@ TEST(LiveVoxmapUnknownSolid, UnseenSpaceIsSolidAndInferredWhileSeenSurfacesStayW
     hm::LiveVoxmap map(p);
     observe_from_one_side(scene, scene.T_W_O.translation(), &map);
     vps::Voxmap vm;
-    ASSERT_FALSE(map.snapshot(&vm, now_ns));
+    ASSERT_FALSE(map.snapshot(&vm, hemm::steady_now_ns));
     std::printf("unknown_solid %d: %zu voxels from unknown space, %zu inferred, record %zu bytes, %.2f ms of %.2f ms\n",
                 unknown_solid, map.snapshot_report().voxels_unknown, map.snapshot_report().voxels_inferred, map.free_space_bytes(),
                 1e-6 * map.snapshot_report().unknown_ns, 1e-6 * map.snapshot_report().snapshot_ns);

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <numbers>
 #include <condition_variable>
 #include <deque>
 #include <functional>
@@ -1005,7 +1006,7 @@ TEST(RobotStationLoopback, AnOperatorsEStopIsNeverRefusedEvenWhenTheRequestQueue
 // Command with a non-finite gaze is malformed (counted) and changes nothing;
 // without commands the head goes home.
 TEST(RobotStationLoopback, AGazeCommandTurnsTheHeadAndAMalformedOneChangesNothing) {
-  constexpr double kDeg = 3.14159265358979323846 / 180.0;
+  constexpr double kDeg = std::numbers::pi / 180.0;
   hemm::config::RobotConfig cfg = test_config();
   cfg.mutable_depth_camera()->set_enabled(true);
   cfg.mutable_depth_camera()->set_mount("pan-tilt");
