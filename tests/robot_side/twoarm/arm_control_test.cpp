@@ -21,10 +21,10 @@ namespace ht = hemm::twoarm;
 
 namespace {
 
-const std::string kScene = hemm::test::workbench_scene();
+using hemm::test::kWorkbenchScene;
 
 struct Loop {
-  ht::WorkbenchSim sim{kScene};
+  ht::WorkbenchSim sim{kWorkbenchScene};
   ht::TwoArmParams params;
   ht::TwoArmTargets targets;
   ht::TwoArmOutput out;

@@ -19,9 +19,9 @@ namespace hw = hemm::wire;
 
 namespace {
 
-const std::string kScene = hemm::test::workbench_scene();
+using hemm::test::kWorkbenchScene;
 struct Fixture {
-  ht::WorkbenchSim sim{kScene};
+  ht::WorkbenchSim sim{kWorkbenchScene};
   std::array<ht::ArmReading, ht::kArms> readings{sim.reading(ht::Side::kRight), sim.reading(ht::Side::kLeft)};
   ht::TwoArmTargets current = ht::hold_targets(sim.model(), readings, {5.0, 5.0});
   ht::ArmsCommandLimits limits;

@@ -20,9 +20,9 @@ namespace ht = hemm::twoarm;
 
 namespace {
 
-const std::string kScene = hemm::test::workbench_scene();
+using hemm::test::kWorkbenchScene;
 void BM_TwoArmControlTick(benchmark::State& state) {
-  ht::WorkbenchSim sim(kScene);
+  ht::WorkbenchSim sim(kWorkbenchScene);
   ht::TwoArmParams p;
   std::array<ht::ArmReading, ht::kArms> in{sim.reading(ht::Side::kRight), sim.reading(ht::Side::kLeft)};
   const ht::TwoArmTargets hold = ht::hold_targets(sim.model(), in, {10.0, 10.0});

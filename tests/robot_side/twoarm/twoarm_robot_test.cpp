@@ -22,11 +22,11 @@ namespace hw = hemm::wire;
 
 namespace {
 
-const std::string kScene = hemm::test::workbench_scene();
+using hemm::test::kWorkbenchScene;
 
 // A fake operator at 100 Hz: sends `targets` with the dead-man as given.
 struct Driver {
-  ht::TwoArmRobot robot{kScene, ht::TwoArmRobotOptions{}};
+  ht::TwoArmRobot robot{kWorkbenchScene, ht::TwoArmRobotOptions{}};
   uint64_t seq = 0;
   bool sending = true;
 

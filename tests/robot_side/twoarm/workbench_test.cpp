@@ -21,7 +21,7 @@ namespace ht = hemm::twoarm;
 
 namespace {
 
-const std::string kScene = hemm::test::workbench_scene();
+using hemm::test::kWorkbenchScene;
 hk::Arm7Vector random_q(const hk::Arm7Model& arm, std::mt19937_64& rng) {
   std::uniform_real_distribution<double> u(0.0, 1.0);
   hk::Arm7Vector q;
@@ -63,7 +63,7 @@ ArmDofs dofs(const mjModel* m, ht::Side s) {
 }  // namespace
 
 TEST(Workbench, ArmsAreTheLwrArmInMujoco) {
-  ht::WorkbenchSim sim(kScene);
+  ht::WorkbenchSim sim(kWorkbenchScene);
   mjModel* m = sim.m();
   mjData* d = sim.d();
   std::mt19937_64 rng(7);
@@ -121,7 +121,7 @@ TEST(Workbench, ArmsAreTheLwrArmInMujoco) {
 }
 
 TEST(Workbench, WristSensorCarriesTheGripperWeightAtRest) {
-  ht::WorkbenchSim sim(kScene);
+  ht::WorkbenchSim sim(kWorkbenchScene);
   mjModel* m = sim.m();
   mjData* d = sim.d();
   std::mt19937_64 rng(11);
@@ -164,13 +164,13 @@ TEST(Workbench, WristSensorCarriesTheGripperWeightAtRest) {
 // At rest (both arms in their rest postures, grippers closed) the robot
 // touches nothing: the scene's objects are out of the arms' way.
 TEST(Workbench, RestPostureTouchesNothing) {
-  ht::WorkbenchSim sim(kScene);
+  ht::WorkbenchSim sim(kWorkbenchScene);
   sim.reset({sim.model().arms[0].rest_q, sim.model().arms[1].rest_q});
   EXPECT_FALSE(arm_in_contact(sim.m(), sim.d()));
 }
 
 TEST(Workbench, TaskObjectsAreWithinReach) {
-  ht::WorkbenchSim sim(kScene);
+  ht::WorkbenchSim sim(kWorkbenchScene);
   const ht::ArmMount& right = sim.model().arm(ht::Side::kRight);
   const ht::ArmMount& left = sim.model().arm(ht::Side::kLeft);
   const Eigen::Vector3d box = sim.body_pose_A("box").translation();
@@ -193,7 +193,7 @@ TEST(Workbench, TaskObjectsAreWithinReach) {
 }
 
 TEST(Workbench, GripperHoldsTheBoxAgainstGravity) {
-  ht::WorkbenchSim sim(kScene);
+  ht::WorkbenchSim sim(kWorkbenchScene);
   mjModel* m = sim.m();
   mjData* d = sim.d();
   const ht::ArmMount& right = sim.model().arm(ht::Side::kRight);
