@@ -12,6 +12,7 @@
 #include <cmath>
 
 #include "common/haptics/vps/voxmap.h"
+#include "common/haptics/vps/voxmap_surface.h"
 
 namespace hemm::mapping {
 namespace {
@@ -110,27 +111,14 @@ const char* to_string(RegistrationVerdict v) {
 void surface_from_voxmap(const vps::Voxmap& vm, RegistrationSurface* out) {
   out->points.clear();
   out->normals.clear();
-  const Eigen::Vector3i bd = vm.block_dims;
-  for (int bz = 0; bz < bd.z(); ++bz)
-    for (int by = 0; by < bd.y(); ++by)
-      for (int bx = 0; bx < bd.x(); ++bx) {
-        const Eigen::Vector3i b(bx, by, bz);
-        const std::int32_t bi = vm.top[vps::block_linear(vm, b)];
-        if (bi < 0) continue;
-        const vps::VoxelBlock& blk = vm.blocks[static_cast<std::size_t>(bi)];
-        for (int z = 0; z < vps::kBlockDim; ++z)
-          for (int y = 0; y < vps::kBlockDim; ++y)
-            for (int x = 0; x < vps::kBlockDim; ++x) {
-              const Eigen::Vector3i v = b * vps::kBlockDim + Eigen::Vector3i(x, y, z);
-              const vps::Voxel& vx = blk.v[static_cast<std::size_t>(vps::voxel_in_block(v))];
-              if (vx.layer != 0 || (vx.flags & vps::kFlagNoGradient) != 0) continue;
-              const Eigen::Vector3d g = vps::voxel_gradient(vx);
-              if (!(g.norm() > 0.5)) continue;
-              const Eigen::Vector3d n = g.normalized();
-              out->points.push_back((vps::voxel_centre(vm, v) - static_cast<double>(vx.sdf) * n).cast<float>());
-              out->normals.push_back(n.cast<float>());
-            }
-      }
+  vps::for_each_surface_voxel(vm, [&](const Eigen::Vector3i& v, const vps::Voxel& vx) {
+    if ((vx.flags & vps::kFlagNoGradient) != 0) return;
+    const Eigen::Vector3d g = vps::voxel_gradient(vx);
+    if (!(g.norm() > 0.5)) return;
+    const Eigen::Vector3d n = g.normalized();
+    out->points.push_back((vps::voxel_centre(vm, v) - static_cast<double>(vx.sdf) * n).cast<float>());
+    out->normals.push_back(n.cast<float>());
+  });
 }
 
 RegistrationResult register_points(const std::vector<Eigen::Vector3f>& points_W, const Eigen::Vector3d& sensor_W,

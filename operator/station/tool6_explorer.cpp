@@ -8,6 +8,7 @@
 #include "common/clock/steady_clock.h"
 #include "common/haptics/vps/cache.h"
 #include "common/haptics/vps/voxmap.h"
+#include "common/haptics/vps/voxmap_surface.h"
 #include "common/mesh/primitives.h"
 #include "operator/station/explore_route.h"
 #include "operator/station/operator_task.h"
@@ -180,22 +181,10 @@ bool write_voxmap_csv(const vps::Voxmap& vm, const std::string& path, std::strin
     return false;
   }
   std::fprintf(f, "x,y,z,sdf\n");
-  const Eigen::Vector3i bd = vm.block_dims;
-  for (int bz = 0; bz < bd.z(); ++bz)
-    for (int by = 0; by < bd.y(); ++by)
-      for (int bx = 0; bx < bd.x(); ++bx) {
-        const std::int32_t bi = vm.top[vps::block_linear(vm, Eigen::Vector3i(bx, by, bz))];
-        if (bi < 0) continue;
-        for (int i = 0; i < vps::kBlockVoxels; ++i) {
-          const Eigen::Vector3i v(bx * vps::kBlockDim + i % vps::kBlockDim,
-                                  by * vps::kBlockDim + (i / vps::kBlockDim) % vps::kBlockDim,
-                                  bz * vps::kBlockDim + i / (vps::kBlockDim * vps::kBlockDim));
-          const vps::Voxel& x = vps::sample_voxel(vm, v);
-          if (x.layer != 0) continue;
-          const Eigen::Vector3d c = vps::voxel_centre(vm, v);
-          std::fprintf(f, "%.4f,%.4f,%.4f,%.4f\n", c.x(), c.y(), c.z(), x.sdf);
-        }
-      }
+  vps::for_each_surface_voxel(vm, [&](const Eigen::Vector3i& v, const vps::Voxel& x) {
+    const Eigen::Vector3d c = vps::voxel_centre(vm, v);
+    std::fprintf(f, "%.4f,%.4f,%.4f,%.4f\n", c.x(), c.y(), c.z(), x.sdf);
+  });
   const bool ok = std::fclose(f) == 0;
   if (!ok) *error = "write failed: " + path;
   return ok;

@@ -4,6 +4,7 @@
 #include <tuple>
 
 #include "common/haptics/vps/voxmap.h"
+#include "common/haptics/vps/voxmap_surface.h"
 
 namespace hemm::op {
 
@@ -11,24 +12,10 @@ VoxmapCubes surface_cubes(const vps::Voxmap& vm, std::size_t budget) {
   VoxmapCubes out;
   std::vector<Eigen::Vector3i> surface;
   std::vector<std::uint8_t> inferred;
-  const Eigen::Vector3i bd = vm.block_dims;
-  for (int bz = 0; bz < bd.z(); ++bz)
-    for (int by = 0; by < bd.y(); ++by)
-      for (int bx = 0; bx < bd.x(); ++bx) {
-        const Eigen::Vector3i b(bx, by, bz);
-        const std::int32_t bi = vm.top[vps::block_linear(vm, b)];
-        if (bi < 0) continue;  // empty or uniformly inside: no surface
-        const vps::VoxelBlock& blk = vm.blocks[static_cast<std::size_t>(bi)];
-        for (int z = 0; z < vps::kBlockDim; ++z)
-          for (int y = 0; y < vps::kBlockDim; ++y)
-            for (int x = 0; x < vps::kBlockDim; ++x) {
-              const Eigen::Vector3i v = b * vps::kBlockDim + Eigen::Vector3i(x, y, z);
-              const vps::Voxel& vx = blk.v[static_cast<std::size_t>(vps::voxel_in_block(v))];
-              if (vx.layer != 0) continue;
-              surface.push_back(v);
-              inferred.push_back((vx.flags & vps::kFlagInferred) != 0 ? 1 : 0);
-            }
-      }
+  vps::for_each_surface_voxel(vm, [&](const Eigen::Vector3i& v, const vps::Voxel& vx) {
+    surface.push_back(v);
+    inferred.push_back((vx.flags & vps::kFlagInferred) != 0 ? 1 : 0);
+  });
   out.surface_voxels = surface.size();
   if (surface.empty() || budget == 0) return out;
   // Merge into cells of 2^k voxels until they fit.
