@@ -15,7 +15,9 @@
 # over contact ticks (RMS and max, and RMS as a share of the Omni's 3.3 N
 # peak: targets 5 % at 0 ms, 10 % at 300 ms) and the pose error.
 #
-# Usage: deploy/accuracy.sh BUILD_DIR [--scenes home,corridors,office,pillars] [--rtts 0,300] [--runs nav-to-wall,probe-cylinder,probe-back,probe-pillar-back] [--shape-completion on|off] [--out DIR]
+# Usage: deploy/accuracy.sh BUILD_DIR [--scenes home,corridors,office,pillars] [--rtts 0,300] [--runs nav-to-wall,probe-cylinder,probe-back,probe-pillar-back] [--shape-completion on|off] [--out DIR] [--port-base P]
+# (ports P, P+1 for the robot and P+100, P+101 for the relay; P default 47300, so two
+# runs on one machine need different bases.)
 # Takes 20-40 s per run (by default 4 scenes x 3 runs x 2 round trips, and probe-pillar-back in 2
 # of them: 28 runs; 10 min measured beside other builds).
 set -euo pipefail
@@ -34,6 +36,7 @@ runs="nav-to-wall,probe-cylinder,probe-back,probe-pillar-back"
 runs_given=0
 shapes="on"
 out="$root/out/accuracy"
+base=47300
 while (($#)); do
   case "$1" in
     --scenes) scenes="${2:?--scenes needs a list}"; shift 2 ;;
@@ -41,6 +44,7 @@ while (($#)); do
     --runs) runs="${2:?--runs needs a list}"; runs_given=1; shift 2 ;;
     --shape-completion) shapes="${2:?--shape-completion needs on or off}"; shift 2 ;;
     --out) out="${2:?--out needs a directory}"; shift 2 ;;
+    --port-base) base="${2:?--port-base needs a port}"; shift 2 ;;
     -h|--help) usage; exit 0 ;;
     *) echo "accuracy: unknown argument '$1'" >&2; usage >&2; exit 2 ;;
   esac
@@ -50,6 +54,7 @@ for b in hemm-robot hemm-operator hemm-relay hemm-truth; do
   [[ -x "$bin/$b" ]] || { echo "accuracy: $bin/$b not found (build first: bash deploy/run.sh build)" >&2; exit 2; }
 done
 cfg="$root/deploy/configs"
+[[ "$base" =~ ^[0-9]+$ ]] && ((base >= 1024 && base <= 65000)) || { echo "accuracy: --port-base '$base': 1024..65000" >&2; exit 2; }
 
 [[ "$shapes" == on || "$shapes" == off ]] || { echo "accuracy: --shape-completion must be on or off" >&2; exit 2; }
 # Each scene's targets for the scripted runs (as in the scene file's header).
@@ -102,21 +107,21 @@ run() {  # SCENE RUN SECONDS RTT_MS
   mkdir -p "$dir"
   echo "accuracy: $scene $name at $rtt ms round trip ($secs s, shape completion $shapes) -> $dir" >&2
   "$bin/hemm-robot" --config "$cfg/robot.pbtxt" --scene "$root/deploy/scenes/$scene.xml" \
-    --session-port 47300 --stream-port 47301 --duration $((secs + 8)) --log-level warn \
+    --session-port "$base" --stream-port $((base + 1)) --duration $((secs + 8)) --log-level warn \
     >"$dir/robot.txt" 2>"$dir/robot.log" &
-  local robot=$! relay="" port=47300 stream=47301
+  local robot=$! relay="" port=$base stream=$((base + 1))
   pids+=("$robot")
   if ((rtt > 0)); then
     local one_way=$((rtt / 2))
-    "$bin/hemm-relay" --tcp-listen 127.0.0.1:47400 --tcp-forward 127.0.0.1:47300 \
-      --udp-listen 127.0.0.1:47401 --udp-forward 127.0.0.1:47301 \
+    "$bin/hemm-relay" --tcp-listen 127.0.0.1:$((base + 100)) --tcp-forward 127.0.0.1:"$base" \
+      --udp-listen 127.0.0.1:$((base + 101)) --udp-forward 127.0.0.1:$((base + 1)) \
       --delay-ms "$one_way" --jitter-ms $((one_way / 10 + 1)) --jitter-reorder --loss 0.05 --seed 11 \
       >"$dir/relay.txt" 2>"$dir/relay.log" &
     relay=$!
     pids+=("$relay")
     for _ in $(seq 50); do grep -q "hemm-relay ready" "$dir/relay.txt" 2>/dev/null && break; sleep 0.1; done
-    port=47400
-    stream=47401
+    port=$((base + 100))
+    stream=$((base + 101))
   fi
   sleep 1
   local rc=0
