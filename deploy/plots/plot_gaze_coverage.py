@@ -11,7 +11,6 @@ the head's true pan. Output: gaze_coverage.png (--out, default beside FILE).
 Usage: plot_gaze_coverage.py FILE [--out PNG]
 """
 import argparse
-import csv
 import os
 import sys
 
@@ -20,18 +19,19 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from plot_run import read_runs  # noqa: E402
+
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("file")
     ap.add_argument("--out", default=None)
     a = ap.parse_args()
-    runs = {}
-    with open(a.file, newline="") as f:
-        for r in csv.DictReader(f):
-            runs.setdefault(r["run"], []).append(r)
-    if not runs:
-        sys.exit("no rows in " + a.file)
+    try:
+        runs = read_runs(a.file, "run")
+    except (OSError, ValueError) as e:
+        sys.exit(str(e))
     fig, axes = plt.subplots(4, 1, figsize=(8, 10), sharex=True)
     for name, rows in runs.items():
         t = [float(r["t_s"]) for r in rows]

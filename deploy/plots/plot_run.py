@@ -29,6 +29,21 @@ MODE_NAMES = {0: "unspecified", 1: "idle", 2: "navigation", 3: "manipulation", 4
 MODE_COLOURS = {2: "#d9ead3", 3: "#fce5cd", 4: "#cfe2f3"}
 
 
+def read_runs(path, key, convert=str):
+    """Rows (dicts of strings) grouped by column `key` (its values through
+    `convert`), in file order; an error for an empty file or a missing column."""
+    runs = {}
+    with open(path, newline="") as f:
+        reader = csv.DictReader(f)
+        if not reader.fieldnames or key not in reader.fieldnames:
+            raise ValueError(f"{path}: no column '{key}'")
+        for r in reader:
+            runs.setdefault(convert(r[key]), []).append(r)
+    if not runs:
+        raise ValueError(f"{path}: no rows")
+    return runs
+
+
 def read_csv(path):
     """Columns as lists of floats; rows with a wrong field count are skipped."""
     with open(path, newline="") as f:

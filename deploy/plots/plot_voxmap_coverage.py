@@ -14,7 +14,6 @@ exact truth voxmap. Output: voxmap_coverage.png in --out (default: beside FILE).
 Usage: plot_voxmap_coverage.py FILE [--out DIR]
 """
 import argparse
-import csv
 import os
 import sys
 
@@ -23,18 +22,19 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from plot_run import read_runs  # noqa: E402
+
 
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("file")
     ap.add_argument("--out", default=None)
     a = ap.parse_args()
-    runs = {}
-    with open(a.file, newline="") as f:
-        for r in csv.DictReader(f):
-            runs.setdefault(float(r["drop"]), []).append(r)
-    if not runs:
-        sys.exit("no rows in " + a.file)
+    try:
+        runs = read_runs(a.file, "drop", float)
+    except (OSError, ValueError) as e:
+        sys.exit(str(e))
     fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(7, 6), sharex=True)
     for drop, rows in sorted(runs.items()):
         t = [float(r["t_s"]) for r in rows]
