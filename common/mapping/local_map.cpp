@@ -118,8 +118,6 @@ void emit_polyline(const MapParams& p, const std::vector<Vector2d>& run, const V
   }
 }
 
-double beam_limit(const RangeScan2D& s, std::size_t i);
-
 // The shadow edge at one end of a polyline: beam `edge` is the polyline's
 // last return on that side, `dir` (+1 / -1) the way out of the polyline. The
 // first informative beam beyond (dropouts skipped, a few at most) decides: it
@@ -289,16 +287,6 @@ void extract_sonar(const MapParams& p, const RangeScan2D& scan, const math::Pose
 }
 
 // ---- Ray clearing -------------------------------------------------------
-
-// What beam i says about free space along its axis: the measured range, the
-// range_max for a valid "no return", or < 0 when it says nothing (dropout,
-// NaN, below range_min).
-double beam_limit(const RangeScan2D& s, std::size_t i) {
-  if (s.valid[i] == 0) return -1.0;
-  const double r = static_cast<double>(s.ranges[i]);
-  if (std::isnan(r) || r < s.range_min) return -1.0;
-  return std::min(r, s.range_max);
-}
 
 // The beam nearest bearing beta (rad, in S) among the scan's own beams, each
 // standing for the angular cell halfway to its neighbours (so the chunks of a

@@ -2,6 +2,7 @@
 // A 2D range scan as the mapping code sees it: a plain value type, independent
 // of the wire format (the operator's model thread converts wire RangeScan
 // messages into this after validating them).
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <string>
@@ -39,6 +40,16 @@ inline double beam_angle(const RangeScan2D& s, std::size_t i) {
 inline bool beam_is_return(const RangeScan2D& s, std::size_t i) {
   const float r = s.ranges[i];
   return s.valid[i] != 0 && std::isfinite(r) && r >= s.range_min && r < s.range_max;
+}
+
+// What beam i says about free space along its axis: the measured range, the
+// range_max for a valid "no return" (at or beyond range_max, +inf), or < 0
+// when it says nothing (not valid, NaN, below range_min).
+inline double beam_limit(const RangeScan2D& s, std::size_t i) {
+  if (s.valid[i] == 0) return -1.0;
+  const double r = static_cast<double>(s.ranges[i]);
+  if (std::isnan(r) || r < s.range_min) return -1.0;
+  return std::min(r, s.range_max);
 }
 
 // Empty when the scan is structurally sound; otherwise the first problem.

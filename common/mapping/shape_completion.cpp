@@ -244,9 +244,9 @@ std::vector<FreeRay> free_rays(const MapParams& mp, const LocalMap& map) {
     if (s.kind != SensorKind::kLaser || !validate(s).empty()) continue;
     const math::Pose2 T_W_S = math::compose(s.T_W_R, s.T_R_S);
     for (std::size_t i = 0; i < s.ranges.size(); ++i) {
-      const double r = s.ranges[i];
-      if (s.valid[i] == 0 || !std::isfinite(r) || r < s.range_min) continue;  // a dropout says nothing
-      const double len = std::min(r, s.range_max) - mp.clear_tolerance;
+      const double limit = beam_limit(s, i);
+      if (limit < 0.0) continue;  // a dropout says nothing
+      const double len = limit - mp.clear_tolerance;
       if (!(len > 0.0)) continue;
       const double a = T_W_S.theta + beam_angle(s, i);
       rays.push_back({math::translation(T_W_S), Vector2d(std::cos(a), std::sin(a)), len});
