@@ -33,6 +33,10 @@ struct LoopParams {
   double outage_start_s = -1;   // all messages sent in [start, start + length) are lost
   double outage_s = 0.0;
   std::uint32_t seed = 1;
+  // The robot end holds still (tracks zero velocity) when its newest
+  // command was sent longer ago than this, as the station's watchdog does;
+  // holding the last velocity through an outage would carry the arm on.
+  double robot_stale_s = 0.05;
   // SIMULATED operator: device + hand mass, the arm's spring and damper.
   double m_hand = 0.5, k_hand = 200.0, b_hand = 10.0;
   // The reference: approach at approach_speed to push_depth beyond the wall,
@@ -115,6 +119,7 @@ inline LoopResult run_loop(const LoopParams& p) {
   double x_h = 0, v_h = 0;                   // hand
   double x_r = 0, v_r = 0, x_target = 0;     // robot, its target
   double f_recv = 0, v_recv = 0;             // newest received (held)
+  std::uint64_t v_recv_seq = 0;              // the tick v_recv was sent
   std::uint64_t op_newest = 0, rob_newest = 0;
   bool op_any = false, rob_any = false;
   double op_in = 0, op_out = 0, rob_in = 0, rob_out = 0;  // truth
@@ -150,9 +155,15 @@ inline LoopResult run_loop(const LoopParams& p) {
     // ---- robot end
     for (; rob_next <= n; ++rob_next) {
       for (const Msg& m : to_robot[static_cast<std::size_t>(rob_next)]) {
-        if (td::receive_peer<1>(rob, m.seq, V1(m.in_J)) == td::Receive::kAccepted) v_recv = m.value;
+        if (td::receive_peer<1>(rob, m.seq, V1(m.in_J)) == td::Receive::kAccepted) {
+          v_recv = m.value;
+          v_recv_seq = m.seq;
+        }
         if (!rob_any || m.seq > rob_newest) rob_newest = m.seq, rob_any = true;
       }
+    }
+    if (static_cast<double>(n - static_cast<std::int64_t>(v_recv_seq)) * p.dt > p.robot_stale_s + p.rtt_s / 2) {
+      v_recv = 0.0;
     }
     auto env_force = [&p](double x, double v) {
       if (!p.wall || x < p.x_wall) return 0.0;
