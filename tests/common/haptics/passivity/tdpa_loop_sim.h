@@ -71,6 +71,10 @@ struct LoopResult {
   double op_out_first_J = 0, op_out_second_J = 0;
   double peak_env_force_N = 0, peak_displayed_N = 0;  // contact force on the robot; shown on the hand
   double max_abs_hand_m = 0, max_abs_robot_m = 0, max_abs_hand_v = 0;
+  // Means over the last second of the first hold: where the hand rests (a
+  // wall felt stiff stops it near the wall), how far the robot's target is
+  // behind it, the force shown on the hand and the contact force.
+  double hand_hold_m = 0, target_lag_hold_m = 0, shown_hold_N = 0, contact_hold_N = 0;
   // How much the PCs changed their outputs (0: nothing).
   double max_force_change_N = 0, max_velocity_change = 0;
   std::uint64_t op_pc_ticks = 0, robot_pc_ticks = 0;
@@ -191,6 +195,16 @@ inline LoopResult run_loop(const LoopParams& p) {
       for (int k = 0; k < sub; ++k) {
         v_r += (u + env_force(x_r, v_r)) / p.m_robot * h;
         x_r += v_r * h;
+      }
+    }
+    {
+      const double hold_end = (p.x_wall + p.push_depth) / p.approach_speed + p.hold_s;
+      if (t >= hold_end - 1.0 && t < hold_end) {
+        const double w = p.dt / 1.0;
+        r.hand_hold_m += w * x_h;
+        r.target_lag_hold_m += w * (x_h - x_target);
+        r.shown_hold_N += w * f_disp;
+        r.contact_hold_N += w * env_force(x_r, v_r);
       }
     }
     r.max_abs_hand_m = std::max(r.max_abs_hand_m, std::abs(x_h));

@@ -25,12 +25,12 @@ constexpr double kTolJ = 1e-9;  // rounding of sums of ~1e4 terms
 void print_row(const char* name, const LoopParams& p, const LoopResult& r) {
   std::printf("%-14s rtt %5.0f ms k %6.0f %-7s %-7s | op in %9.3g out %9.3g J  robot in %9.3g out %9.3g J | "
               "excess op %9.3g robot %9.3g J | peak contact %8.3g shown %8.3g N | max |x_h| %.3g |x_r| %.3g m | "
-              "PC ticks op %llu robot %llu\n",
+              "hold: hand %.3g lag %.3g m shown %.3g contact %.3g N | PC ticks op %llu robot %llu\n",
               name, p.rtt_s * 1e3, p.k_wall, p.mode == td::PcMode::kControl ? "PC" : "no PC",
               p.feedback == LoopParams::Feedback::kContactForce ? "contact" : "spring", r.op_in_J, r.op_out_J,
               r.robot_in_J, r.robot_out_J, r.op_violation_J, r.robot_violation_J, r.peak_env_force_N,
-              r.peak_displayed_N, r.max_abs_hand_m, r.max_abs_robot_m,
-              static_cast<unsigned long long>(r.op_pc_ticks), static_cast<unsigned long long>(r.robot_pc_ticks));
+              r.peak_displayed_N, r.max_abs_hand_m, r.max_abs_robot_m, r.hand_hold_m,
+              r.target_lag_hold_m, r.shown_hold_N, r.contact_hold_N, static_cast<unsigned long long>(r.op_pc_ticks), static_cast<unsigned long long>(r.robot_pc_ticks));
 }
 
 void expect_guarantee(const LoopResult& r) {
@@ -39,10 +39,11 @@ void expect_guarantee(const LoopResult& r) {
   EXPECT_LE(r.robot_violation_J, kTolJ);
 }
 
-// The contact force a passive loop stays within: a few times what the
-// human's spring holds against the wall at rest (k_hand push_depth, 10 N by
-// default) plus twice the impact of the robot's mass arriving at the
-// approach speed (v sqrt(k_wall m_robot), an undamped mass on a spring).
+// The contact force a passive loop stays within: four times the human
+// spring's pull with the hand held at the wall (k_hand push_depth, 10 N by
+// default; the static hold is less, 8 N) plus twice the impact of the
+// robot's mass arriving at the approach speed (v sqrt(k_wall m_robot), an
+// undamped mass on a spring).
 double force_bound_N(const LoopParams& p) {
   return 4.0 * p.k_hand * p.push_depth + 2.0 * p.approach_speed * std::sqrt(p.k_wall * p.m_robot);
 }
