@@ -30,14 +30,17 @@
 // each by just enough that this tick's output energy meets the budget
 // exactly. Written as a scale r in [0, 1] of the output variable, which is
 // the same damper with no division by a small force or velocity: |output|
-// never exceeds what was received, and r = 1 (no change) whenever the loop
-// is passive on its own.
+// never exceeds what was received, and r = 1 (no change) whenever the output
+// stays within the budget (free space; a loop passive on its own).
+// In kObserveOnly mode the same calls are the passivity observer alone.
 //
 // Sign conventions, per axis, in the robot's torso frame A on both ends (the
 // per-axis split depends on the frame, the sum does not):
-//   robot end:    f = the environment's wrench on the gripper (ArmState
-//                 force_A / torque_A), v = the velocity the robot tracks;
-//                 power into the channel  P = f . v
+//   robot end:    f = the wrench the robot returns, as the environment's on
+//                 the gripper (ArmState force_A / torque_A; or its
+//                 impedance's spring wrench, which makes the robot end a
+//                 passive terminal: docs, "Results"), v = the velocity the
+//                 robot tracks; power into the channel  P = f . v
 //   operator end: f = the wrench the device applies to the hand,
 //                 v = the hand's velocity;  power into the channel P = -f . v
 // (the hand does work against the displayed force: P > 0).
@@ -51,22 +54,6 @@
 #include <Eigen/Core>
 
 namespace hemm::haptics::tdpa {
-
-// The energy that flowed through one port, split by direction.
-struct PortEnergy {
-  double in_J = 0.0;   // into the channel (sent to the other end as its budget)
-  double out_J = 0.0;  // out of the channel to this end's side
-};
-
-// Adds one sample of power into the channel, held for dt (the observer's
-// rectangle rule): positive to E_in, negative to E_out.
-inline void accumulate(PortEnergy& e, double power_in_W, double dt_s) noexcept {
-  if (power_in_W > 0.0) {
-    e.in_J += power_in_W * dt_s;
-  } else {
-    e.out_J -= power_in_W * dt_s;
-  }
-}
 
 // What a side does with its output: observe only (the baseline without PC:
 // the energies are still counted and reported) or observe and control.

@@ -15,42 +15,46 @@ namespace td = hemm::haptics::tdpa;
 using V1 = Eigen::Matrix<double, 1, 1>;
 using V3 = Eigen::Matrix<double, 3, 1>;
 
-// A damper F = b v driven by v = A sin(w t), sampled N times a period over
-// whole periods: the energy it takes is b A^2 T / 2 (the sampled sum of
-// sin^2 over a period is exactly N/2 for N >= 3), and it never gives any back.
+// The observer (kObserveOnly) on a damper F = b v driven by v = A sin(w t),
+// sampled N times a period over whole periods: the energy it takes is
+// b A^2 T / 2 (the sampled sum of sin^2 over a period is exactly N/2 for
+// N >= 3), and it never gives any back. The robot end's port: the damper's
+// force on the gripper is -b v, so the channel puts b v^2 out.
 TEST(TdpaObserver, DamperEnergyIsTheClosedForm) {
   const double b = 7.5, A = 0.3, f_hz = 2.0;
   for (int per_period : {4, 37, 1000}) {
     const double dt = 1.0 / (f_hz * per_period);
     const int periods = 5;
-    td::PortEnergy e;
+    td::Side<1> s;
     for (int k = 0; k < per_period * periods; ++k) {
       const double v = A * std::sin(2 * std::numbers::pi * f_hz * k * dt);
-      td::accumulate(e, (b * v) * v, dt);
+      EXPECT_EQ(td::robot_tick<1>(s, V1(v), V1(-b * v), dt, td::PcMode::kObserveOnly)[0], v);
     }
     const double T = periods / f_hz;
-    EXPECT_NEAR(e.in_J, b * A * A * T / 2, 1e-12 * b * A * A * T) << per_period;
-    EXPECT_EQ(e.out_J, 0.0);
+    EXPECT_NEAR(s.out_J[0], b * A * A * T / 2, 1e-12 * b * A * A * T) << per_period;
+    EXPECT_EQ(s.in_J[0], 0.0);
+    EXPECT_EQ(s.pc_active_ticks, 0u);
   }
 }
 
-// A spring F = k x with x = A sin(w t): the port takes k A^2 / 2 in each
-// quarter period it is compressed further and gives it back in the next, so
-// over P whole periods E_in = E_out = P k A^2.
+// A spring with x = A sin(w t) at the operator's port (the device shows the
+// hand F = -k x): the channel gives k A^2 / 2 out in each quarter period the
+// spring relaxes and takes it back in the next, so over P whole periods
+// E_in = E_out = P k A^2.
 TEST(TdpaObserver, SpringEnergyIsTheClosedForm) {
   const double k = 5000.0, A = 0.01, f_hz = 3.0, dt = 1e-5;
   const int periods = 4;
   const int n = static_cast<int>(std::lround(periods / (f_hz * dt)));
-  td::PortEnergy e;
+  td::Side<1> s;
   for (int i = 0; i < n; ++i) {
     const double w = 2 * std::numbers::pi * f_hz;
     const double t = (i + 0.5) * dt;  // midpoint samples
     const double x = A * std::sin(w * t), v = A * w * std::cos(w * t);
-    td::accumulate(e, k * x * v, dt);
+    td::operator_tick<1>(s, V1(-k * x), V1(v), dt, td::PcMode::kObserveOnly);
   }
   const double expect = periods * k * A * A;
-  EXPECT_NEAR(e.in_J, expect, 1e-6 * expect);
-  EXPECT_NEAR(e.out_J, expect, 1e-6 * expect);
+  EXPECT_NEAR(s.in_J[0], expect, 1e-6 * expect);
+  EXPECT_NEAR(s.out_J[0], expect, 1e-6 * expect);
 }
 
 TEST(TdpaPeer, NewestBySequenceAndBadInputChangesNothing) {
