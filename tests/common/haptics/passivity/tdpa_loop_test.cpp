@@ -122,6 +122,23 @@ TEST(TdpaLoop, ZeroDelayNeedsAPassiveRobotTerminal) {
   EXPECT_LT(drift.max_abs_robot_m, 0.2 * drift.max_abs_hand_m);
 }
 
+// The round trips where suggest_mode offers the direct mode and just past:
+// the guarantee with either force fed back (the rows printed are the
+// docs' short-round-trip table).
+TEST(TdpaLoop, ShortRoundTripsKeepTheGuarantee) {
+  for (const auto fb : {LoopParams::Feedback::kContactForce, LoopParams::Feedback::kSpringForce}) {
+    for (double rtt : {0.02, 0.05, 0.1, 0.2}) {
+      LoopParams p;
+      p.rtt_s = rtt;
+      p.feedback = fb;
+      const LoopResult r = run_loop(p);
+      print_row("PC short", p, r);
+      expect_guarantee(r);
+      expect_bounded(p, r);
+    }
+  }
+}
+
 // Stiffnesses, masses, human arms and delays the suites above do not use.
 TEST(TdpaLoop, UntunedParameterSets) {
   struct Case {
