@@ -276,10 +276,20 @@ std::vector<FieldIssue> validate_robot_config(const pb::Message& m) {
   return out;
 }
 
+// The direct mode's passivity block (docs/telemanipulation_passivity.md).
+void check_passivity(const OperatorPassivityConfig& c, std::vector<FieldIssue>& out) {
+  const double rtt = c.max_direct_rtt_ms();
+  if (!(std::isfinite(rtt) && rtt >= 0.0)) out.push_back({"passivity.max_direct_rtt_ms", "must be finite and >= 0"});
+  check_probability(c.max_direct_loss(), "passivity.max_direct_loss", out);
+  if (!(c.hysteresis() >= 0.0 && c.hysteresis() < 1.0))
+    out.push_back({"passivity.hysteresis", "must be within 0..1 (1 excluded)"});
+}
+
 std::vector<FieldIssue> validate_operator_config(const pb::Message& m) {
   const auto& c = static_cast<const OperatorConfig&>(m);
   std::vector<FieldIssue> out;
   check_link(c.link(), "link.", out);
+  check_passivity(c.passivity(), out);
   if (c.net().robot_address().empty()) out.push_back({"net.robot_address", "must not be empty"});
   check_port(c.net().session_port(), false, "net.session_port", out);
   check_port(c.net().stream_port(), true, "net.stream_port", out);

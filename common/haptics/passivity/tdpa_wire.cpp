@@ -54,18 +54,4 @@ PcMode pc_mode_from(const config::RobotPassivityConfig& c) {
   return c.controller() ? PcMode::kControl : PcMode::kObserveOnly;
 }
 
-std::vector<config::FieldIssue> validate_passivity(const config::OperatorPassivityConfig& c,
-                                                   const std::string& prefix) {
-  std::vector<config::FieldIssue> out;
-  const double rtt = c.max_direct_rtt_ms();
-  if (!std::isfinite(rtt) || rtt < 0.0) out.push_back({prefix + "max_direct_rtt_ms", "must be finite and >= 0"});
-  const double loss = c.max_direct_loss();
-  if (!std::isfinite(loss) || loss < 0.0 || loss > 1.0) {
-    out.push_back({prefix + "max_direct_loss", "must be within 0..1"});
-  }
-  const double h = c.hysteresis();
-  if (!std::isfinite(h) || h < 0.0 || h >= 1.0) out.push_back({prefix + "hysteresis", "must be within 0..1 (1 excluded)"});
-  return out;
-}
-
 }  // namespace hemm::haptics::tdpa

@@ -6,9 +6,7 @@
 // (docs/telemanipulation_passivity.md, "Where each end calls what").
 #include <cstdint>
 #include <string>
-#include <vector>
 
-#include "common/config/config.h"
 #include "common/haptics/passivity/tdpa_arm.h"
 
 namespace hemm::wire {
@@ -28,12 +26,10 @@ void fill(wire::PassivityPort* out, std::uint32_t index, const ArmSide& s, PcMod
 // or `error` says why not (the message is then to be counted and dropped).
 bool read_energy_in(const wire::PassivityPort& in, Vec6* energy_in_J, std::string* error);
 
-// The thresholds and controller mode of each end's config, and the issues
-// with them ("passivity.max_direct_loss: ..."), for the config validators.
+// The thresholds and controller mode of each end's config (checked by
+// config::validate_operator_config).
 ModeThresholds thresholds_from(const config::OperatorPassivityConfig& c);
 PcMode pc_mode_from(const config::OperatorPassivityConfig& c);
 PcMode pc_mode_from(const config::RobotPassivityConfig& c);
-std::vector<config::FieldIssue> validate_passivity(const config::OperatorPassivityConfig& c,
-                                                   const std::string& prefix);
 
 }  // namespace hemm::haptics::tdpa

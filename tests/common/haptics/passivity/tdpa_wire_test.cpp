@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include "common/config/config.h"
 #include "config_operator.pb.h"
 #include "config_robot.pb.h"
 #include "wire.pb.h"
@@ -54,14 +55,16 @@ TEST(TdpaWire, ConfigBlocks) {
   EXPECT_DOUBLE_EQ(t.max_direct_rtt_s, d.max_direct_rtt_s);
   EXPECT_DOUBLE_EQ(t.max_direct_loss, d.max_direct_loss);
   EXPECT_DOUBLE_EQ(t.hysteresis, d.hysteresis);
-  EXPECT_TRUE(td::validate_passivity(c, "passivity.").empty());
   EXPECT_EQ(td::pc_mode_from(c), td::PcMode::kControl);
   c.set_controller(false);
   EXPECT_EQ(td::pc_mode_from(c), td::PcMode::kObserveOnly);
-  c.set_max_direct_rtt_ms(-1);
-  c.set_max_direct_loss(1.5);
-  c.set_hysteresis(std::numeric_limits<double>::quiet_NaN());
-  const auto issues = td::validate_passivity(c, "passivity.");
+  // Bad values are refused by the operator config's validator, field by field.
+  hemm::config::OperatorConfig op;
+  EXPECT_TRUE(hemm::config::validate_operator_config(op).empty());
+  op.mutable_passivity()->set_max_direct_rtt_ms(-1);
+  op.mutable_passivity()->set_max_direct_loss(1.5);
+  op.mutable_passivity()->set_hysteresis(std::numeric_limits<double>::quiet_NaN());
+  const auto issues = hemm::config::validate_operator_config(op);
   ASSERT_EQ(issues.size(), 3u);
   EXPECT_EQ(issues[0].field, "passivity.max_direct_rtt_ms");
   EXPECT_EQ(issues[1].field, "passivity.max_direct_loss");
