@@ -127,6 +127,7 @@ struct FakeArmsOperator {
   std::vector<hw::Ack> acks;
   std::vector<hw::EStop> estops;
   Make make;  // guarded by mu
+  int64_t stamp_offset_ns = 0;  // guarded by mu: commands stamped this much off the send time
   uint64_t commands_sent = 0;
 
   FakeArmsOperator(uint16_t session_port, bool want_control, uint16_t stream_port = 0) {
@@ -178,12 +179,14 @@ struct FakeArmsOperator {
       if (ec) return;
       const int64_t now = hemm::steady_now_ns();
       std::optional<hw::ArmsCommand> c;
+      int64_t offset = 0;
       {
         std::lock_guard<std::mutex> lk(mu);
         if (make) c = make(now);
+        offset = stamp_offset_ns;
       }
       if (c) {
-        c->set_stamp_ns(now);
+        c->set_stamp_ns(now + offset);
         hw::StreamMessage m;
         *m.mutable_arms_command() = *c;
         if (client->streams().send(m)) {
@@ -280,6 +283,13 @@ void neutral_then(const TwoArmSide& robot, FakeArmsOperator& op, const ht::TwoAr
   op.set_make(std::move(pressed));
 }
 
+hw::SessionFrame mode_frame(hw::Mode mode, uint64_t request_id) {
+  hw::SessionFrame f;
+  f.mutable_mode_change()->set_mode(mode);
+  f.mutable_mode_change()->set_request_id(request_id);
+  return f;
+}
+
 hw::SessionFrame estop_frame(bool engaged, uint64_t request_id) {
   hw::SessionFrame f;
   f.mutable_estop()->set_engaged(engaged);
@@ -359,7 +369,10 @@ TEST(TwoArmStationLoopback, StreamsArmsStateAt250Hz) {
   EXPECT_EQ(late_stamp, 0);  // one steady clock: sampled before it arrived
   EXPECT_EQ(twoarm_median(stamp_gaps), 4e6);
   EXPECT_LE(twoarm_median(arrival_gaps), 4.0e6 * 1.25);  // >= 250 Hz, wide margin for the shared VM
-  EXPECT_GE(rate, 200.0);
+  // By count: a control loop that fell behind catches up with steps back
+  // to back, and the newest-wins mailbox keeps the newest state of a burst
+  // only (223-249 Hz seen at load 7-10 on the 2 cores).
+  EXPECT_GE(rate, 150.0);
   const hw::ArmsState& last = states.back().m;
   EXPECT_EQ(last.safety() & (hw::SAFETY_NO_OPERATOR | hw::SAFETY_LINK_LOST | hw::SAFETY_ESTOP), 0u);
   EXPECT_NE(last.safety() & hw::SAFETY_REARM, 0u);
@@ -624,6 +637,81 @@ TEST(TwoArmStationLoopback, CommandsFromANonControllingSessionAreDropped) {
   EXPECT_FALSE(op.ack_for(8)->ok());
   twoarm_sleep_s(0.05);
   EXPECT_TRUE(robot.station->statistics().estop);
+}
+
+// Commands stamped 2 s before they are sent (held on the path, or replayed
+// with their stamp): older than the round trip plus the margin, so dropped
+// as stale; nothing moves. Stamped fresh, the same commands move the arm.
+TEST(TwoArmStationLoopback, StaleCommandsAreDropped) {
+  TwoArmSide robot(twoarm_test_config());
+  FakeArmsOperator op(robot.server->session_port(), true);
+  const auto held = connected_hold(op);
+  ASSERT_TRUE(held);
+  ht::TwoArmTargets goal = *held;
+  goal.T_A_G[0].translation() += Eigen::Vector3d(0.0, 0.0, 0.04);
+  {
+    std::lock_guard<std::mutex> lk(op.mu);
+    op.stamp_offset_ns = -2'000'000'000;
+  }
+  const uint64_t stale0 = robot.station->statistics().commands_stale;
+  op.set_command(command_for(*held, false));
+  twoarm_sleep_s(0.2);
+  op.set_command(command_for(goal, true));
+  const std::array<double, 2> d = watch_drift(robot, 1.0);
+  const auto st = robot.station->statistics();
+  std::printf("stamped 2 s old: %llu stale of %llu received; G moved %.3f / %.3f mm\n",
+              static_cast<unsigned long long>(st.commands_stale - stale0),
+              static_cast<unsigned long long>(st.commands_received), d[0] * 1e3, d[1] * 1e3);
+  EXPECT_GT(st.commands_stale - stale0, 80u);
+  EXPECT_EQ(st.commands_accepted, 0u);
+  EXPECT_LT(d[0], 0.001);
+  {
+    std::lock_guard<std::mutex> lk(op.mu);
+    op.stamp_offset_ns = 0;
+  }
+  const hw::ArmsCommand go = command_for(goal, true);
+  const Eigen::Vector3d r0 = robot.grasp(0);
+  neutral_then(robot, op, *held, [go](int64_t) { return go; });
+  EXPECT_TRUE(twoarm_wait_until([&] { return (robot.grasp(0) - r0).norm() > 0.03; }, 3.0));
+}
+
+// Session mode: an unknown mode is refused; after a ModeChange to
+// exploration, manipulation commands are dropped (sent for another mode) and
+// nothing moves; back in manipulation, the same commands move the arm.
+TEST(TwoArmStationLoopback, CommandsOfAnotherSessionModeAreDropped) {
+  TwoArmSide robot(twoarm_test_config());
+  FakeArmsOperator op(robot.server->session_port(), true);
+  const auto held = connected_hold(op);
+  ASSERT_TRUE(held);
+  op.send_frame(mode_frame(static_cast<hw::Mode>(9), 1));
+  ASSERT_TRUE(twoarm_wait_until([&] { return op.ack_for(1).has_value(); }, 2.0));
+  EXPECT_FALSE(op.ack_for(1)->ok());
+  op.send_frame(mode_frame(hw::MODE_EXPLORATION, 2));
+  ASSERT_TRUE(twoarm_wait_until([&] { return op.ack_for(2).has_value(); }, 2.0));
+  EXPECT_TRUE(op.ack_for(2)->ok());
+  ht::TwoArmTargets goal = *held;
+  goal.T_A_G[1].translation() += Eigen::Vector3d(0.03, 0.0, 0.03);
+  const hw::ArmsCommand go = command_for(goal, true);
+  op.set_command(command_for(*held, false));
+  twoarm_sleep_s(0.2);
+  op.set_command(go);
+  const std::array<double, 2> d = watch_drift(robot, 1.0);
+  auto st = robot.station->statistics();
+  std::printf("in exploration: %llu manipulation commands dropped; G moved %.3f / %.3f mm\n",
+              static_cast<unsigned long long>(st.commands_mode_mismatch), d[0] * 1e3, d[1] * 1e3);
+  EXPECT_GT(st.commands_mode_mismatch, 50u);
+  EXPECT_EQ(st.commands_accepted, 0u);
+  EXPECT_EQ(st.mode, hw::MODE_EXPLORATION);
+  EXPECT_LT(d[1], 0.001);
+  op.send_frame(mode_frame(hw::MODE_MANIPULATION, 3));
+  ASSERT_TRUE(twoarm_wait_until([&] { return op.ack_for(3).has_value(); }, 2.0));
+  EXPECT_TRUE(op.ack_for(3)->ok());
+  const Eigen::Vector3d l0 = robot.grasp(1);
+  neutral_then(robot, op, *held, [go](int64_t) { return go; });
+  EXPECT_TRUE(twoarm_wait_until([&] { return (robot.grasp(1) - l0).norm() > 0.03; }, 3.0));
+  st = robot.station->statistics();
+  EXPECT_EQ(st.mode_changes, 2u);
+  EXPECT_EQ(st.requests_refused, 1u);
 }
 
 // The head depth camera: DepthChunks arrive whole, stamped at acquisition,
