@@ -637,6 +637,7 @@ void TwoArmStation::run() {
   rt::TickTiming tick;
   tick.period_ns = dt;
   tick.late_wake_threshold_ns = o_.late_wake_threshold_ns;
+  if (o_.control_thread_hook) o_.control_thread_hook(true);
   while (!sh.stop.load(std::memory_order_acquire)) {
     tick.what = "step";
     if (o_.realtime) {
@@ -727,6 +728,7 @@ void TwoArmStation::run() {
       ++tick.tick;
     }
   }
+  if (o_.control_thread_hook) o_.control_thread_hook(false);
 }
 
 }  // namespace hemm::twoarm

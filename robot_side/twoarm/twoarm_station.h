@@ -47,6 +47,7 @@
 #include <asio.hpp>
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -74,6 +75,9 @@ struct TwoArmStationOptions {
   int64_t max_catch_up_ns = 100'000'000;
   rt::RealtimeRequest control_thread{};
   int64_t late_wake_threshold_ns = 500'000;
+  // Called on the control thread with true before its loop and false after
+  // it (e.g. a test counting that thread's heap allocations); may be empty.
+  std::function<void(bool)> control_thread_hook;
 };
 
 // The robot's options from config: twoarm (impedance, limits, avoidance,

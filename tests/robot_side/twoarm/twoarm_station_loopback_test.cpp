@@ -30,6 +30,7 @@
 #include "robot_side/twoarm/arms_wire.h"
 #include "robot_side/twoarm/twoarm_station.h"
 #include "tests/common/net/udp_forwarder.h"
+#include "tests/operator/servo/alloc_counter.h"
 #include "tests/robot_side/twoarm/workbench_scene.h"
 
 namespace ht = hemm::twoarm;
@@ -73,7 +74,7 @@ struct TwoArmSide {
   std::unique_ptr<ht::TwoArmStation> station;
   std::thread thread;
 
-  explicit TwoArmSide(const hemm::config::RobotConfig& cfg) {
+  explicit TwoArmSide(const hemm::config::RobotConfig& cfg, std::function<void(bool)> control_thread_hook = {}) {
     hemm::robot::RobotServerOptions o;
     o.session_port = 0;
     o.stream_port = 0;
@@ -82,6 +83,7 @@ struct TwoArmSide {
     server = std::make_unique<hemm::robot::RobotServer>(io, o);
     ht::TwoArmStationOptions so;
     so.state_rate_hz = cfg.net().state_rate_hz();
+    so.control_thread_hook = std::move(control_thread_hook);
     station = std::make_unique<ht::TwoArmStation>(io, *server, so);
     std::string err;
     EXPECT_TRUE(server->start(&err)) << err;
@@ -712,6 +714,48 @@ TEST(TwoArmStationLoopback, CommandsOfAnotherSessionModeAreDropped) {
   st = robot.station->statistics();
   EXPECT_EQ(st.mode_changes, 2u);
   EXPECT_EQ(st.requests_refused, 1u);
+}
+
+// The control thread never touches the heap: counted by the replacement
+// allocator (tests/operator/servo/alloc_counter.cpp) on that thread only,
+// while it follows circles, holds through an e-stop, sees refused commands
+// go by and hands frames to the head camera's worker.
+TEST(TwoArmStationLoopback, ControlThreadDoesNotAllocate) {
+  std::atomic<int> hook_calls{0};
+  std::atomic<std::thread::id> hooked_thread{};
+  TwoArmSide robot(twoarm_test_config(true), [&](bool on) {
+    ++hook_calls;
+    hooked_thread = std::this_thread::get_id();
+    hemm::test::count_allocations_on_this_thread(on);
+  });
+  FakeArmsOperator op(robot.server->session_port(), true);
+  const auto held = connected_hold(op);
+  ASSERT_TRUE(held);
+  const uint64_t a0 = hemm::test::counted_allocations();
+  neutral_then(robot, op, *held, circling(*held, 0.04, 1.5));
+  twoarm_sleep_s(0.8);
+  hw::ArmsCommand bad = command_for(*held, true);
+  bad.mutable_arm(0)->set_index(5);
+  op.set_command(bad);
+  twoarm_sleep_s(0.2);
+  op.send_frame(estop_frame(true, 3));
+  ASSERT_TRUE(twoarm_wait_until([&] { return op.ack_for(3).has_value(); }, 2.0));
+  twoarm_sleep_s(0.3);
+  robot.station->stop();
+  const auto st = robot.station->statistics();
+  const uint64_t n = hemm::test::counted_allocations() - a0;
+  std::printf("control thread: %llu steps, %llu commands applied, %llu depth frames, %llu heap allocations "
+              "(malloc hooked: %d)\n",
+              static_cast<unsigned long long>(st.sim_steps), static_cast<unsigned long long>(st.commands_applied),
+              static_cast<unsigned long long>(st.depth_frames_sent), static_cast<unsigned long long>(n),
+              hemm::test::malloc_is_hooked());
+  EXPECT_GT(st.commands_applied, 20u);
+  EXPECT_GT(st.commands_refused, 0u);
+  EXPECT_TRUE(st.estop);
+  EXPECT_GT(st.depth_frames_sent, 0u);
+  EXPECT_EQ(hook_calls.load(), 2);  // on the control thread, around its loop
+  EXPECT_NE(hooked_thread.load(), std::this_thread::get_id());
+  EXPECT_EQ(n, 0u);
 }
 
 // The head depth camera: DepthChunks arrive whole, stamped at acquisition,
