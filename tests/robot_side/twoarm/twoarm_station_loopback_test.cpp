@@ -731,7 +731,7 @@ TEST(TwoArmStationLoopback, ControlThreadDoesNotAllocate) {
   FakeArmsOperator op(robot.server->session_port(), true);
   const auto held = connected_hold(op);
   ASSERT_TRUE(held);
-  const uint64_t a0 = hemm::test::counted_allocations();
+  const uint64_t a0 = hemm::test::counted_allocations(), f0 = hemm::test::counted_frees();
   neutral_then(robot, op, *held, circling(*held, 0.04, 1.5));
   twoarm_sleep_s(0.8);
   hw::ArmsCommand bad = command_for(*held, true);
@@ -743,12 +743,12 @@ TEST(TwoArmStationLoopback, ControlThreadDoesNotAllocate) {
   twoarm_sleep_s(0.3);
   robot.station->stop();
   const auto st = robot.station->statistics();
-  const uint64_t n = hemm::test::counted_allocations() - a0;
+  const uint64_t n = hemm::test::counted_allocations() - a0, frees = hemm::test::counted_frees() - f0;
   std::printf("control thread: %llu steps, %llu commands applied, %llu depth frames, %llu heap allocations "
-              "(malloc hooked: %d)\n",
+              "and %llu frees (malloc hooked: %d)\n",
               static_cast<unsigned long long>(st.sim_steps), static_cast<unsigned long long>(st.commands_applied),
               static_cast<unsigned long long>(st.depth_frames_sent), static_cast<unsigned long long>(n),
-              hemm::test::malloc_is_hooked());
+              static_cast<unsigned long long>(frees), hemm::test::malloc_is_hooked());
   EXPECT_GT(st.commands_applied, 20u);
   EXPECT_GT(st.commands_refused, 0u);
   EXPECT_TRUE(st.estop);
@@ -756,6 +756,7 @@ TEST(TwoArmStationLoopback, ControlThreadDoesNotAllocate) {
   EXPECT_EQ(hook_calls.load(), 2);  // on the control thread, around its loop
   EXPECT_NE(hooked_thread.load(), std::this_thread::get_id());
   EXPECT_EQ(n, 0u);
+  EXPECT_EQ(frees, 0u);
 }
 
 // The head depth camera: DepthChunks arrive whole, stamped at acquisition,
