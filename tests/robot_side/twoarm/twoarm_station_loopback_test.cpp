@@ -546,6 +546,10 @@ TEST(TwoArmStationLoopback, LinkLossHoldsBothArmsAndAFreshPressAloneDoesNotMoveT
   std::printf("link back, pressed commands streaming for 1 s: G moved %.3f / %.3f mm\n", still[0] * 1e3,
               still[1] * 1e3);
   EXPECT_NE(s1->safety() & hw::SAFETY_REARM, 0u);
+  for (int g = 0; g < 2; ++g) {  // the grippers kept their targets through the hold
+    EXPECT_EQ(s1->gripper(g).target_opening_m(), hold.gripper[static_cast<size_t>(g)].opening_m);
+    EXPECT_EQ(s1->gripper(g).target_force_n(), hold.gripper[static_cast<size_t>(g)].force_N);
+  }
   EXPECT_LT(still[0], 0.002);
   EXPECT_LT(still[1], 0.002);
   // Neutral, then pressed: it follows again.
