@@ -20,10 +20,8 @@ bool finite_pose(const proto::Pose3& p) {
   return true;
 }
 
-ArmsCommandResult refuse(wire::ArmsRefusalReason r, uint32_t index, std::string detail) {
-  ArmsCommandResult out;
-  out.refusal = {r, index, std::move(detail)};
-  return out;
+ArmsRefusal refusal(wire::ArmsRefusalReason r, uint32_t index, std::string detail) {
+  return ArmsRefusal{r, index, std::move(detail)};
 }
 
 void vec(const Eigen::Vector3d& v, proto::Vec3* out) {
@@ -34,47 +32,70 @@ void vec(const Eigen::Vector3d& v, proto::Vec3* out) {
 
 }  // namespace
 
-ArmsCommandResult apply_arms_command(const TwoArmModel& model, const ArmsCommandLimits& limits,
-                                     const wire::ArmsCommand& cmd, const TwoArmTargets& current,
-                                     const std::array<ArmReading, kArms>& readings) {
-  TwoArmTargets next = current;
+std::optional<ArmsRefusal> validate_arms_command(const TwoArmModel& model, const ArmsCommandLimits& limits,
+                                                 const wire::ArmsCommand& cmd,
+                                                 const std::array<ArmReading, kArms>& readings,
+                                                 ValidatedArmsCommand* out) {
+  ValidatedArmsCommand v;
+  v.deadman = cmd.deadman();
+  v.mode = cmd.mode();
   // Finite numbers and known, distinct indices first: cheap, and nothing
   // below runs on garbage.
-  bool seen_arm[kArms] = {}, seen_gripper[kArms] = {};
   for (const wire::ArmTarget& a : cmd.arm()) {
-    if (a.index() >= kArms || seen_arm[a.index()])
-      return refuse(wire::ARMS_REFUSAL_UNKNOWN_ARM, a.index(), "arm " + std::to_string(a.index()) + " unknown or named twice");
-    seen_arm[a.index()] = true;
-    if (!finite_pose(a.t_a_g())) return refuse(wire::ARMS_REFUSAL_NONFINITE, a.index(), "arm target not finite");
+    if (a.index() >= kArms || v.has_arm[a.index()])
+      return refusal(wire::ARMS_REFUSAL_UNKNOWN_ARM, a.index(), "arm " + std::to_string(a.index()) + " unknown or named twice");
+    v.has_arm[a.index()] = true;
+    if (!finite_pose(a.t_a_g())) return refusal(wire::ARMS_REFUSAL_NONFINITE, a.index(), "arm target not finite");
   }
   for (const wire::GripperTarget& g : cmd.gripper()) {
-    if (g.index() >= kArms || seen_gripper[g.index()])
-      return refuse(wire::ARMS_REFUSAL_UNKNOWN_GRIPPER, g.index(),
-                    "gripper " + std::to_string(g.index()) + " unknown or named twice");
-    seen_gripper[g.index()] = true;
+    if (g.index() >= kArms || v.has_gripper[g.index()])
+      return refusal(wire::ARMS_REFUSAL_UNKNOWN_GRIPPER, g.index(),
+                     "gripper " + std::to_string(g.index()) + " unknown or named twice");
+    v.has_gripper[g.index()] = true;
     if (!std::isfinite(g.opening_m()) || !std::isfinite(g.force_n()))
-      return refuse(wire::ARMS_REFUSAL_NONFINITE, g.index(), "gripper target not finite");
+      return refusal(wire::ARMS_REFUSAL_NONFINITE, g.index(), "gripper target not finite");
   }
   for (const wire::GripperTarget& g : cmd.gripper()) {
     const GripperTarget t{g.opening_m(), g.force_n()};
     if (auto e = check_target(model.arms[g.index()].gripper, t))
-      return refuse(wire::ARMS_REFUSAL_GRIPPER_RANGE, g.index(), *e);
-    next.gripper[g.index()] = t;
+      return refusal(wire::ARMS_REFUSAL_GRIPPER_RANGE, g.index(), *e);
+    v.named.gripper[g.index()] = t;
   }
   for (const wire::ArmTarget& a : cmd.arm()) {
     const std::size_t i = a.index();
     Eigen::Isometry3d T;
-    if (!a.has_t_a_g()) return refuse(wire::ARMS_REFUSAL_BAD_POSE, a.index(), "arm target without a pose");
-    if (auto e = mapping::pose3_from_wire(a.t_a_g(), &T)) return refuse(wire::ARMS_REFUSAL_BAD_POSE, a.index(), *e);
+    if (!a.has_t_a_g()) return refusal(wire::ARMS_REFUSAL_BAD_POSE, a.index(), "arm target without a pose");
+    if (auto e = mapping::pose3_from_wire(a.t_a_g(), &T)) return refusal(wire::ARMS_REFUSAL_BAD_POSE, a.index(), *e);
     const Eigen::Vector3d here = grasp_pose_A(model.arms[i], readings[i].q).translation();
     if ((T.translation() - here).norm() > limits.max_target_jump_m)
-      return refuse(wire::ARMS_REFUSAL_OUT_OF_REACH, a.index(), "target more than max_target_jump_m from the grasp frame");
+      return refusal(wire::ARMS_REFUSAL_OUT_OF_REACH, a.index(), "target more than max_target_jump_m from the grasp frame");
     if (!grasp_inverse_kinematics(model.arms[i], T, readings[i].q))
-      return refuse(wire::ARMS_REFUSAL_OUT_OF_REACH, a.index(), "no joint angles within the limits reach the target");
-    next.T_A_G[i] = T;
+      return refusal(wire::ARMS_REFUSAL_OUT_OF_REACH, a.index(), "no joint angles within the limits reach the target");
+    v.named.T_A_G[i] = T;
   }
+  *out = v;
+  return std::nullopt;
+}
+
+TwoArmTargets merge_arms_command(const TwoArmTargets& current, const ValidatedArmsCommand& v) noexcept {
+  TwoArmTargets next = current;
+  for (std::size_t i = 0; i < kArms; ++i) {
+    if (v.has_arm[i]) next.T_A_G[i] = v.named.T_A_G[i];
+    if (v.has_gripper[i]) next.gripper[i] = v.named.gripper[i];
+  }
+  return next;
+}
+
+ArmsCommandResult apply_arms_command(const TwoArmModel& model, const ArmsCommandLimits& limits,
+                                     const wire::ArmsCommand& cmd, const TwoArmTargets& current,
+                                     const std::array<ArmReading, kArms>& readings) {
   ArmsCommandResult out;
-  out.targets = next;
+  ValidatedArmsCommand v;
+  if (auto r = validate_arms_command(model, limits, cmd, readings, &v)) {
+    out.refusal = std::move(*r);
+    return out;
+  }
+  out.targets = merge_arms_command(current, v);
   return out;
 }
 

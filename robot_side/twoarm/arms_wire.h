@@ -40,6 +40,25 @@ ArmsCommandResult apply_arms_command(const TwoArmModel& model, const ArmsCommand
                                      const wire::ArmsCommand& cmd, const TwoArmTargets& current,
                                      const std::array<ArmReading, kArms>& readings);
 
+// The same check split in two, so that the station validates on its network
+// thread (inverse kinematics is too slow for the 1 kHz loop) and the control
+// thread only merges: validate_arms_command checks `cmd` whole against the
+// readings and keeps the parts it names (plain values: it goes through a
+// mailbox); merge_arms_command puts them on top of the current targets.
+// apply_arms_command is exactly validate, then merge: the same refusals, in
+// the same order, and a refused command changes nothing.
+struct ValidatedArmsCommand {
+  std::array<bool, kArms> has_arm{}, has_gripper{};
+  TwoArmTargets named;  // the named parts' targets (the others unused)
+  bool deadman = false;
+  wire::Mode mode = wire::MODE_UNSPECIFIED;
+};
+std::optional<ArmsRefusal> validate_arms_command(const TwoArmModel& model, const ArmsCommandLimits& limits,
+                                                 const wire::ArmsCommand& cmd,
+                                                 const std::array<ArmReading, kArms>& readings,
+                                                 ValidatedArmsCommand* out);
+TwoArmTargets merge_arms_command(const TwoArmTargets& current, const ValidatedArmsCommand& v) noexcept;
+
 // The command for the given targets (the operator's side, and the tests').
 void to_wire(const TwoArmTargets& targets, bool deadman, wire::ArmsCommand* out);
 

@@ -27,36 +27,49 @@ void TwoArmRobot::reset(const std::array<kinematics::Arm7Vector, kArms>& q, cons
   watchdog_ = robot::Watchdog{o_.watchdog_ns};
 }
 
-int64_t TwoArmRobot::time_ns() const noexcept { return std::llround(sim_.time_s() * 1e9); }
+int64_t TwoArmRobot::time_ns() const noexcept { return origin_ns_ + std::llround(sim_.time_s() * 1e9); }
+
+void TwoArmRobot::set_time_origin_ns(int64_t now_ns) noexcept {
+  origin_ns_ = now_ns - std::llround(sim_.time_s() * 1e9);
+}
+
+int64_t TwoArmRobot::timestep_ns() const noexcept { return std::llround(sim_.timestep_s() * 1e9); }
 
 std::array<ArmReading, kArms> TwoArmRobot::readings() const noexcept {
   return {sim_.reading(Side::kRight), sim_.reading(Side::kLeft)};
 }
 
 bool TwoArmRobot::command(const wire::ArmsCommand& cmd, uint64_t seq, int64_t sent_ns) {
-  ++counters_.commands;
-  const ArmsCommandResult r = apply_arms_command(sim_.model(), o_.limits, cmd, commanded_, readings());
-  if (!r.targets) {
+  ValidatedArmsCommand v;
+  if (auto r = validate_arms_command(sim_.model(), o_.limits, cmd, readings(), &v)) {
+    ++counters_.commands;
     ++counters_.refusals;
-    counters_.last_refusal = r.refusal.reason;
+    counters_.last_refusal = r->reason;
     counters_.last_refused_seq = seq;
-    counters_.last_refused_index = r.refusal.index;
-    counters_.last_refusal_detail = r.refusal.detail;
+    counters_.last_refused_index = r->index;
+    counters_.last_refusal_detail = std::move(r->detail);
     return false;
   }
+  apply(v, seq, sent_ns);
+  return true;
+}
+
+void TwoArmRobot::apply(const ValidatedArmsCommand& v, uint64_t seq, int64_t sent_ns) noexcept {
+  ++counters_.commands;
   const int64_t now = time_ns();
   watchdog_feed(watchdog_, sent_ns, now);
   // Towards the re-arm, with the stops as they are now (the watchdog was
   // just fed: an expired one is not a stop in force for this command).
-  gate_offer(gate_, !operator_in_control_ || !link_up_ || estop_, !cmd.deadman(), cmd.deadman());
-  deadman_ = cmd.deadman();
+  gate_offer(gate_, !operator_in_control_ || !link_up_ || estop_, !v.deadman, v.deadman);
+  deadman_ = v.deadman;
   if (gate_.armed && deadman_) {
-    commanded_ = *r.targets;
+    commanded_ = merge_arms_command(commanded_, v);
     counters_.last_command_seq = seq;
     ++counters_.applied;
   }
-  return true;
 }
+
+void TwoArmRobot::stop_commanded_motion() noexcept { deadman_ = false; }
 
 void TwoArmRobot::set_link(bool operator_in_control, bool link_up) noexcept {
   operator_in_control_ = operator_in_control;
@@ -110,15 +123,38 @@ void TwoArmRobot::step() noexcept {
   sim_.step();
 }
 
-void TwoArmRobot::state(wire::ArmsState* out) const {
+void TwoArmRobot::snapshot(TwoArmSnapshot* out) const noexcept {
+  out->stamp_ns = time_ns();
+  out->readings = readings();
+  out->targets = active_;
+  out->control = out_;
+  out->safety = safety_;
+  out->armed = gate_.armed;
+  out->following = following_;
+  out->last_command_seq = counters_.last_command_seq;
+  out->commands = counters_.commands;
+  out->applied = counters_.applied;
+  out->refusals = counters_.refusals;
+  out->last_refusal = counters_.last_refusal;
+  out->last_refused_seq = counters_.last_refused_seq;
+  out->last_refused_index = counters_.last_refused_index;
+}
+
+void to_wire(const TwoArmModel& model, const TwoArmSnapshot& s, wire::ArmsState* out) {
   out->Clear();
-  to_wire(sim_.model(), readings(), active_, out_, time_ns(), out);
-  out->set_safety(safety_);
-  out->set_last_command_seq(counters_.last_command_seq);
-  out->set_refusals(counters_.refusals);
-  out->set_last_refusal(counters_.last_refusal);
-  out->set_last_refused_seq(counters_.last_refused_seq);
-  out->set_last_refused_index(counters_.last_refused_index);
+  to_wire(model, s.readings, s.targets, s.control, s.stamp_ns, out);
+  out->set_safety(s.safety);
+  out->set_last_command_seq(s.last_command_seq);
+  out->set_refusals(s.refusals);
+  out->set_last_refusal(s.last_refusal);
+  out->set_last_refused_seq(s.last_refused_seq);
+  out->set_last_refused_index(s.last_refused_index);
+}
+
+void TwoArmRobot::state(wire::ArmsState* out) const {
+  TwoArmSnapshot s;
+  snapshot(&s);
+  to_wire(sim_.model(), s, out);
 }
 
 }  // namespace hemm::twoarm

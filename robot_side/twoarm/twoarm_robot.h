@@ -56,17 +56,52 @@ struct TwoArmRobotCounters {
   uint64_t last_command_seq = 0;  // the newest applied command's
 };
 
+// What the robot reports, as plain values: the station's control thread
+// copies it into a mailbox at the state rate, and the network thread makes
+// the ArmsState of it (to_wire below), off the 1 kHz loop.
+struct TwoArmSnapshot {
+  int64_t stamp_ns = 0;
+  std::array<ArmReading, kArms> readings{};
+  TwoArmTargets targets;  // what the controllers work to (the commanded ones, or the hold)
+  TwoArmOutput control;
+  uint32_t safety = 0;
+  bool armed = false, following = false;
+  uint64_t last_command_seq = 0;
+  uint64_t commands = 0, applied = 0;
+  // The robot's own refusal record (TwoArmRobot::command; the station
+  // validates on its network thread and reports its own record instead).
+  uint64_t refusals = 0;
+  wire::ArmsRefusalReason last_refusal = wire::ARMS_REFUSAL_UNSPECIFIED;
+  uint64_t last_refused_seq = 0;
+  uint32_t last_refused_index = 0;
+};
+
+// The ArmsState of a snapshot (mode and frame epoch are the station's).
+void to_wire(const TwoArmModel& model, const TwoArmSnapshot& s, wire::ArmsState* out);
+
 class TwoArmRobot {
  public:
   // Throws std::runtime_error for a bad scene or params.
   TwoArmRobot(const std::string& scene_path, const TwoArmRobotOptions& options);
 
-  // Robot time: the simulation's (steps x timestep), ns.
+  // Robot time: the simulation's (steps x timestep), ns, plus the origin
+  // (0 unless set: the station sets it to its steady clock at start, so
+  // stamps are station time, and moves it after a stall it skips).
   int64_t time_ns() const noexcept;
+  void set_time_origin_ns(int64_t now_ns) noexcept;  // time_ns() is now_ns from here
+  int64_t timestep_ns() const noexcept;
 
   // An operator command received at time_ns() (the watchdog counts from
   // sent_ns, at most now). False: refused (counters() say why).
+  // Validates on the caller's thread, then apply().
   bool command(const wire::ArmsCommand& cmd, uint64_t seq, int64_t sent_ns);
+  // The control thread's half: a command already validated
+  // (validate_arms_command against recent readings) goes to the watchdog, the
+  // re-arm gate and, pressed and armed, the targets. Allocation-free.
+  void apply(const ValidatedArmsCommand& v, uint64_t seq, int64_t sent_ns) noexcept;
+  // The robot's own neutral command (a session mode change): the arms hold as
+  // after a dead-man release until the next pressed command; re-arms nothing.
+  void stop_commanded_motion() noexcept;
   // The link's state, each tick before step().
   void set_link(bool operator_in_control, bool link_up) noexcept;
   void set_estop(bool engaged) noexcept;
@@ -80,6 +115,7 @@ class TwoArmRobot {
 
   // The state to stream (stamp, arms, grippers, safety, sequence, refusals).
   void state(wire::ArmsState* out) const;
+  void snapshot(TwoArmSnapshot* out) const noexcept;  // allocation-free
 
   bool armed() const noexcept { return gate_.armed; }
   bool following() const noexcept { return following_; }  // the commanded targets, not a hold
@@ -108,6 +144,7 @@ class TwoArmRobot {
   robot::MotionGate gate_;
   TwoArmRobotCounters counters_;
   rt::LogHistogram compute_;
+  int64_t origin_ns_ = 0;
 };
 
 }  // namespace hemm::twoarm

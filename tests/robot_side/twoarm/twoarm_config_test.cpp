@@ -1,9 +1,14 @@
 // The robot config's two-arm block (proto/config_robot.proto kind, twoarm):
-// the defaults validate; each bad value is refused naming its field.
+// the defaults validate; each bad value is refused naming its field; the
+// shipped two-arm config loads.
 #include <gtest/gtest.h>
+
+#include <fstream>
 
 #include "common/config/config.h"
 #include "config_robot.pb.h"
+#include "robot_side/twoarm/twoarm_station.h"
+#include "tests/temp_dir.h"
 
 namespace hc = hemm::config;
 
@@ -44,4 +49,36 @@ TEST(TwoArmConfig, BadValuesAreRefusedByField) {
     ASSERT_EQ(issues.size(), 1u);
     EXPECT_EQ(issues[0].rfind(field, 0), 0u) << issues[0];
   }
+}
+
+// The shipped two-arm config (deploy/configs/robot_twoarm.pbtxt) loads and
+// validates, names the two-arm robot, the workbench scene and the head
+// camera, and converts into the robot's options field by field.
+TEST(TwoArmConfig, ShippedTwoArmConfigLoads) {
+  hc::RobotConfig c;
+  const std::string path = std::string(HEMM_SOURCE_DIR) + "/deploy/configs/robot_twoarm.pbtxt";
+  const auto e = hc::load_robot_config(path, &c);
+  ASSERT_FALSE(e) << e->to_string();
+  EXPECT_EQ(c.kind(), "twoarm");
+  const std::string scene = hc::resolve_relative_to(path, c.sim().scene());
+  EXPECT_EQ(scene.substr(scene.size() - 13), "workbench.xml");
+  EXPECT_TRUE(std::ifstream(scene).good()) << scene;
+  EXPECT_TRUE(c.depth_camera().enabled());
+  EXPECT_FALSE(c.depth_camera().has_mount());  // the scene's head_depth camera
+  const hemm::twoarm::TwoArmRobotOptions o = hemm::twoarm::two_arm_robot_options(c);
+  EXPECT_EQ(o.control.arm[0].stiffness_N_per_m, c.twoarm().stiffness_n_per_m());
+  EXPECT_EQ(o.control.arm[1].force_limit_N, c.twoarm().force_limit_n());
+  EXPECT_EQ(o.limits.max_target_jump_m, c.twoarm().max_target_jump_m());
+  EXPECT_EQ(o.watchdog_ns, int64_t{c.safety().watchdog_ms()} * 1'000'000);
+}
+
+// A config file with an unknown kind is refused by the loader, naming the field.
+TEST(TwoArmConfig, UnknownKindInAFileIsRefused) {
+  const std::string dir = hemm::test::make_temp_dir("twoarm-config");
+  const std::string path = dir + "/robot.pbtxt";
+  std::ofstream(path) << "kind: \"hexapod\"\n";
+  hc::RobotConfig c;
+  const auto e = hc::load_robot_config(path, &c);
+  ASSERT_TRUE(e);
+  EXPECT_NE(e->to_string().find("kind"), std::string::npos) << e->to_string();
 }
