@@ -56,6 +56,14 @@ Eigen::Isometry3d script_blend(const Eigen::Isometry3d& a, const Eigen::Isometry
   return T;
 }
 
+// The grasp frame at p_A from above, turned about the fingers' closing axis
+// (y_G, along x_A) by the side's tilt: the fingers still close across x_A.
+Eigen::Isometry3d script_grasp(const ScriptParams& p, Side s, const Eigen::Vector3d& p_A) {
+  Eigen::Isometry3d T = downward_grasp(p_A);
+  T.linear() = T.linear() * Eigen::AngleAxisd(p.tilt_rad[twoarm::idx(s)], Eigen::Vector3d::UnitY()).toRotationMatrix();
+  return T;
+}
+
 // A step moving one arm to a pose and waiting for it.
 ScriptStep script_move(const std::string& name, Side s, const Eigen::Isometry3d& T, double speed = 0.0, double tol = 0.0) {
   ScriptStep st;
@@ -79,10 +87,10 @@ ScriptStep script_grip(const std::string& name, Side s, const GripperTarget& g, 
 // the first three steps of every task.
 void script_take(TaskScript& t, Side s, const std::string& what, const Eigen::Vector3d& grasp, double open) {
   const std::string who = s == Side::kRight ? "right" : "left";
-  ScriptStep above = script_move(who + " over the " + what, s, downward_grasp(grasp + Eigen::Vector3d(0, 0, 0.10)));
+  ScriptStep above = script_move(who + " over the " + what, s, script_grasp(t.p, s, grasp + Eigen::Vector3d(0, 0, 0.10)));
   above.grip[twoarm::idx(s)] = GripperTarget{open, t.p.grip_force_N};
   t.steps.push_back(above);
-  t.steps.push_back(script_move(who + " down to the " + what, s, downward_grasp(grasp), t.p.slow_speed_mps));
+  t.steps.push_back(script_move(who + " down to the " + what, s, script_grasp(t.p, s, grasp), t.p.slow_speed_mps));
   t.steps.push_back(script_grip(who + " closes on the " + what, s, {0.0, t.p.grip_force_N}, true));
 }
 
@@ -106,13 +114,13 @@ TaskScript box_script(const TaskScene& sc, const ScriptParams& p) {
   // Carried with its bottom 9 cm over the board (it sags ~2 cm under 2 kg).
   const double carry_z = sc.shelf_place.z() + sc.box_size.z() / 2.0 + 0.09 + g_above_centre;
   script_take(t, r, "box", grasp, open);
-  t.steps.push_back(script_move("lift the box", r, downward_grasp(Eigen::Vector3d(grasp.x(), grasp.y(), carry_z)), 0.0, p.carry_tol_m));
+  t.steps.push_back(script_move("lift the box", r, script_grasp(p, r, Eigen::Vector3d(grasp.x(), grasp.y(), carry_z)), 0.0, p.carry_tol_m));
   t.steps.push_back(script_move("carry it over the shelf", r,
-                                downward_grasp(Eigen::Vector3d(sc.shelf_place.x(), sc.shelf_place.y(), carry_z)), 0.0, p.carry_tol_m));
+                                script_grasp(p, r, Eigen::Vector3d(sc.shelf_place.x(), sc.shelf_place.y(), carry_z)), 0.0, p.carry_tol_m));
   // Set down: the target 5 mm into the board, so the board takes the load.
   ScriptStep place = script_move(
       "set it on the board", r,
-      downward_grasp(sc.shelf_place + Eigen::Vector3d(0, 0, sc.box_size.z() / 2.0 + g_above_centre - 0.005)),
+      script_grasp(p, r, sc.shelf_place + Eigen::Vector3d(0, 0, sc.box_size.z() / 2.0 + g_above_centre - 0.005)),
       p.slow_speed_mps, 0.01);
   place.wait_unloaded[0] = true;
   t.steps.push_back(place);
@@ -131,16 +139,16 @@ TaskScript peg_script(const TaskScene& sc, const ScriptParams& p) {
   const double entry_z = sc.hole_top.z() + g_to_end;
   const double carry_z = entry_z + 0.07;
   script_take(t, l, "peg", grasp, open);
-  t.steps.push_back(script_move("lift the peg", l, downward_grasp(Eigen::Vector3d(grasp.x(), grasp.y(), carry_z)), 0.0, 0.01));
-  t.steps.push_back(script_move("over the hole", l, downward_grasp(Eigen::Vector3d(sc.hole_top.x(), sc.hole_top.y(), carry_z)), 0.0, 0.01));
-  t.steps.push_back(script_move("down to the hole", l, downward_grasp(Eigen::Vector3d(sc.hole_top.x(), sc.hole_top.y(), entry_z + 0.01)),
+  t.steps.push_back(script_move("lift the peg", l, script_grasp(p, l, Eigen::Vector3d(grasp.x(), grasp.y(), carry_z)), 0.0, 0.01));
+  t.steps.push_back(script_move("over the hole", l, script_grasp(p, l, Eigen::Vector3d(sc.hole_top.x(), sc.hole_top.y(), carry_z)), 0.0, 0.01));
+  t.steps.push_back(script_move("down to the hole", l, script_grasp(p, l, Eigen::Vector3d(sc.hole_top.x(), sc.hole_top.y(), entry_z + 0.01)),
                                 p.slow_speed_mps, 0.004));
   ScriptStep ins;
   ins.name = "insert (guarded)";
   ins.insert_arm = 1;
   ins.entry_z = entry_z;
   ins.bottom_z = entry_z - (sc.hole_depth_m - 0.005);
-  ins.pose[1] = downward_grasp(Eigen::Vector3d(sc.hole_top.x(), sc.hole_top.y(), ins.bottom_z));
+  ins.pose[1] = script_grasp(p, l, Eigen::Vector3d(sc.hole_top.x(), sc.hole_top.y(), ins.bottom_z));
   t.steps.push_back(ins);
   t.steps.push_back(script_grip("let go of the peg", l, {open, p.grip_force_N}, false));
   t.steps.push_back(script_retreat("retreat", l, Eigen::Vector3d(0, 0, 0.10)));
@@ -155,13 +163,13 @@ TaskScript bar_script(const TaskScene& sc, const ScriptParams& p) {
   // The hand-over pose: the bar 12 cm up, 5 cm nearer the bench's middle.
   const Eigen::Vector3d left_handover = left_grasp + Eigen::Vector3d(0.05, 0, 0.12);
   script_take(t, l, "bar", left_grasp, open);
-  t.steps.push_back(script_move("left lifts it to the middle", l, downward_grasp(left_handover), 0.0, 0.01));
+  t.steps.push_back(script_move("left lifts it to the middle", l, script_grasp(p, l, left_handover), 0.0, 0.01));
   // The right's grasp 0.20 m to the right of where the left is believed to be.
-  ScriptStep r_above = script_move("right over the bar", r, downward_grasp(Eigen::Vector3d(0, -0.20, 0.10)));
+  ScriptStep r_above = script_move("right over the bar", r, script_grasp(p, r, Eigen::Vector3d(0, -0.20, 0.10)));
   r_above.from_other[0] = true;
   r_above.grip[0] = GripperTarget{open, p.grip_force_N};
   t.steps.push_back(r_above);
-  ScriptStep r_down = script_move("right down to the bar", r, downward_grasp(Eigen::Vector3d(0, -0.20, 0.0)), p.slow_speed_mps);
+  ScriptStep r_down = script_move("right down to the bar", r, script_grasp(p, r, Eigen::Vector3d(0, -0.20, 0.0)), p.slow_speed_mps);
   r_down.from_other[0] = true;
   t.steps.push_back(r_down);
   t.steps.push_back(script_grip("right closes on the bar", r, {0.0, p.grip_force_N}, true));
@@ -219,6 +227,11 @@ ScriptOutput script_step(const TaskScript& sc, ScriptState& st, const wire::Arms
       if (step.pose[a]) {
         st.to[a] = *step.pose[a];
         if (step.from_other[a]) st.to[a].translation() += b[1 - a].T_A_G.translation();
+        // A parallel gripper grasps the same turned half a turn about its
+        // approach axis: take the turn nearer to where the arm is (the other
+        // may lie beyond a wrist joint's limit).
+        const Eigen::Matrix3d flipped = st.to[a].linear() * Eigen::AngleAxisd(std::numbers::pi, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+        if ((script_angle(st.from[a].linear(), flipped) < script_angle(st.from[a].linear(), st.to[a].linear())) != false) st.to[a].linear() = flipped;
       }
       if (step.delta[a]) st.to[a].translation() += *step.delta[a];
       if (step.grip[a]) st.targets.gripper[a] = *step.grip[a];

@@ -50,7 +50,11 @@ struct ScriptParams {
   double search_pitch_m = 0.0004; // the search circle grows this much per turn
   double search_max_m = 0.004;
   double search_period_s = 2.0;
-  double deadman_delay_s = 0.1;   // released this long at the start (the re-arm wants a neutral command)
+  double deadman_delay_s = 0.1;
+  // Each arm's grasps from above are turned by this about the fingers'
+  // closing axis (which stays along x_A): straight down, the right and left
+  // arms stop short at a wrist joint's limit (j6) from their rest postures.
+  std::array<double, kArms> tilt_rad{0.5, -0.7};   // released this long at the start (the re-arm wants a neutral command)
 };
 
 // One step of a plan: targets given at its start, a wait at its end.

@@ -13,6 +13,7 @@
 #include "tests/robot_side/twoarm/workbench_scene.h"
 
 #include <cstdio>
+#include <cstdlib>
 #include <deque>
 #include <random>
 
@@ -34,6 +35,7 @@ struct FeasibilityRun {
   std::string last_step;
   int searches = 0;
   uint64_t refusals = 0;
+  std::string detail;  // where the arms are against the step's targets, for a failing run
 };
 
 hs::TaskScript feasibility_script(ht::Task task) {
@@ -49,7 +51,7 @@ hs::TaskScript feasibility_script(ht::Task task) {
 
 // One run: the robot at 1 kHz, the script at 100 Hz, the state at 250 Hz,
 // each direction late by rtt/2 and losing `loss` of its messages.
-FeasibilityRun feasibility_run(ht::Task task, double rtt_s, double loss, uint64_t seed, double max_s = 150.0) {
+FeasibilityRun feasibility_run(ht::Task task, double rtt_s, double loss, uint64_t seed, double max_s) {
   ht::TwoArmRobot robot(kWorkbenchScene, ht::TwoArmRobotOptions{});
   robot.set_link(true, true);
   const ht::TaskTruthModel tm = ht::make_task_truth_model(robot.sim(), task);
@@ -105,6 +107,22 @@ FeasibilityRun feasibility_run(ht::Task task, double rtt_s, double loss, uint64_
   r.last_step = st.step < script.steps.size() ? script.steps[st.step].name : "done";
   r.searches = st.searches;
   r.refusals = robot.counters().refusals;
+  char line[256];
+  for (std::size_t a = 0; a < 2; ++a) {
+    const Eigen::Vector3d g = robot.sim().grasp_site_A(static_cast<ht::Side>(a)).translation(), to = st.to[a].translation();
+    std::snprintf(line, sizeof line, "[arm %zu: G %.3f %.3f %.3f, step target %.3f %.3f %.3f, %.3f rad off] ", a, g.x(), g.y(), g.z(),
+                  to.x(), to.y(), to.z(), Eigen::AngleAxisd(robot.sim().grasp_site_A(static_cast<ht::Side>(a)).linear().transpose() * st.to[a].linear()).angle());
+    r.detail += line;
+    const ht::ArmReading rd = robot.sim().reading(static_cast<ht::Side>(a));
+    for (int i = 0; i < 7; ++i) {
+      std::snprintf(line, sizeof line, "%.2f ", rd.q(i));
+      r.detail += line;
+    }
+    const auto& o = robot.control_output().arm[a];
+    std::snprintf(line, sizeof line, " limited %d tlim %d |tau_lim| %.1f |tau_extra-ish avoid| ", o.force_limited, o.torque_limited, o.tau_limits.norm());
+    r.detail += line;
+  }
+  r.detail += st.error;
   return r;
 }
 
@@ -117,10 +135,10 @@ void feasibility_print(ht::Task task, double rtt_s, uint64_t seed, const Feasibi
 }
 
 void feasibility_expect(ht::Task task, double rtt_s, double loss, uint64_t seed) {
-  const FeasibilityRun r = feasibility_run(task, rtt_s, loss, seed);
+  const FeasibilityRun r = feasibility_run(task, rtt_s, loss, seed, std::getenv("HEMM_TASK_MAX_S") ? std::atof(std::getenv("HEMM_TASK_MAX_S")) : 150.0);
   feasibility_print(task, rtt_s, seed, r);
   EXPECT_TRUE(r.script_done) << ht::to_string(task) << " at " << rtt_s << " s: stopped at step " << r.steps_done << " ("
-                             << r.last_step << ")";
+                             << r.last_step << ") " << r.detail << " refusals " << r.refusals;
   EXPECT_TRUE(r.verdict.success) << ht::to_string(task) << " at " << rtt_s << " s: " << r.verdict.why;
   EXPECT_EQ(r.refusals, 0u);
 }
