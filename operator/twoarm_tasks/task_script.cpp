@@ -155,21 +155,28 @@ TaskScript peg_script(const TaskScene& sc, const ScriptParams& p) {
   return t;
 }
 
-TaskScript bar_script(const TaskScene& sc, const ScriptParams& p) {
+TaskScript bar_script(const TaskScene& sc, const ScriptParams& params) {
+  // The hand-over pose, near the middle, asks more of the right wrist: its
+  // grasp is turned further (at the box's 0.5 rad it stops 0.4 rad short at j6).
+  ScriptParams p = params;
+  p.tilt_rad[0] = std::max(p.tilt_rad[0], 0.9);
   TaskScript t{"bar", p, {}};
   const Side r = Side::kRight, l = Side::kLeft;
   const double open = 2.0 * sc.bar_radius_m + 0.04;
-  const Eigen::Vector3d left_grasp = sc.bar_centre + Eigen::Vector3d(0, 0.10, 0);
+  // The left takes the bar at its middle, so that it hangs level from it (the
+  // pads' torsional friction would let it turn about the fingers' axis
+  // under its weight's moment); the right then takes it 0.12 m to the right.
+  const Eigen::Vector3d left_grasp = sc.bar_centre;
   // The hand-over pose: the bar 12 cm up, 5 cm nearer the bench's middle.
   const Eigen::Vector3d left_handover = left_grasp + Eigen::Vector3d(0.05, 0, 0.12);
   script_take(t, l, "bar", left_grasp, open);
   t.steps.push_back(script_move("left lifts it to the middle", l, script_grasp(p, l, left_handover), 0.0, 0.01));
-  // The right's grasp 0.20 m to the right of where the left is believed to be.
-  ScriptStep r_above = script_move("right over the bar", r, script_grasp(p, r, Eigen::Vector3d(0, -0.20, 0.10)));
+  // The right's grasp 0.12 m to the right of where the left is believed to be.
+  ScriptStep r_above = script_move("right over the bar", r, script_grasp(p, r, Eigen::Vector3d(0, -0.12, 0.10)));
   r_above.from_other[0] = true;
   r_above.grip[0] = GripperTarget{open, p.grip_force_N};
   t.steps.push_back(r_above);
-  ScriptStep r_down = script_move("right down to the bar", r, script_grasp(p, r, Eigen::Vector3d(0, -0.20, 0.0)), p.slow_speed_mps);
+  ScriptStep r_down = script_move("right down to the bar", r, script_grasp(p, r, Eigen::Vector3d(0, -0.12, 0.0)), p.slow_speed_mps);
   r_down.from_other[0] = true;
   t.steps.push_back(r_down);
   t.steps.push_back(script_grip("right closes on the bar", r, {0.0, p.grip_force_N}, true));
@@ -269,21 +276,20 @@ ScriptOutput script_step(const TaskScript& sc, ScriptState& st, const wire::Arms
     const auto a = static_cast<std::size_t>(step.insert_arm);
     Eigen::Vector3d xy = st.to[a].translation();
     const double z_seen = b[a].T_A_G.translation().z();
-    const bool in = have && z_seen < step.entry_z - p.in_margin_m;
-    confirmed = false;
+    const bool pressed = have && b[a].force_A.z() > p.contact_N;  // the environment pushes the peg up
     switch (st.insert) {
       case ScriptState::Insert::kDescend:
         st.insert_z = std::max(step.bottom_z, st.insert_z0 - p.insert_speed_mps * (t - st.insert_t0));
-        if (in) {
-          st.insert = ScriptState::Insert::kIn;
-          st.insert_z0 = st.insert_z;
-          st.insert_t0 = t;
-        } else if (have && b[a].force_A.z() > p.contact_N && b[a].v_A.norm() < p.settle_speed_mps &&
-                   z_seen > step.entry_z - p.in_margin_m) {
-          st.insert = ScriptState::Insert::kSearch;  // on the hole's rim
-          st.search_t0 = t;
-          st.insert_z = z_seen - p.press_m;
-          ++st.searches;
+        if (pressed && b[a].v_A.norm() < p.settle_speed_mps) {
+          if (z_seen < step.entry_z - p.min_depth_m) {
+            st.insert = ScriptState::Insert::kIn;  // on the hole's bottom already
+          } else {
+            st.insert = ScriptState::Insert::kSearch;  // on the rim: press lightly, search
+            st.search_t0 = t;
+            st.search_z = z_seen;
+            st.insert_z = z_seen - p.press_m;
+            ++st.searches;
+          }
         }
         break;
       case ScriptState::Insert::kSearch: {
@@ -291,19 +297,21 @@ ScriptOutput script_step(const TaskScript& sc, ScriptState& st, const wire::Arms
         const double r = std::fmod(turns * p.search_pitch_m, p.search_max_m);
         const double phi = 2.0 * std::numbers::pi * turns;
         xy += r * Eigen::Vector3d(std::cos(phi), std::sin(phi), 0.0);
-        if (in) {
-          st.insert = ScriptState::Insert::kIn;
-          st.insert_z0 = st.insert_z;
+        if (have && z_seen < st.search_z - p.in_margin_m && !pressed) {
+          // Dropped in: on down from here, over the hole's axis.
+          st.insert = ScriptState::Insert::kDescend;
+          st.insert_z0 = st.insert_z = z_seen;
           st.insert_t0 = t;
         }
         break;
       }
       case ScriptState::Insert::kIn:
-        st.insert_z = std::max(step.bottom_z, st.insert_z0 - p.insert_speed_mps * (t - st.insert_t0));
-        confirmed = have && st.insert_z <= step.bottom_z && std::abs(z_seen - step.bottom_z) <= p.pos_tol_m &&
-                    b[a].v_A.norm() <= p.settle_speed_mps;
         break;
     }
+    // Done: at the bottom target, or pressed at least min_depth in.
+    confirmed = have && b[a].v_A.norm() <= p.settle_speed_mps &&
+                ((st.insert_z <= step.bottom_z && std::abs(z_seen - step.bottom_z) <= p.pos_tol_m) ||
+                 st.insert == ScriptState::Insert::kIn);
     st.targets.T_A_G[a] = st.to[a];
     st.targets.T_A_G[a].translation() = Eigen::Vector3d(xy.x(), xy.y(), st.insert_z);
   }

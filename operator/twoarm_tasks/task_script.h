@@ -45,11 +45,12 @@ struct ScriptParams {
   double open_tol_m = 0.005;
   // Guarded insertion.
   double contact_N = 3.0;         // the wrist's upward force that tells contact
-  double in_margin_m = 0.004;     // G this far below the entry height: the peg is in
+  double in_margin_m = 0.004;     // searching, G drops this far (unpressed): the peg is in the hole
+  double min_depth_m = 0.03;      // pressed this far below the entry height: at the hole's bottom
   double press_m = 0.001;         // stuck: target this far below where G rests (the peg's weight presses too)
-  double search_pitch_m = 0.0004; // the search circle grows this much per turn
-  double search_max_m = 0.004;
-  double search_period_s = 2.0;
+  double search_pitch_m = 0.001;  // the search circle grows this much per turn (the clearance is 1 mm)
+  double search_max_m = 0.015;    // the peg sits up to ~1 cm off G's axis in the tilted grasp
+  double search_period_s = 1.5;
   double deadman_delay_s = 0.1;
   // Each arm's grasps from above are turned by this about the fingers'
   // closing axis (which stays along x_A): straight down, the right and left
@@ -88,8 +89,8 @@ struct TaskScript {
 //   the shelf's edge, sets it down on the board, lets go, retreats.
 // peg: the left gripper takes the peg 3 cm below its top, carries it over
 //   the hole, inserts it (guarded) to 5 mm above the bottom, lets go.
-// bar: the left gripper takes the bar 0.10 m left of its middle and lifts it
-//   to the hand-over pose; the right takes it 0.20 m from the left's grasp
+// bar: the left gripper takes the bar at its middle and lifts it to the
+//   hand-over pose; the right takes it 0.12 m right of the left's grasp
 //   (where the left is believed to be); the left lets go and retreats.
 TaskScript box_script(const TaskScene& scene, const ScriptParams& p = {});
 TaskScript peg_script(const TaskScene& scene, const ScriptParams& p = {});
@@ -106,7 +107,7 @@ struct ScriptState {
   twoarm::TwoArmTargets targets;
   // Guarded insertion.
   enum class Insert { kDescend, kSearch, kIn } insert = Insert::kDescend;
-  double insert_z = 0.0, insert_z0 = 0.0, insert_t0 = 0.0, search_t0 = 0.0;
+  double insert_z = 0.0, insert_z0 = 0.0, insert_t0 = 0.0, search_t0 = 0.0, search_z = 0.0;
   int searches = 0;
   bool done = false;
   double done_t = -1.0;
