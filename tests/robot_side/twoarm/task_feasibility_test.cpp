@@ -83,11 +83,6 @@ FeasibilityRun feasibility_run(ht::Task task, double rtt_s, double loss, uint64_
       have_believed = true;
       to_operator.pop_front();
     }
-    if (k % 4 == 0 && u(rng) >= loss) {
-      hw::ArmsState s;
-      robot.state(&s);
-      to_operator.emplace_back(now + one_way_ns, std::move(s));
-    }
     if (k % 10 == 0) {
       const hs::ScriptOutput out = hs::script_step(script, st, have_believed ? &believed : nullptr, 1e-9 * static_cast<double>(now));
       if (out.send && u(rng) >= loss) {
@@ -106,6 +101,13 @@ FeasibilityRun feasibility_run(ht::Task task, double rtt_s, double loss, uint64_
     }
     robot.step();
     ht::task_truth_tick(tm, robot.sim(), data);
+    // Sampled after the tick, as the station streams it (before the first
+    // tick TwoArmRobot::state() has no grasp poses yet: identity).
+    if (k % 4 == 0 && u(rng) >= loss) {
+      hw::ArmsState s;
+      robot.state(&s);
+      to_operator.emplace_back(now + one_way_ns, std::move(s));
+    }
     // Done: the human stops; the truth is judged 1 s later.
     if (st.done && robot.time_ns() * 1e-9 > st.done_t + 1.0) break;
   }
@@ -132,7 +134,7 @@ FeasibilityRun feasibility_run(ht::Task task, double rtt_s, double loss, uint64_
     std::snprintf(line, sizeof line, " limited %d tlim %d |tau_lim| %.1f |tau_extra-ish avoid| ", o.force_limited, o.torque_limited, o.tau_limits.norm());
     r.detail += line;
   }
-  r.detail += st.error;
+  r.detail += st.error + " last refusal: " + robot.counters().last_refusal_detail;
   return r;
 }
 
