@@ -131,7 +131,7 @@ FeasibilityRun feasibility_run(ht::Task task, double rtt_s, double loss, uint64_
       r.detail += line;
     }
     const auto& o = robot.control_output().arm[a];
-    std::snprintf(line, sizeof line, " limited %d tlim %d |tau_lim| %.1f |tau_extra-ish avoid| ", o.force_limited, o.torque_limited, o.tau_limits.norm());
+    std::snprintf(line, sizeof line, " force-limited %d torque-limited %d |joint-limit torque| %.1f N m ", o.force_limited, o.torque_limited, o.tau_limits.norm());
     r.detail += line;
   }
   r.detail += st.error + " last refusal: " + robot.counters().last_refusal_detail;
