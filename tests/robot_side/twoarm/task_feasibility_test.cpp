@@ -13,6 +13,8 @@
 #include "tests/robot_side/twoarm/workbench_scene.h"
 
 #include <cstdio>
+#include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <deque>
 #include <random>
@@ -96,8 +98,9 @@ FeasibilityRun feasibility_run(ht::Task task, double rtt_s, double loss, uint64_
       traced_step = st.step;
       const Eigen::Vector3d o = robot.sim().body_pose_A(ht::to_string(task)).translation();
       const Eigen::Vector3d g = robot.sim().grasp_site_A(task == ht::Task::kBox ? ht::Side::kRight : ht::Side::kLeft).translation();
-      std::printf("  %7.3f s: step %zu (%s); object %.4f %.4f %.4f, G %.4f %.4f %.4f, searches %d\n", 1e-9 * static_cast<double>(now), st.step,
-                  st.step < script.steps.size() ? script.steps[st.step].name.c_str() : "done", o.x(), o.y(), o.z(), g.x(), g.y(), g.z(), st.searches);
+      const Eigen::Matrix3d R = robot.sim().body_pose_A(ht::to_string(task)).linear();
+      std::printf("  %7.3f s: step %zu (%s); object %.4f %.4f %.4f tilted %.3f rad, G %.4f %.4f %.4f, searches %d\n", 1e-9 * static_cast<double>(now), st.step,
+                  st.step < script.steps.size() ? script.steps[st.step].name.c_str() : "done", o.x(), o.y(), o.z(), std::acos(std::clamp(R(2, 2), -1.0, 1.0)), g.x(), g.y(), g.z(), st.searches);
     }
     robot.step();
     ht::task_truth_tick(tm, robot.sim(), data);
