@@ -1,0 +1,330 @@
+#include "operator/twoarm_tasks/task_script.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include "common/mapping/depth_stream.h"
+#include "robot_side/twoarm/arms_wire.h"
+#include "robot_side/twoarm/twoarm_model.h"
+
+namespace hemm::twoarm_tasks {
+
+namespace {
+
+using twoarm::downward_grasp;
+using twoarm::GripperTarget;
+
+// What the script reads of a believed state.
+struct BelievedArm {
+  Eigen::Isometry3d T_A_G = Eigen::Isometry3d::Identity();
+  Eigen::Vector3d v_A = Eigen::Vector3d::Zero();
+  Eigen::Vector3d force_A = Eigen::Vector3d::Zero();
+  double opening_m = 0.0;
+  bool holding = false;
+  GripperTarget grip_target;
+};
+
+std::optional<std::string> script_read(const wire::ArmsState& s, std::array<BelievedArm, kArms>* out) {
+  if (auto e = twoarm::check_arms_state(s)) return e;
+  if (s.arm_size() != kArms || s.gripper_size() != kArms) return "the believed state has not two arms and two grippers";
+  for (const wire::ArmState& a : s.arm()) {
+    if (a.index() >= static_cast<uint32_t>(kArms)) return "an arm index beyond the two";
+    BelievedArm& b = (*out)[a.index()];
+    if (auto e = mapping::pose3_from_wire(a.t_a_g(), &b.T_A_G)) return e;
+    b.v_A = Eigen::Vector3d(a.v_a().x(), a.v_a().y(), a.v_a().z());
+    b.force_A = Eigen::Vector3d(a.force_a().x(), a.force_a().y(), a.force_a().z());
+  }
+  for (const wire::GripperState& g : s.gripper()) {
+    if (g.index() >= static_cast<uint32_t>(kArms)) return "a gripper index beyond the two";
+    BelievedArm& b = (*out)[g.index()];
+    b.opening_m = g.opening_m();
+    b.holding = g.holding();
+    b.grip_target = {g.target_opening_m(), g.target_force_n()};
+  }
+  return std::nullopt;
+}
+
+double script_angle(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
+  return Eigen::AngleAxisd(a.transpose() * b).angle();
+}
+
+Eigen::Isometry3d script_blend(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, double s) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.translation() = (1.0 - s) * a.translation() + s * b.translation();
+  T.linear() = Eigen::Quaterniond(a.linear()).slerp(s, Eigen::Quaterniond(b.linear())).toRotationMatrix();
+  return T;
+}
+
+// The grasp frame at p_A from above, turned about the fingers' closing axis
+// (y_G, along x_A) by the side's tilt: the fingers still close across x_A.
+Eigen::Isometry3d script_grasp(const ScriptParams& p, Side s, const Eigen::Vector3d& p_A) {
+  Eigen::Isometry3d T = downward_grasp(p_A);
+  T.linear() = T.linear() * Eigen::AngleAxisd(p.tilt_rad[twoarm::idx(s)], Eigen::Vector3d::UnitY()).toRotationMatrix();
+  return T;
+}
+
+// A step moving one arm to a pose and waiting for it.
+ScriptStep script_move(const std::string& name, Side s, const Eigen::Isometry3d& T, double speed = 0.0, double tol = 0.0) {
+  ScriptStep st;
+  st.name = name;
+  st.pose[twoarm::idx(s)] = T;
+  st.wait_reach[twoarm::idx(s)] = true;
+  st.speed_mps = speed;
+  st.tol_m = tol;
+  return st;
+}
+
+ScriptStep script_grip(const std::string& name, Side s, const GripperTarget& g, bool close) {
+  ScriptStep st;
+  st.name = name;
+  st.grip[twoarm::idx(s)] = g;
+  (close ? st.wait_grasped : st.wait_opened)[twoarm::idx(s)] = true;
+  return st;
+}
+
+// Over the grasp (10 cm above it, the gripper opening), down to it, close:
+// the first three steps of every task.
+void script_take(TaskScript& t, Side s, const std::string& what, const Eigen::Vector3d& grasp, double open) {
+  const std::string who = s == Side::kRight ? "right" : "left";
+  ScriptStep above = script_move(who + " over the " + what, s, script_grasp(t.p, s, grasp + Eigen::Vector3d(0, 0, 0.10)));
+  above.grip[twoarm::idx(s)] = GripperTarget{open, t.p.grip_force_N};
+  t.steps.push_back(above);
+  t.steps.push_back(script_move(who + " down to the " + what, s, script_grasp(t.p, s, grasp), t.p.slow_speed_mps));
+  t.steps.push_back(script_grip(who + " closes on the " + what, s, {0.0, t.p.grip_force_N}, true));
+}
+
+// Moves an arm by `delta` from its target and waits for it.
+ScriptStep script_retreat(const std::string& name, Side s, const Eigen::Vector3d& delta) {
+  ScriptStep back;
+  back.name = name;
+  back.delta[twoarm::idx(s)] = delta;
+  back.wait_reach[twoarm::idx(s)] = true;
+  return back;
+}
+
+}  // namespace
+
+TaskScript box_script(const TaskScene& sc, const ScriptParams& p) {
+  TaskScript t{"box", p, {}};
+  const Side r = Side::kRight;
+  const double open = std::min(0.218, sc.box_size.x() + 0.018);  // the gripper opens 0.22 at most
+  const Eigen::Vector3d grasp = sc.box_centre + Eigen::Vector3d(0, 0, sc.box_size.z() / 2.0 - 0.04);  // G 4 cm below the top
+  const double g_above_centre = grasp.z() - sc.box_centre.z();
+  // Carried with its bottom 9 cm over the board (it sags ~2 cm under 2 kg).
+  const double carry_z = sc.shelf_place.z() + sc.box_size.z() / 2.0 + 0.09 + g_above_centre;
+  script_take(t, r, "box", grasp, open);
+  t.steps.push_back(script_move("lift the box", r, script_grasp(p, r, Eigen::Vector3d(grasp.x(), grasp.y(), carry_z)), 0.0, p.carry_tol_m));
+  t.steps.push_back(script_move("carry it over the shelf", r,
+                                script_grasp(p, r, Eigen::Vector3d(sc.shelf_place.x(), sc.shelf_place.y(), carry_z)), 0.0, p.carry_tol_m));
+  // Set down: the target 5 mm into the board, so the board takes the load.
+  ScriptStep place = script_move(
+      "set it on the board", r,
+      script_grasp(p, r, sc.shelf_place + Eigen::Vector3d(0, 0, sc.box_size.z() / 2.0 + g_above_centre - 0.005)),
+      p.slow_speed_mps, 0.01);
+  place.wait_unloaded[0] = true;
+  t.steps.push_back(place);
+  t.steps.push_back(script_grip("let go of the box", r, {open, p.grip_force_N}, false));
+  t.steps.push_back(script_retreat("retreat", r, Eigen::Vector3d(0, 0, 0.12)));
+  return t;
+}
+
+TaskScript peg_script(const TaskScene& sc, const ScriptParams& p) {
+  TaskScript t{"peg", p, {}};
+  const Side l = Side::kLeft;
+  const double open = 2.0 * sc.peg_radius_m + 0.035;
+  const double top = sc.peg_centre.z() + sc.peg_length_m / 2.0;
+  const Eigen::Vector3d grasp(sc.peg_centre.x(), sc.peg_centre.y(), top - 0.02);
+  const double g_to_end = grasp.z() - (sc.peg_centre.z() - sc.peg_length_m / 2.0);  // G above the peg's end
+  const double entry_z = sc.hole_top.z() + g_to_end;
+  const double carry_z = entry_z + 0.07;
+  script_take(t, l, "peg", grasp, open);
+  t.steps.push_back(script_move("lift the peg", l, script_grasp(p, l, Eigen::Vector3d(grasp.x(), grasp.y(), carry_z)), 0.0, 0.01));
+  t.steps.push_back(script_move("over the hole", l, script_grasp(p, l, Eigen::Vector3d(sc.hole_top.x(), sc.hole_top.y(), carry_z)), 0.0, 0.01));
+  t.steps.push_back(script_move("down to the hole", l, script_grasp(p, l, Eigen::Vector3d(sc.hole_top.x(), sc.hole_top.y(), entry_z + 0.01)),
+                                p.slow_speed_mps, 0.004));
+  ScriptStep ins;
+  ins.name = "insert (guarded)";
+  ins.insert_arm = 1;
+  ins.entry_z = entry_z;
+  ins.bottom_z = entry_z - (sc.hole_depth_m - 0.005);
+  ins.pose[1] = script_grasp(p, l, Eigen::Vector3d(sc.hole_top.x(), sc.hole_top.y(), ins.bottom_z));
+  t.steps.push_back(ins);
+  t.steps.push_back(script_grip("let go of the peg", l, {open, p.grip_force_N}, false));
+  t.steps.push_back(script_retreat("retreat", l, Eigen::Vector3d(0, 0, 0.10)));
+  return t;
+}
+
+TaskScript bar_script(const TaskScene& sc, const ScriptParams& params) {
+  // The hand-over pose, near the middle, asks more of the right wrist: its
+  // grasp is turned further (at the box's 0.5 rad it stops 0.4 rad short at j6).
+  ScriptParams p = params;
+  p.tilt_rad[0] = std::max(p.tilt_rad[0], 0.9);
+  TaskScript t{"bar", p, {}};
+  const Side r = Side::kRight, l = Side::kLeft;
+  const double open = 2.0 * sc.bar_radius_m + 0.04;
+  // The left takes the bar at its middle, so that it hangs level from it (the
+  // pads' torsional friction would let it turn about the fingers' axis
+  // under its weight's moment); the right then takes it 0.12 m to the right.
+  const Eigen::Vector3d left_grasp = sc.bar_centre;
+  // The hand-over pose: the bar 12 cm up, 5 cm nearer the bench's middle.
+  const Eigen::Vector3d left_handover = left_grasp + Eigen::Vector3d(0.05, 0, 0.12);
+  script_take(t, l, "bar", left_grasp, open);
+  t.steps.push_back(script_move("left lifts it to the middle", l, script_grasp(p, l, left_handover), 0.0, 0.01));
+  // The right's grasp 0.12 m to the right of where the left is believed to be.
+  ScriptStep r_above = script_move("right over the bar", r, script_grasp(p, r, Eigen::Vector3d(0, -0.12, 0.10)));
+  r_above.from_other[0] = true;
+  r_above.grip[0] = GripperTarget{open, p.grip_force_N};
+  t.steps.push_back(r_above);
+  ScriptStep r_down = script_move("right down to the bar", r, script_grasp(p, r, Eigen::Vector3d(0, -0.12, 0.0)), p.slow_speed_mps);
+  r_down.from_other[0] = true;
+  t.steps.push_back(r_down);
+  t.steps.push_back(script_grip("right closes on the bar", r, {0.0, p.grip_force_N}, true));
+  t.steps.push_back(script_grip("left lets go", l, {open, p.grip_force_N}, false));
+  t.steps.push_back(script_retreat("left retreats", l, Eigen::Vector3d(0, 0.05, 0.10)));
+  ScriptStep hold;
+  hold.name = "right holds the bar";
+  hold.dwell_s = 1.0;
+  t.steps.push_back(hold);
+  return t;
+}
+
+ScriptOutput script_step(const TaskScript& sc, ScriptState& st, const wire::ArmsState* believed, double t) {
+  ScriptOutput out;
+  if (believed == nullptr && !st.started) return out;
+  std::array<BelievedArm, kArms> b;
+  bool have = false;
+  if (believed != nullptr) {
+    if (auto e = script_read(*believed, &b)) {
+      st.error = *e;  // hold: nothing it cannot read moves the plan on
+    } else {
+      have = true;
+    }
+  }
+  if (!st.started) {
+    if (!have) return out;
+    st.started = true;
+    st.start_t = t;
+    for (std::size_t a = 0; a < kArms; ++a) {
+      st.targets.T_A_G[a] = b[a].T_A_G;
+      st.targets.gripper[a] = b[a].grip_target;
+      st.from[a] = st.to[a] = b[a].T_A_G;
+    }
+  }
+  const ScriptParams& p = sc.p;
+  out.send = true;
+  out.deadman = t - st.start_t >= p.deadman_delay_s;
+  if (!out.deadman || st.step >= sc.steps.size()) {
+    out.targets = st.targets;
+    return out;
+  }
+  const ScriptStep& step = sc.steps[st.step];
+  if (!st.step_begun) {
+    if (!have) {
+      out.targets = st.targets;
+      return out;
+    }
+    st.step_begun = true;
+    st.step_t0 = t;
+    st.move_s = 0.0;
+    const double speed = step.speed_mps > 0.0 ? step.speed_mps : p.speed_mps;
+    for (std::size_t a = 0; a < kArms; ++a) {
+      st.from[a] = st.targets.T_A_G[a];
+      st.to[a] = st.targets.T_A_G[a];
+      if (step.pose[a]) {
+        st.to[a] = *step.pose[a];
+        if (step.from_other[a]) st.to[a].translation() += b[1 - a].T_A_G.translation();
+        // A parallel gripper grasps the same turned half a turn about its
+        // approach axis: take the turn nearer to where the arm is (the other
+        // may lie beyond a wrist joint's limit).
+        const Eigen::Matrix3d flipped = st.to[a].linear() * Eigen::AngleAxisd(std::numbers::pi, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+        if ((script_angle(st.from[a].linear(), flipped) < script_angle(st.from[a].linear(), st.to[a].linear())) != false) st.to[a].linear() = flipped;
+      }
+      if (step.delta[a]) st.to[a].translation() += *step.delta[a];
+      if (step.grip[a]) st.targets.gripper[a] = *step.grip[a];
+      if (step.insert_arm == static_cast<int>(a)) continue;  // its own motion
+      const double d = (st.to[a].translation() - st.from[a].translation()).norm();
+      st.move_s = std::max({st.move_s, d / speed, script_angle(st.from[a].linear(), st.to[a].linear()) / p.rot_speed_radps});
+    }
+    if (step.insert_arm >= 0) {
+      st.insert = ScriptState::Insert::kDescend;
+      st.insert_z = st.insert_z0 = st.from[static_cast<std::size_t>(step.insert_arm)].translation().z();
+      st.insert_t0 = t;
+    }
+  }
+  const double in_step = t - st.step_t0;
+  const double s = st.move_s > 0.0 ? std::clamp(in_step / st.move_s, 0.0, 1.0) : 1.0;
+  for (std::size_t a = 0; a < kArms; ++a) {
+    if (step.insert_arm != static_cast<int>(a)) st.targets.T_A_G[a] = script_blend(st.from[a], st.to[a], s);
+  }
+  bool confirmed = s >= 1.0 && in_step >= step.dwell_s && have;
+  const double tol = step.tol_m > 0.0 ? step.tol_m : p.pos_tol_m;
+  for (std::size_t a = 0; a < kArms && confirmed; ++a) {
+    if (step.wait_reach[a]) {
+      confirmed = (b[a].T_A_G.translation() - st.to[a].translation()).norm() <= tol &&
+                  script_angle(b[a].T_A_G.linear(), st.to[a].linear()) <= p.rot_tol_rad && b[a].v_A.norm() <= p.settle_speed_mps;
+    }
+    if (confirmed && step.wait_grasped[a]) confirmed = b[a].holding;
+    if (confirmed && step.wait_opened[a]) {
+      confirmed = !b[a].holding && b[a].opening_m >= st.targets.gripper[a].opening_m - p.open_tol_m;
+    }
+    if (confirmed && step.wait_unloaded[a]) confirmed = b[a].force_A.norm() <= p.unloaded_N;
+  }
+  if (step.insert_arm >= 0) {
+    // The guarded insertion: the target's height and, when stuck, a search
+    // circle around the hole's axis.
+    const auto a = static_cast<std::size_t>(step.insert_arm);
+    Eigen::Vector3d xy = st.to[a].translation();
+    const double z_seen = b[a].T_A_G.translation().z();
+    const bool pressed = have && b[a].force_A.z() > p.contact_N;  // the environment pushes the peg up
+    switch (st.insert) {
+      case ScriptState::Insert::kDescend:
+        st.insert_z = std::max(step.bottom_z, st.insert_z0 - p.insert_speed_mps * (t - st.insert_t0));
+        if (pressed && b[a].v_A.norm() < p.settle_speed_mps) {
+          if (z_seen < step.entry_z - p.min_depth_m) {
+            st.insert = ScriptState::Insert::kIn;  // on the hole's bottom already
+          } else {
+            st.insert = ScriptState::Insert::kSearch;  // on the rim: press lightly, search
+            st.search_t0 = t;
+            st.search_z = z_seen;
+            st.insert_z = z_seen - p.press_m;
+            ++st.searches;
+          }
+        }
+        break;
+      case ScriptState::Insert::kSearch: {
+        const double turns = (t - st.search_t0) / p.search_period_s;
+        const double r = std::fmod(turns * p.search_pitch_m, p.search_max_m);
+        const double phi = 2.0 * std::numbers::pi * turns;
+        xy += r * Eigen::Vector3d(std::cos(phi), std::sin(phi), 0.0);
+        if (have && z_seen < st.search_z - p.in_margin_m && !pressed) {
+          // Dropped in: on down from here, over the hole's axis.
+          st.insert = ScriptState::Insert::kDescend;
+          st.insert_z0 = st.insert_z = z_seen;
+          st.insert_t0 = t;
+        }
+        break;
+      }
+      case ScriptState::Insert::kIn:
+        break;
+    }
+    // Done: at the bottom target, or pressed at least min_depth in.
+    confirmed = have && b[a].v_A.norm() <= p.settle_speed_mps &&
+                ((st.insert_z <= step.bottom_z && std::abs(z_seen - step.bottom_z) <= p.pos_tol_m) ||
+                 st.insert == ScriptState::Insert::kIn);
+    st.targets.T_A_G[a] = st.to[a];
+    st.targets.T_A_G[a].translation() = Eigen::Vector3d(xy.x(), xy.y(), st.insert_z);
+  }
+  if (confirmed) {
+    ++st.step;
+    st.step_begun = false;
+    if (st.step >= sc.steps.size()) {
+      st.done = true;
+      st.done_t = t;
+    }
+  }
+  out.targets = st.targets;
+  return out;
+}
+
+}  // namespace hemm::twoarm_tasks

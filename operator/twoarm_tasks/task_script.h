@@ -1,0 +1,127 @@
+// The SIMULATED human's plans for the two-arm station's three tasks (issue
+// 25, part 6): closed-loop scripts that, from the *believed* remote state
+// (an ArmsState as the operator receives it, late by the link's delay) and
+// the time, give both arms' grasp-frame targets T_A_G, the grippers' targets
+// and the dead-man. Pure: a const plan (TaskScript) plus mutable progress
+// (ScriptState), stepped by script_step(); no clock, no I/O.
+//
+// Move-and-wait: each step's targets move there at a bounded speed, and the
+// step ends only when the believed state confirms it (the grasp frame within
+// a tolerance of the target and slow, a gripper holding or open, the load
+// taken off the wrist) - whatever the delay, the script never acts on what
+// it has not seen. The peg's insertion is guarded: down slowly; the wrist
+// force tells contact; stuck above the hole, it presses lightly and searches
+// in a growing circle until the grasp frame drops into the hole.
+//
+// Object poses come from the scene's `task:` lines (task_scene.h), never
+// from the simulation's truth.
+#pragma once
+
+#include <array>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "operator/twoarm_tasks/task_scene.h"
+#include "robot_side/twoarm/twoarm_control.h"
+#include "wire.pb.h"
+
+namespace hemm::twoarm_tasks {
+
+using twoarm::kArms;
+using twoarm::Side;
+
+struct ScriptParams {
+  double speed_mps = 0.10;         // free moves
+  double slow_speed_mps = 0.04;    // the last centimetres to a grasp or a placement
+  double insert_speed_mps = 0.01;  // the guarded insertion
+  double rot_speed_radps = 0.5;
+  double pos_tol_m = 0.005;        // "reached", free arm
+  double carry_tol_m = 0.03;       // "reached" with a load (the arm sags under it)
+  double rot_tol_rad = 0.05;
+  double settle_speed_mps = 0.01;  // "reached" also needs G this slow
+  double grip_force_N = 30.0;      // each finger
+  double unloaded_N = 8.0;         // the wrist carries less than this: the load rests
+  double open_tol_m = 0.005;
+  // Guarded insertion.
+  double contact_N = 3.0;         // the wrist's upward force that tells contact
+  double in_margin_m = 0.004;     // searching, G drops this far (unpressed): the peg is in the hole
+  double min_depth_m = 0.03;      // pressed this far below the entry height: at the hole's bottom
+  double press_m = 0.001;         // stuck: target this far below where G rests (the peg's weight presses too)
+  double search_pitch_m = 0.001;  // the search circle grows this much per turn (the clearance is 1 mm)
+  double search_max_m = 0.015;    // the peg sits up to ~1 cm off G's axis in the tilted grasp
+  double search_period_s = 1.5;
+  double deadman_delay_s = 0.1;
+  // Each arm's grasps from above are turned by this about the fingers'
+  // closing axis (which stays along x_A): straight down, the right and left
+  // arms stop short at a wrist joint's limit (j6) from their rest postures.
+  std::array<double, kArms> tilt_rad{0.5, -0.7};   // released this long at the start (the re-arm wants a neutral command)
+};
+
+// One step of a plan: targets given at its start, a wait at its end.
+struct ScriptStep {
+  std::string name;
+  std::array<std::optional<Eigen::Isometry3d>, kArms> pose{};
+  // The pose's translation is an offset from the other arm's believed grasp
+  // frame at the step's start (its orientation as given): a hand-over.
+  std::array<bool, kArms> from_other{};
+  // The pose is this arm's own target moved by this offset (a retreat).
+  std::array<std::optional<Eigen::Vector3d>, kArms> delta{};
+  std::array<std::optional<twoarm::GripperTarget>, kArms> grip{};
+  double speed_mps = 0.0;  // 0: ScriptParams::speed_mps
+  double tol_m = 0.0;      // 0: ScriptParams::pos_tol_m
+  std::array<bool, kArms> wait_reach{}, wait_grasped{}, wait_opened{}, wait_unloaded{};
+  double dwell_s = 0.0;  // at least this long in the step
+  // Guarded insertion by arm insert_arm (>= 0): G from its start down to
+  // bottom_z; entry_z is G's height when the peg's end is at the hole's top.
+  int insert_arm = -1;
+  double entry_z = 0.0, bottom_z = 0.0;
+};
+
+struct TaskScript {
+  std::string task;
+  ScriptParams p;
+  std::vector<ScriptStep> steps;
+};
+
+// The three plans from the scene (grasps from above, twoarm::downward_grasp).
+// box: the right gripper takes the box across its 0.20 m side, lifts it over
+//   the shelf's edge, sets it down on the board, lets go, retreats.
+// peg: the left gripper takes the peg 3 cm below its top, carries it over
+//   the hole, inserts it (guarded) to 5 mm above the bottom, lets go.
+// bar: the left gripper takes the bar at its middle and lifts it to the
+//   hand-over pose; the right takes it 0.12 m right of the left's grasp
+//   (where the left is believed to be); the left lets go and retreats.
+TaskScript box_script(const TaskScene& scene, const ScriptParams& p = {});
+TaskScript peg_script(const TaskScene& scene, const ScriptParams& p = {});
+TaskScript bar_script(const TaskScene& scene, const ScriptParams& p = {});
+
+struct ScriptState {
+  bool started = false;
+  double start_t = 0.0;
+  std::size_t step = 0;
+  bool step_begun = false;
+  double step_t0 = 0.0, move_s = 0.0;
+  std::array<Eigen::Isometry3d, kArms> from{Eigen::Isometry3d::Identity(), Eigen::Isometry3d::Identity()};
+  std::array<Eigen::Isometry3d, kArms> to{Eigen::Isometry3d::Identity(), Eigen::Isometry3d::Identity()};
+  twoarm::TwoArmTargets targets;
+  // Guarded insertion.
+  enum class Insert { kDescend, kSearch, kIn } insert = Insert::kDescend;
+  double insert_z = 0.0, insert_z0 = 0.0, insert_t0 = 0.0, search_t0 = 0.0, search_z = 0.0;
+  int searches = 0;
+  bool done = false;
+  double done_t = -1.0;
+  std::string error;  // a believed state it cannot read (it then holds its targets)
+};
+
+struct ScriptOutput {
+  bool send = false;  // false until a first believed state has come
+  twoarm::TwoArmTargets targets;
+  bool deadman = false;
+};
+
+// One operator tick at time t_s (seconds, the operator's clock) with the
+// newest believed state (nullptr: none yet).
+ScriptOutput script_step(const TaskScript& script, ScriptState& st, const wire::ArmsState* believed, double t_s);
+
+}  // namespace hemm::twoarm_tasks
