@@ -55,12 +55,13 @@ TEST(ArmMapping, TranslationIsScaledAndAligned) {
     tele::map_arm_step(p, mapping_test_hand(hand0, true), &s, &out);
     ASSERT_TRUE(out.pressed);
     EXPECT_TRUE(out.T_A_G.isApprox(kMappingTestG0, 1e-12));  // pressing does not move the arm
-    // The hand 4 cm forward (D +x), 1 cm left (+y), 2 cm up: in A (turned by pi
-    // about z) that is (-0.04, -0.01, +0.02) times the scale.
+    // The hand 2 cm forward (D +x), 5 mm left (+y), 1 cm up: in A (turned by pi
+    // about z) that is (-0.02, -0.005, +0.01) times the scale (within one step's clamp).
     Eigen::Isometry3d hand1 = hand0;
-    hand1.translation() += Eigen::Vector3d(0.04, 0.01, 0.02);
+    hand1.translation() += Eigen::Vector3d(0.02, 0.005, 0.01);
     tele::map_arm_step(p, mapping_test_hand(hand1, true), &s, &out);
-    const Eigen::Vector3d want = kMappingTestG0.translation() + scale * Eigen::Vector3d(-0.04, -0.01, 0.02);
+    EXPECT_FALSE(out.clamped);
+    const Eigen::Vector3d want = kMappingTestG0.translation() + scale * Eigen::Vector3d(-0.02, -0.005, 0.01);
     EXPECT_LT((out.T_A_G.translation() - want).norm(), 1e-12) << scale;
     EXPECT_TRUE(out.T_A_G.linear().isApprox(kMappingTestG0.linear(), 1e-12));  // a pure translation
   }

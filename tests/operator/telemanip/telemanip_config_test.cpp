@@ -18,7 +18,8 @@ hemm::device::DeviceLimits config_test_limits() { return hemm::device::rigid_han
 
 TEST(TelemanipConfig, ShippedConfigLoads) {
   hemm::config::OperatorConfig o;
-  const std::string path = std::string(HEMM_SOURCE_DIR) + "/deploy/configs/operator_telemanip.pbtxt";
+  std::string path = HEMM_SOURCE_DIR;
+  path += "/deploy/configs/operator_telemanip.pbtxt";
   auto e = hemm::config::load_operator_config(path, &o);
   ASSERT_FALSE(e) << e->to_string();
   ASSERT_TRUE(o.telemanip().enabled());
