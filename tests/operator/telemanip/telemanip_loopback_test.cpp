@@ -31,6 +31,7 @@
 #include "operator/telemanip/telemanip_task.h"
 #include "robot_side/server/robot_server.h"
 #include "tests/operator/client/loopback_client.h"
+#include "tests/operator/telemanip/fake_twoarm_robot.h"
 #include "tests/operator/servo/alloc_counter.h"
 
 namespace tele = hemm::op::telemanip;
@@ -39,146 +40,6 @@ namespace hn = hemm::net;
 namespace hd = hemm::device;
 
 namespace {
-
-hn::Key loop_test_key() {
-  hn::Key k{};
-  for (size_t i = 0; i < k.size(); ++i) k[i] = static_cast<uint8_t>(29 * i + 3);
-  return k;
-}
-
-Eigen::Quaterniond loop_test_down() { return Eigen::Quaterniond(Eigen::AngleAxisd(std::numbers::pi, Eigen::Vector3d::UnitX())); }
-
-// The fake robot's arms: G starts here (A), reach: within kReach of the shoulder.
-const std::array<Eigen::Vector3d, 2> kLoopG0{Eigen::Vector3d(0.60, -0.25, 0.95), Eigen::Vector3d(0.60, 0.25, 0.95)};
-const std::array<Eigen::Vector3d, 2> kLoopShoulder{Eigen::Vector3d(0.2, -0.25, 1.25), Eigen::Vector3d(0.2, 0.25, 1.25)};
-constexpr double kLoopReach = 0.75;
-constexpr double kLoopLagS = 0.04;  // first-order lag of G behind its target
-
-struct FakeTwoArmRobot {
-  asio::io_context io;
-  std::unique_ptr<hemm::robot::RobotServer> server;
-  asio::steady_timer timer{io};
-  std::thread thread;
-  std::mutex mu;
-  // Under mu:
-  std::array<Eigen::Vector3d, 2> G = kLoopG0, target = kLoopG0;
-  bool following = false;
-  std::uint64_t commands = 0, pressed = 0, refusals = 0, last_refused_seq = 0, last_seq = 0;
-  std::uint32_t last_refused_index = 0;
-  std::vector<std::pair<std::int64_t, bool>> deadman_log;  // (receive time, dead-man)
-  std::int64_t last_ns = 0;
-
-  FakeTwoArmRobot() {
-    hemm::robot::RobotServerOptions o;
-    o.session_port = 0;
-    o.stream_port = 0;
-    o.psk = loop_test_key();
-    server = std::make_unique<hemm::robot::RobotServer>(io, o);
-    server->streams().on(hw::StreamMessage::kArmsCommand,
-                         [this](const hn::DatagramHeader& h, int64_t recv, const hw::StreamMessage& m) {
-                           on_command(h.seq, recv, m.arms_command());
-                         });
-    std::string err;
-    EXPECT_TRUE(server->start(&err)) << err;
-    stream();
-    thread = std::thread([this] { io.run(); });
-  }
-  ~FakeTwoArmRobot() {
-    asio::post(io, [this] {
-      timer.cancel();
-      server->stop("test over");
-    });
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
-    io.stop();
-    thread.join();
-  }
-  // Refused whole when a target is out of reach (nothing changes); applied
-  // with the dead-man pressed; released: the arms hold where they are.
-  void on_command(std::uint64_t seq, std::int64_t recv, const hw::ArmsCommand& c) {
-    std::lock_guard<std::mutex> lk(mu);
-    ++commands;
-    last_seq = seq;
-    deadman_log.emplace_back(recv, c.deadman());
-    std::array<Eigen::Vector3d, 2> t = target;
-    for (const hw::ArmTarget& a : c.arm()) {
-      Eigen::Isometry3d T;
-      if (a.index() > 1 || hemm::mapping::pose3_from_wire(a.t_a_g(), &T)) return;
-      if ((T.translation() - kLoopShoulder[a.index()]).norm() > kLoopReach) {
-        ++refusals;
-        last_refused_seq = seq;
-        last_refused_index = a.index();
-        return;
-      }
-      t[a.index()] = T.translation();
-    }
-    if (c.deadman()) {
-      ++pressed;
-      target = t;
-      following = true;
-    } else {
-      if (following) target = G;  // hold where G is
-      following = false;
-    }
-  }
-  void stream() {
-    timer.expires_after(std::chrono::milliseconds(4));
-    timer.async_wait([this](const asio::error_code& ec) {
-      if (ec) return;
-      hw::StreamMessage m;
-      {
-        std::lock_guard<std::mutex> lk(mu);
-        const std::int64_t now = hemm::steady_now_ns();
-        const double dt = last_ns == 0 ? 0.0 : (now - last_ns) * 1e-9;
-        last_ns = now;
-        const double a = 1.0 - std::exp(-dt / kLoopLagS);
-        for (int k = 0; k < 2; ++k)
-          if (following) G[k] += a * (target[k] - G[k]);
-        auto* s = m.mutable_arms_state();
-        s->set_stamp_ns(now);
-        s->set_mode(hw::MODE_MANIPULATION);
-        s->set_frame_epoch(7);
-        s->set_last_command_seq(last_seq);
-        s->set_refusals(refusals);
-        if (refusals > 0) {
-          s->set_last_refusal(hw::ARMS_REFUSAL_OUT_OF_REACH);
-          s->set_last_refused_seq(last_refused_seq);
-          s->set_last_refused_index(last_refused_index);
-        }
-        for (std::uint32_t k = 0; k < 2; ++k) {
-          hw::ArmState* as = s->add_arm();
-          as->set_index(k);
-          for (int j = 0; j < 7; ++j) {
-            as->add_q(0.1 * j);
-            as->add_qd(0.0);
-            as->add_tau(0.0);
-          }
-          Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-          T.linear() = loop_test_down().toRotationMatrix();
-          T.translation() = G[k];
-          hemm::mapping::pose3_to_wire(T, as->mutable_t_a_g());
-          hemm::mapping::pose3_to_wire(T, as->mutable_t_a_g_target());
-          as->mutable_v_a();
-          as->mutable_omega_a();
-          as->mutable_force_a();
-          as->mutable_torque_a();
-          hw::GripperState* g = s->add_gripper();
-          g->set_index(k);
-          g->set_opening_m(0.08);
-        }
-      }
-      if (server->link_up()) server->streams().send(m);
-      stream();
-    });
-  }
-  std::uint64_t commands_in() {
-    std::lock_guard<std::mutex> lk(mu);
-    return commands;
-  }
-  Eigen::Vector3d g(int k) {
-    std::lock_guard<std::mutex> lk(mu);
-    return G[static_cast<std::size_t>(k)];
-  }
-};
 
 // A TEST DOUBLE: two hands with joystick handles (dead-man), at poses a test
 // thread sets (atomics), that render force and torque; write() keeps the
@@ -261,10 +122,10 @@ void loop_test_ramp(std::atomic<double>& x, double to, double seconds) {
 }  // namespace
 
 TEST(TelemanipLoopback, RemoteFollowsTheHandDeadManStopsItRefusalsAreReportedNoAllocation) {
-  FakeTwoArmRobot robot;
+  hemm::test::FakeTwoArmRobot robot;
   asio::io_context io;
   hemm::op::OperatorClient client(io, hemm::test::loopback_client_options("telemanip-test", robot.server->session_port(),
-                                                                         loop_test_key()));
+                                                                         hemm::test::fake_twoarm_key()));
   tele::TelemanipTaskParams tp;
   for (auto& m : tp.mapping) m.R_A_D = Eigen::AngleAxisd(std::numbers::pi, Eigen::Vector3d::UnitZ()).toRotationMatrix();
   const hd::DeviceLimits lim = hd::rigid_hand_limits(2);
@@ -300,8 +161,8 @@ TEST(TelemanipLoopback, RemoteFollowsTheHandDeadManStopsItRefusalsAreReportedNoA
   std::this_thread::sleep_for(std::chrono::milliseconds(600));
   const Eigen::Vector3d g1 = robot.g(0);
   std::printf("after 10 cm forward: remote G (%.4f, %.4f, %.4f)\n", g1.x(), g1.y(), g1.z());
-  EXPECT_LT((g1 - (kLoopG0[0] + Eigen::Vector3d(-0.10, 0, 0))).norm(), 0.005);
-  EXPECT_LT((robot.g(1) - kLoopG0[1]).norm(), 0.002);
+  EXPECT_LT((g1 - (hemm::test::kFakeG0[0] + Eigen::Vector3d(-0.10, 0, 0))).norm(), 0.005);
+  EXPECT_LT((robot.g(1) - hemm::test::kFakeG0[1]).norm(), 0.002);
 
   // 2. Dead-man released, the hand back 10 cm: no command pressed after the
   // release reached the robot (50 ms in flight at most), the arm holds.
@@ -364,6 +225,11 @@ TEST(TelemanipLoopback, RemoteFollowsTheHandDeadManStopsItRefusalsAreReportedNoA
               static_cast<unsigned long long>(r.states_in()), static_cast<unsigned long long>(r.refusals().refused()),
               static_cast<unsigned long long>(robot_refusals), r.refusals().last_reason().c_str(),
               r.refusals().last_index());
+  std::printf("servo (beside other builds, not real-time): %llu ticks, compute median %.1f us, p99 %.1f us, max %.1f us, "
+              "misses %llu\n",
+              static_cast<unsigned long long>(r.timing().ticks()), r.timing().compute_us().median(),
+              r.timing().compute_us().p99(), r.timing().compute_us().max(),
+              static_cast<unsigned long long>(r.timing().misses()));
   ASSERT_GT(robot_refusals, 0u);
   EXPECT_GT(r.refusals().refused(), 0u);
   EXPECT_LE(r.refusals().refused(), robot_refusals);
@@ -376,5 +242,5 @@ TEST(TelemanipLoopback, RemoteFollowsTheHandDeadManStopsItRefusalsAreReportedNoA
   EXPECT_EQ(r.hand(0).presses(), 2u);
   EXPECT_GT(r.timing().ticks(), 3000u);
   // While refused the robot kept the last target it accepted: inside its reach.
-  EXPECT_LE((robot.g(0) - kLoopShoulder[0]).norm(), kLoopReach + 1e-9);
+  EXPECT_LE((robot.g(0) - hemm::test::kFakeShoulder[0]).norm(), hemm::test::kFakeReach + 1e-9);
 }
