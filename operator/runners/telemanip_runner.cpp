@@ -12,6 +12,7 @@
 #include <asio.hpp>
 #include <chrono>
 #include <csignal>
+#include <functional>
 #include <iostream>
 #include <memory>
 
@@ -127,6 +128,7 @@ int run_telemanip(const config::OperatorConfig& cfg, const OperatorArgs& a) {
   bool stopping = false;
   asio::signal_set signals(io, SIGINT, SIGTERM);
   asio::steady_timer duration(io);
+  asio::steady_timer clock_timer(io);
   const auto shutdown = [&](const std::string& why) {
     if (stopping) return;
     stopping = true;
@@ -134,7 +136,21 @@ int run_telemanip(const config::OperatorConfig& cfg, const OperatorArgs& a) {
     link.stop();
     signals.cancel();
     duration.cancel();
+    clock_timer.cancel();
     client.stop(why);
+  };
+  // The depth chunks' robot stamps on our clock: the link's estimate, to the model thread.
+  std::function<void()> clock_tick = [&] {
+    clock_timer.expires_after(std::chrono::milliseconds(100));
+    clock_timer.async_wait([&](const asio::error_code& ec) {
+      if (ec || stopping) return;
+      const net::LinkStatistics st = client.statistics();
+      if (st.clock.valid) {
+        model->set_clock_offset(st.clock.offset_ns);
+        loop.set_link_stats(st.clock.rtt_last_ns, st.clock.offset_ns);
+      }
+      clock_tick();
+    });
   };
   std::string error;
   if (!client.start(
@@ -156,6 +172,7 @@ int run_telemanip(const config::OperatorConfig& cfg, const OperatorArgs& a) {
   signals.async_wait([&](const asio::error_code& ec, int sig) {
     if (!ec) shutdown(sig == SIGINT ? "SIGINT" : "SIGTERM");
   });
+  clock_tick();
   if (a.duration_s > 0) {
     duration.expires_after(std::chrono::milliseconds(static_cast<int64_t>(a.duration_s * 1000)));
     duration.async_wait([&](const asio::error_code& ec) {
