@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <memory>
@@ -23,6 +24,7 @@
 #include <gtest/gtest.h>
 
 #include "common/clock/steady_clock.h"
+#include "common/mapping/depth_image.h"
 #include "common/mapping/depth_stream.h"
 #include "robot_side/server/robot_server.h"
 
@@ -66,6 +68,13 @@ struct FakeTwoArmRobot {
   std::uint32_t last_refused_index = 0;
   std::vector<std::pair<std::int64_t, bool>> deadman_log;  // (receive time, dead-man)
   std::int64_t last_ns = 0;
+  // A head depth camera (off unless set before the first frame): a flat
+  // top at surface_z over surface_box (A = W), seen from above at 15 Hz.
+  std::atomic<bool> depth_camera{false};
+  double surface_z = 0.93;
+  Eigen::AlignedBox2d surface_box{Eigen::Vector2d(0.3, -0.5), Eigen::Vector2d(0.95, 0.5)};
+  std::uint32_t cloud_id = 0;
+  std::uint64_t depth_chunks_sent = 0;
   double min_opening_0 = 1.0;               // gripper 0's smallest commanded opening
   double max_dx_0 = 0.0;                    // arm 0's G: largest x from its start
 
@@ -171,9 +180,47 @@ struct FakeTwoArmRobot {
           g->set_opening_m(0.08);
         }
       }
-      if (server->link_up()) server->streams().send(m);
+      if (server->link_up()) {
+        server->streams().send(m);
+        if (depth_camera && tick % 16 == 0) send_depth();
+      }
+      ++tick;
       stream();
     });
+  }
+  std::uint32_t tick = 0;
+  // One frame of the flat top through a pinhole camera 0.6 m above it
+  // (the truth pose is the pose: a fake robot has no odometry error).
+  void send_depth() {
+    hemm::mapping::DepthImage img;
+    img.stamp_ns = hemm::steady_now_ns();
+    img.cloud_id = ++cloud_id;
+    img.K = hemm::mapping::intrinsics_from_hfov(80, 60, 1.2, 0.1, 3.0);
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.translation() = Eigen::Vector3d(0.62, 0.0, surface_z + 0.6);
+    T.linear() = Eigen::AngleAxisd(std::numbers::pi, Eigen::Vector3d::UnitX()).toRotationMatrix();  // z down
+    img.T_W_S = img.T_W_S_truth = T;
+    const std::size_t n = static_cast<std::size_t>(img.K.width * img.K.height);
+    img.depth.assign(n, 0.0f);
+    img.status.assign(n, hemm::mapping::DepthStatus::kNoReturn);
+    for (int v = 0; v < img.K.height; ++v)
+      for (int u = 0; u < img.K.width; ++u) {
+        const Eigen::Vector3d d_W = T.linear() * hemm::mapping::pixel_ray_z1(img.K, u, v);
+        if (d_W.z() >= -1e-9) continue;
+        const double t = (surface_z - T.translation().z()) / d_W.z();  // depth: the ray's z in S is 1
+        const Eigen::Vector3d p = T.translation() + t * d_W;
+        if (!surface_box.contains(p.head<2>()) || t * d_W.norm() > img.K.range_max) continue;
+        const std::size_t i = static_cast<std::size_t>(v * img.K.width + u);
+        img.depth[i] = static_cast<float>(t);
+        img.status[i] = hemm::mapping::DepthStatus::kValid;
+      }
+    std::vector<fake_twoarm_hw::DepthChunk> chunks;
+    if (hemm::mapping::encode_depth_chunks(img, "head_depth", {}, &chunks)) return;
+    for (const fake_twoarm_hw::DepthChunk& c : chunks) {
+      fake_twoarm_hw::StreamMessage m;
+      *m.mutable_depth_chunk() = c;
+      if (server->streams().send(m)) ++depth_chunks_sent;
+    }
   }
   std::uint64_t commands_in() {
     std::lock_guard<std::mutex> lk(mu);

@@ -1,12 +1,15 @@
 // The real hemm-operator binary in its telemanip mode (the shipped config:
 // the SIMULATED bimanual device, its SIMULATED humans on the demo route
-// through the mapping) against the FAKE two-arm robot over real sockets:
+// through the mapping) against the FAKE two-arm robot over real sockets,
+// whose head camera sees a flat top 5 mm above both grippers' finger tips:
 // the robot's right G goes 10 cm towards the bench and back, its gripper is
-// commanded closed, the left arm stays, and --stats-json carries the
-// telemanip report.
+// commanded closed, the left arm stays, both hands feel the top through the
+// live voxmap built from the depth chunks (pushed up, +z in D), and
+// --stats-json carries the telemanip report.
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
 #include <string>
@@ -21,6 +24,7 @@
 
 TEST(TelemanipRunner, DemoRouteDrivesTheFakeRobotAndTheReportSaysSo) {
   hemm::test::FakeTwoArmRobot robot;
+  robot.depth_camera.store(true);
   const std::string dir = hemm::test::make_temp_dir("telemanip-runner");
   // The fake robot's key as a key file (64 hex characters).
   const std::string key_path = dir + "/test.key";
@@ -50,6 +54,7 @@ TEST(TelemanipRunner, DemoRouteDrivesTheFakeRobotAndTheReportSaysSo) {
                 "%.4f); right opening commanded down to %.4f m\n",
                 static_cast<unsigned long long>(robot.commands), static_cast<unsigned long long>(robot.pressed),
                 robot.max_dx_0, robot.G[0].x(), robot.G[0].y(), robot.G[0].z(), robot.min_opening_0);
+    EXPECT_GT(robot.depth_chunks_sent, 500u);
     EXPECT_NEAR(robot.max_dx_0, 0.10, 0.015);
     EXPECT_LT((robot.G[0] - hemm::test::kFakeG0[0]).norm(), 0.015);  // and back
     EXPECT_LT((robot.G[1] - hemm::test::kFakeG0[1]).norm(), 0.01);   // the left stays
@@ -65,5 +70,17 @@ TEST(TelemanipRunner, DemoRouteDrivesTheFakeRobotAndTheReportSaysSo) {
   EXPECT_EQ(rep.states_rejected(), 0u);
   ASSERT_EQ(rep.hand_size(), 2);
   EXPECT_EQ(rep.hand(0).presses(), 1u);
+  // Model-mediated: both grippers rest on the top the camera saw, and the hands are pushed up.
+  for (int k = 0; k < 2; ++k) {
+    const hemm::report::TelemanipHand& h = rep.hand(k);
+    std::printf("hand %d: contact ticks %llu of %llu engaged, peak %.2f N, mean %.2f N, last F_D (%.2f, %.2f, %.2f) N\n", k,
+                static_cast<unsigned long long>(h.contact_ticks()), static_cast<unsigned long long>(h.engaged_ticks()),
+                h.peak_force_n(), h.mean_contact_force_n(), h.last_force_d().x(), h.last_force_d().y(),
+                h.last_force_d().z());
+    EXPECT_GT(h.contact_ticks(), 3000u);
+    EXPECT_GT(h.mean_contact_force_n(), 0.3);
+    EXPECT_GT(h.last_force_d().z(), 0.3);
+    EXPECT_LT(std::hypot(h.last_force_d().x(), h.last_force_d().y()), 0.5 * h.last_force_d().z());
+  }
   EXPECT_GT(rep.timing().ticks(), 10000u);
 }
