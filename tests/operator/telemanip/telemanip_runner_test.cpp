@@ -79,7 +79,7 @@ TEST(TelemanipRunner, DemoRouteDrivesTheFakeRobotAndTheReportSaysSo) {
                 h.last_force_d().z());
     EXPECT_GT(h.contact_ticks(), 3000u);
     EXPECT_GT(h.mean_contact_force_n(), 0.3);
-    EXPECT_GT(h.last_force_d().z(), 0.3);
+    EXPECT_GT(h.last_force_d().z(), 0.1);  // up, out of the top (its size: the hand yields, 300 N/m)
     EXPECT_LT(std::hypot(h.last_force_d().x(), h.last_force_d().y()), 0.5 * h.last_force_d().z());
   }
   EXPECT_GT(rep.timing().ticks(), 10000u);
