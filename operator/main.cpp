@@ -305,6 +305,14 @@ int print_hand6_route(const config::OperatorConfig& cfg, const OperatorArgs& a) 
 
 // The runner for this config and command line.
 int dispatch(const config::OperatorConfig& cfg, const OperatorArgs& a) {
+  if (cfg.telemanip().enabled()) {
+#ifdef HEMM_OPERATOR_HAVE_TELEMANIP
+    return op::runner::run_telemanip(cfg, a);
+#else
+    std::cerr << "hemm-operator: bad config: telemanip: this build has no two-arm robot component\n";
+    return net::kExitUsage;
+#endif
+  }
   if (cfg.has_vps()) {
     if (!a.bimanual_hands.empty()) {
       std::cerr << "hemm-operator: --hands: a VPS scene's SIMULATED hands follow its vps.hands paths\n";

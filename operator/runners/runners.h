@@ -8,6 +8,7 @@
 //   vps_runner.cpp       a config's VPS scene with the device, no robot
 //   bimanual_runner.cpp  the SIMULATED bimanual device alone, no robot
 //   replay_runner.cpp    --replay of a session recording, --export-mcap
+//   telemanip_runner.cpp the bimanual device drives the two-arm robot (telemanip block)
 // Only hemm-operator's own files include this (it carries the build's
 // HEMM_WITH_VIEW / HEMM_OPERATOR_HAVE_VPS choices).
 #pragma once
@@ -63,6 +64,9 @@ int run_station(const config::OperatorConfig& cfg, const OperatorArgs& a);
 int run_vps(const config::OperatorConfig& cfg, const OperatorArgs& a);
 #endif
 int run_bimanual(const config::OperatorConfig& cfg, const OperatorArgs& a);
+#ifdef HEMM_OPERATOR_HAVE_TELEMANIP
+int run_telemanip(const config::OperatorConfig& cfg, const OperatorArgs& a);
+#endif
 int replay_recording(const OperatorArgs& a);
 int export_recording_as_mcap(const std::string& in, const std::string& out);
 

@@ -1,0 +1,204 @@
+// Bimanual telemanipulation of the two-arm robot (issue 25; config block
+// telemanip, device sim-bimanual): the SIMULATED bimanual device's two hands
+// drive the robot's two arms through the mapping (operator/telemanip), feel
+// each gripper's pointshell against the live voxmap built from the robot's
+// head-camera DepthChunks (model-mediated), and the link streams ArmsCommand
+// and takes ArmsState. The SIMULATED humans follow telemanip.human_script
+// through the mapping (telemanip_human.h). At exit: the telemanip report
+// (commands, refusals, per-hand rendered wrench, servo timing, the link) on
+// stdout and in --stats-json. This thread is the network thread.
+#include <spdlog/spdlog.h>
+
+#include <asio.hpp>
+#include <chrono>
+#include <csignal>
+#include <functional>
+#include <iostream>
+#include <memory>
+
+#include "common/clock/steady_clock.h"
+#include "common/config/config.h"
+#include "common/net/link_stats.h"
+#include "operator/bimanual/bimanual_config.h"
+#include "operator/client/operator_client.h"
+#include "operator/device/bimanual/simulated_bimanual_device.h"
+#include "operator/model/model_thread.h"
+#include "operator/runners/runners.h"
+#include "operator/telemanip/telemanip_config.h"
+#include "operator/telemanip/telemanip_human.h"
+#include "operator/telemanip/telemanip_link.h"
+#include "operator/telemanip/telemanip_report.h"
+#include "operator/telemanip/telemanip_task.h"
+
+namespace hemm::op::runner {
+
+namespace hb = hemm::device::bimanual;
+namespace tele = hemm::op::telemanip;
+
+namespace {
+
+OperatorClientOptions telemanip_client_options(const config::OperatorConfig& cfg, const OperatorArgs& a,
+                                               const std::string& robot_address, const net::Key& key) {
+  OperatorClientOptions o;
+  net::apply_link_config(cfg.link(), key, &o);
+  o.robot_address = robot_address;
+  o.session_port =
+      static_cast<uint16_t>(a.session_port >= 0 ? a.session_port : static_cast<int>(cfg.net().session_port()));
+  o.stream_port =
+      static_cast<uint16_t>(a.stream_port >= 0 ? a.stream_port : static_cast<int>(cfg.net().stream_port()));
+  o.bind_address = cfg.net().bind_address();
+  o.local_stream_port = static_cast<uint16_t>(cfg.net().local_stream_port());
+  o.want_control = cfg.net().want_control();
+  o.connect_timeout_ms = cfg.link().connect_timeout_ms();
+  o.reconnect_for_ms = cfg.link().reconnect_for_ms();
+  o.connect_for_ms = cfg.link().connect_for_ms();
+  return o;
+}
+
+}  // namespace
+
+int run_telemanip(const config::OperatorConfig& cfg, const OperatorArgs& a) {
+  if (cfg.device().type() != "sim-bimanual") {
+    std::cerr << "hemm-operator: bad config: telemanip needs device.type \"sim-bimanual\"\n";
+    return net::kExitUsage;
+  }
+  if (const auto issues = validate_bimanual_config(cfg.device().bimanual()); !issues.empty()) {
+    std::cerr << "hemm-operator: bad config: " << issues.front().field << ": " << issues.front().message << "\n";
+    return net::kExitUsage;
+  }
+  const servo::ServoConfig sc = servo_config(cfg);
+  const double period_s = static_cast<double>(sc.period_ns) * 1e-9;
+  BimanualSetup setup = bimanual_setup(cfg.device().bimanual());
+  setup.sim.plant.control_period_s = period_s;
+  tele::TelemanipTaskParams tp;
+  tele::TelemanipLinkParams lp;
+  if (std::string e = tele::telemanip_params(cfg.telemanip(), period_s, hb::bimanual_limits(setup.sim), &tp, &lp);
+      !e.empty()) {
+    std::cerr << "hemm-operator: bad config: " << e << "\n";
+    return net::kExitUsage;
+  }
+  const std::string robot_address = a.robot.empty() ? cfg.net().robot_address() : a.robot;
+  const auto key =
+      net::load_station_key("hemm-operator", a.key_path, a.config_path, cfg.link().key_file(), robot_address);
+  if (!key) return net::kExitKey;
+
+  std::unique_ptr<tele::TelemanipTask> task;
+  std::unique_ptr<hb::SimulatedBimanualDevice> device;
+  servo::ModelChannel channel;
+  ModelThreadParams mp;
+  // The live voxmap of the workbench from the head camera, kept in a cube
+  // that follows the grippers (A = W).
+  mp.live_voxmap = tp.render;
+  mp.voxmap_roi = VoxmapRoi::kProbe;
+  mp.voxmap_probe_roi.size = 1.2;
+  mp.voxmap_probe_roi.margin = 0.3;
+  std::unique_ptr<ModelThread> model;
+  try {
+    task = std::make_unique<tele::TelemanipTask>(tp);
+    model = std::make_unique<ModelThread>(channel, mp);
+    task->set_roi_out(&model->probe_positions());
+    const auto rest = hb::BimanualSimulation(setup.sim).resting_targets();
+    const bool demo = cfg.telemanip().human_script() == "demo";
+    const double travel = hb::handle_spec(setup.sim.plant.handles[0]).grip_travel;
+    auto right = std::make_shared<const tele::MappedHumanScript>(
+        rest[0], tp.mapping[0], demo && travel > 0 ? tele::demo_right_route(travel) : std::vector<tele::GRouteKey>{},
+        &task->anchors(0));
+    auto left = std::make_shared<const tele::MappedHumanScript>(rest[1], tp.mapping[1], std::vector<tele::GRouteKey>{},
+                                                                &task->anchors(1));
+    device = std::make_unique<hb::SimulatedBimanualDevice>(
+        setup.sim, std::array<std::shared_ptr<const hb::HumanScript>, hb::kArms>{right, left});
+  } catch (const std::exception& e) {
+    std::cerr << "hemm-operator: " << e.what() << "\n";
+    spdlog::error("event=station_failed error=\"{}\"", e.what());
+    return net::kExitUsage;
+  }
+  servo::ServoLoop loop(*device, *task, channel, sc);
+
+  asio::io_context io;
+  OperatorClient client(io, telemanip_client_options(cfg, a, robot_address, *key));
+  tele::TelemanipLink link(
+      io, task->setpoints(), task->remote(), [&client](const wire::StreamMessage& m) { return client.streams().send(m); },
+      &steady_now_ns, lp, [&client] { return client.link_up(); });
+  link.attach(client.streams());
+  client.streams().on(wire::StreamMessage::kDepthChunk,
+                      [&model](const net::DatagramHeader&, std::int64_t, const wire::StreamMessage& m) {
+                        model->submit_depth_chunk(std::make_shared<const wire::DepthChunk>(m.depth_chunk()));
+                      });
+  int exit_code = net::kExitOk;
+  bool stopping = false;
+  asio::signal_set signals(io, SIGINT, SIGTERM);
+  asio::steady_timer duration(io);
+  asio::steady_timer clock_timer(io);
+  const auto shutdown = [&](const std::string& why) {
+    if (stopping) return;
+    stopping = true;
+    spdlog::info("event=station_stopping reason=\"{}\"", why);
+    link.stop();
+    signals.cancel();
+    duration.cancel();
+    clock_timer.cancel();
+    client.stop(why);
+  };
+  // The depth chunks' robot stamps on our clock: the link's estimate, to the model thread.
+  std::function<void()> clock_tick = [&] {
+    clock_timer.expires_after(std::chrono::milliseconds(100));
+    clock_timer.async_wait([&](const asio::error_code& ec) {
+      if (ec || stopping) return;
+      const net::LinkStatistics st = client.statistics();
+      if (st.clock.valid) {
+        model->set_clock_offset(st.clock.offset_ns);
+        loop.set_link_stats(st.clock.rtt_last_ns, st.clock.offset_ns);
+      }
+      clock_tick();
+    });
+  };
+  std::string error;
+  if (!client.start(
+          [&](int code, const std::string& why) {
+            spdlog::error("event=link_failed code={} reason=\"{}\"", code, why);
+            exit_code = code;
+            shutdown(why);
+          },
+          &error)) {
+    std::cerr << "hemm-operator: " << error << "\n";
+    return net::kExitUsage;
+  }
+  model->start();
+  link.start();
+  const servo::RealtimeStatus rt = loop.start();
+  for (const auto& w : rt.warnings) spdlog::warn("event=servo_realtime warning=\"{}\"", w);
+  spdlog::info("event=station_started device=sim-bimanual mode=telemanip fifo={} memory_locked={} shells={}", rt.fifo,
+               rt.memory_locked, task->grippers().tools.size());
+  signals.async_wait([&](const asio::error_code& ec, int sig) {
+    if (!ec) shutdown(sig == SIGINT ? "SIGINT" : "SIGTERM");
+  });
+  clock_tick();
+  if (a.duration_s > 0) {
+    duration.expires_after(std::chrono::milliseconds(static_cast<int64_t>(a.duration_s * 1000)));
+    duration.async_wait([&](const asio::error_code& ec) {
+      if (!ec) shutdown("duration reached");
+    });
+  }
+  io.run();
+  loop.stop();
+  model->stop();
+
+  const servo::TimingSummary timing = loop.summary();
+  report::Telemanip r = tele::make_telemanip_report(link.stats(), *task, task->latest_remote(), &timing);
+  *r.mutable_link() = net::to_report(client.statistics());
+  std::cout << "telemanip: commands " << r.commands_sent() << " (dead-man pressed " << r.deadman_pressed()
+            << "), states " << r.states_in() << " (rejected " << r.states_rejected() << "), refusals "
+            << r.refusals().refused() << " (last " << r.refusals().last_reason() << ")\n";
+  for (const report::TelemanipHand& h : r.hand())
+    std::cout << "telemanip: hand " << h.index() << ": presses " << h.presses() << ", engaged ticks "
+              << h.engaged_ticks() << ", contact ticks " << h.contact_ticks() << ", peak force " << h.peak_force_n()
+              << " N\n";
+  std::cout << servo::to_string(timing) << "\n" << net::to_summary(client.statistics()) << std::flush;
+  if (!a.stats_json.empty() && !net::write_text_file(a.stats_json, config::to_json(r), &error)) {
+    std::cerr << "hemm-operator: " << error << "\n";
+    if (exit_code == net::kExitOk) exit_code = net::kExitInternal;
+  }
+  return exit_code;
+}
+
+}  // namespace hemm::op::runner

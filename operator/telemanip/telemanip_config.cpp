@@ -1,0 +1,56 @@
+#include "operator/telemanip/telemanip_config.h"
+
+#include <cmath>
+#include <numbers>
+
+namespace hemm::op::telemanip {
+
+std::string telemanip_params(const config::TelemanipConfig& c, double period_s, const device::DeviceLimits& limits,
+                             TelemanipTaskParams* task, TelemanipLinkParams* link) {
+  if (!(std::isfinite(c.yaw_a_d_deg()) && std::abs(c.yaw_a_d_deg()) <= 360.0))
+    return "telemanip.yaw_a_d_deg: must be finite, within +-360";
+  if (!(c.translation_scale() > 0.0 && c.translation_scale() <= 10.0))
+    return "telemanip.translation_scale: must be in (0, 10]";
+  if (!(c.max_speed_mps() > 0.0 && c.max_speed_mps() <= 5.0)) return "telemanip.max_speed_mps: must be in (0, 5]";
+  if (!(c.max_rate_radps() > 0.0 && c.max_rate_radps() <= 20.0)) return "telemanip.max_rate_radps: must be in (0, 20]";
+  if (limits.end_effectors != kTeleArms) return "telemanip: the device must have two end-effectors (sim-bimanual)";
+  TelemanipTaskParams t;
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(c.yaw_a_d_deg() * std::numbers::pi / 180.0, Eigen::Vector3d::UnitZ())
+                                .toRotationMatrix();
+  const config::TelemanipArmConfig* arms[kTeleArms] = {&c.right(), &c.left()};
+  const char* names[kTeleArms] = {"right", "left"};
+  for (int k = 0; k < kTeleArms; ++k) {
+    ArmMappingParams& m = t.mapping[static_cast<std::size_t>(k)];
+    const config::TelemanipArmConfig& a = *arms[k];
+    m.R_A_D = R;
+    m.translation_scale = c.translation_scale();
+    m.max_step_m = c.max_speed_mps() * period_s;
+    m.max_step_rad = c.max_rate_radps() * period_s;
+    if (a.deadman_ee() > 1) return std::string("telemanip.") + names[k] + ".deadman_ee: must be 0 or 1";
+    m.deadman_ee = static_cast<int>(a.deadman_ee());
+    m.opening_open_m = a.opening_open_m();
+    m.opening_closed_m = a.opening_closed_m();
+    m.force_open_n = a.force_open_n();
+    m.force_closed_n = a.force_closed_n();
+    for (double o : {m.opening_open_m, m.opening_closed_m})
+      if (!(o >= 0.0 && o <= 0.22)) return std::string("telemanip.") + names[k] + ": openings must be in [0, 0.22] m";
+    for (double f : {m.force_open_n, m.force_closed_n})
+      if (!(f >= 0.0 && f <= 100.0)) return std::string("telemanip.") + names[k] + ": forces must be in [0, 100] N";
+    if (std::string e = validate(m); !e.empty()) return std::string("telemanip.") + names[k] + ": " + e;
+    t.limits[static_cast<std::size_t>(k)] = limits.ee[static_cast<std::size_t>(k)];
+  }
+  t.render = c.render();
+  t.contact_stiffness = c.contact_stiffness();
+  t.tick_budget_ns = c.tick_budget_ns();
+  t.period_s = period_s;
+  if (std::string e = validate(t); !e.empty()) return "telemanip: " + e;
+  TelemanipLinkParams l;
+  l.rate_hz = c.command_rate_hz();
+  if (!(l.rate_hz >= 100.0 && l.rate_hz <= 1000.0)) return "telemanip.command_rate_hz: must be in [100, 1000]";
+  if (c.human_script() != "demo" && c.human_script() != "idle") return "telemanip.human_script: demo or idle";
+  *task = t;
+  *link = l;
+  return {};
+}
+
+}  // namespace hemm::op::telemanip

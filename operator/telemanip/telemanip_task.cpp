@@ -1,0 +1,216 @@
+#include "operator/telemanip/telemanip_task.h"
+
+#include <cmath>
+#include <stdexcept>
+
+#include "common/clock/steady_clock.h"
+#include "common/haptics/vps/voxmap.h"
+#include "common/mesh/primitives.h"
+
+namespace hemm::op::telemanip {
+
+namespace {
+
+Eigen::Isometry3d teletask_pose(const Eigen::Vector3d& p, const Eigen::Quaterniond& q) {
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.linear() = q.normalized().toRotationMatrix();
+  T.translation() = p;
+  return T;
+}
+
+HandReading teletask_hand(const device::DeviceSample& in, int k, const ArmMappingParams& mp) {
+  HandReading h;
+  const device::EndEffectorSample& e = in.ee[static_cast<std::size_t>(k)];
+  const bool finite = e.position_H.allFinite() && e.orientation_H.coeffs().allFinite() && e.orientation_H.norm() > 0.5;
+  h.valid = finite && e.enabled && k < in.end_effectors;
+  if (finite) h.T_D_E = teletask_pose(e.position_H, e.orientation_H);
+  const int g = mp.deadman_ee;
+  const device::HandleInputs& gate = in.ee[static_cast<std::size_t>(g)].handle;
+  h.deadman = g < in.end_effectors && gate.has_deadman && gate.deadman;
+  h.has_grip = e.handle.has_grip;
+  h.grip_position_m = e.handle.grip_position;
+  return h;
+}
+
+}  // namespace
+
+std::string validate(const TelemanipTaskParams& p) {
+  for (const ArmMappingParams& m : p.mapping)
+    if (std::string e = validate(m); !e.empty()) return "mapping: " + e;
+  if (std::string e = validate(p.gripper); !e.empty()) return e;
+  if (!(std::isfinite(p.contact_stiffness) && p.contact_stiffness > 0 && p.contact_stiffness <= 1e10))
+    return "contact stiffness must be in (0, 1e10] N/m^3";
+  if (p.budget < 1) return "work budget must be >= 1";
+  if (p.tick_budget_ns < 0 || p.tick_budget_ns > 100'000'000 || p.tick_margin_ns < 0 || p.tick_margin_ns > 100'000'000)
+    return "tick budget and margin must be in [0, 100 ms]";
+  if (!(p.calibration_voxel >= 1e-3 && p.calibration_voxel <= 0.1) || p.calibration_layers < 1 || p.calibration_layers > 20)
+    return "calibration voxel must be in [1, 100] mm, layers in [1, 20]";
+  if (!(p.period_s > 0 && p.period_s <= 0.01)) return "period must be in (0, 10 ms]";
+  if (p.render)
+    for (const device::EndEffectorLimits& l : p.limits)
+      if (!(l.peak_force > 0 && l.max_stiffness > 0)) return "each end-effector must report a peak force and a stiffness";
+  return {};
+}
+
+TelemanipTask::TelemanipTask(const TelemanipTaskParams& p) : p_(p) {
+  if (std::string e = validate(p); !e.empty()) throw std::invalid_argument("telemanip: " + e);
+  if (!p.render) return;
+  if (std::string e = make_gripper_tool_set(p.gripper, &tools_); !e.empty())
+    throw std::invalid_argument("telemanip: " + e);
+  for (int k = 0; k < kTeleArms; ++k) {
+    const device::EndEffectorLimits& l = p.limits[static_cast<std::size_t>(k)];
+    const double s = p.mapping[static_cast<std::size_t>(k)].translation_scale;
+    // The hand feels s^2 the coupling's stiffness (F_D = s F_A, x_A = s x_D):
+    // designed for what the device renders.
+    vps::CouplingDeviceLimits d;
+    d.dt = p.period_s;
+    d.peak_force = l.peak_force / s;
+    d.max_stiffness = l.max_stiffness / (s * s);
+    if (l.max_linear_speed > 0) d.max_speed = std::min(d.max_speed, s * l.max_linear_speed);
+    d.renders_torque = l.renders_torque;
+    d.peak_torque = l.peak_torque;
+    d.max_rot_stiffness = l.max_rotational_stiffness;
+    const vps::ProbeTool& mid = tools_.tools[tools_.tools.size() / 2];
+    vps::ToolParams& tp = tool_params_[static_cast<std::size_t>(k)];
+    tp.coupling = vps::design_coupling(mid.mass, mid.inertia_com, d).params;
+    tp.contact.stiffness = p.contact_stiffness;
+    tp.budget = p.budget;
+    Hand& h = hands_[static_cast<std::size_t>(k)];
+    h.states.resize(tools_.tools.size());
+    for (std::size_t i = 0; i < tools_.tools.size(); ++i) vps::init_tool_state(tools_.tools[i], &h.states[i]);
+    h.shell = tools_.nearest(p.mapping[static_cast<std::size_t>(k)].opening_open_m);
+  }
+  vps::TimeBudgetParams tb;
+  tb.tick_ns = p.tick_budget_ns;
+  tb.margin_ns = p.tick_margin_ns;
+  tb.max_work = p.budget;
+  if (tb.tick_ns > 0) {
+    // Before the live voxmap: a bench-sized box of its resolution stands in
+    // (the ticks then track the live one's cost).
+    vps::VoxmapParams vp;
+    vp.voxel_size = p.calibration_voxel;
+    vp.layers_in = vp.layers_out = p.calibration_layers;
+    vps::Voxmap box;
+    if (auto e = vps::build_voxmap(mesh::make_box({0.35, 0.5, 0.05}, 4), vp, &box, nullptr))
+      throw std::invalid_argument("telemanip: calibration voxmap: " + e->message);
+    const vps::ProbeTool& open = tools_.tools.back();
+    calibration_ = vps::calibrate_work_rate({{&box, &open.shell}}, tool_params_[0].contact, tb.rate, 16, &steady_now_ns);
+  }
+  for (auto& b : budget_) b = vps::TickWorkBudget(tb, calibration_.rate);
+}
+
+void TelemanipTask::render_hand(int k, const vps::Voxmap* vm, std::uint64_t build, double opening,
+                                std::int64_t deadline_ns, device::EndEffectorCommand& c) noexcept {
+  const std::size_t ki = static_cast<std::size_t>(k);
+  Hand& h = hands_[ki];
+  const ArmCommandOut& cmd = cmd_[ki];
+  HandRenderStats& st = stats_[ki];
+  // The shell of the gripper's opening; the coupled body carries over.
+  const int want = tools_.nearest(opening);
+  if (want != h.shell) {
+    vps::ToolState& from = h.states[static_cast<std::size_t>(h.shell)];
+    vps::ToolState& to = h.states[static_cast<std::size_t>(want)];
+    to.body = from.body;
+    to.started = from.started;
+    to.goal_prev = from.goal_prev;
+    to.voxmap = nullptr;  // its pair cache is of another shell
+    h.shell = want;
+  }
+  const vps::ProbeTool& tool = tools_.tools[static_cast<std::size_t>(h.shell)];
+  vps::ToolState& s = h.states[static_cast<std::size_t>(h.shell)];
+  vps::ToolParams& tp = tool_params_[ki];
+  if (!cmd.pressed) vm = nullptr;  // released: the tool follows the command, nothing displayed
+  if (vm != nullptr && build != h.voxmap_build) s.voxmap = nullptr;  // a new build, maybe at the old address
+  if (vm != nullptr) h.voxmap_build = build;
+  if (vm == nullptr) {
+    vps::probe_tool_tick(tp, tool, nullptr, cmd.T_A_G, &s);
+    if (cmd.pressed) ++st.no_model_ticks;
+    st.last_force_D.setZero();
+    st.last_torque_D.setZero();
+    st.last_work = 0;
+    return;
+  }
+  vps::TickWorkBudget& b = budget_[ki];
+  tp.budget = b.begin(steady_now_ns(), deadline_ns);
+  vps::probe_tool_tick(tp, tool, vm, cmd.T_A_G, &s);
+  const std::int64_t work = s.contact.nodes_visited + s.contact.points_tested;
+  const int levels = s.contact.levels_completed;
+  b.end(steady_now_ns(), work, levels, levels >= tool.shell.levels);
+  // The reaction at the goal's centre of mass, moved to G (= the E point), into D.
+  const ArmMappingParams& mp = p_.mapping[ki];
+  const Eigen::Matrix3d R_D_A = mp.R_A_D.transpose();
+  const Eigen::Vector3d r = cmd.T_A_G.linear() * tool.shell.reference_point;
+  const Eigen::Vector3d F = R_D_A * (mp.translation_scale * s.device.force);
+  const Eigen::Vector3d T = R_D_A * (s.device.torque + r.cross(s.device.force));
+  c.force_H = F.allFinite() ? F : Eigen::Vector3d::Zero();
+  c.torque_H = T.allFinite() ? T : Eigen::Vector3d::Zero();
+  st.last_force_D = c.force_H;
+  st.last_torque_D = c.torque_H;
+  st.last_work = work;
+  const double f = c.force_H.norm();
+  if (f > st.peak_force_n) st.peak_force_n = f;
+  if (s.contact.contacts > 0) {
+    ++st.contact_ticks;
+    st.sum_force_n += f;
+  }
+}
+
+void TelemanipTask::tick(const device::DeviceSample& in, const servo::ModelSnapshot& model,
+                         servo::TickOutput& out) noexcept {
+  ++ticks_;
+  const RemoteArmsState* remote = remote_.take();
+  if (remote == nullptr) remote = remote_.latest();
+  const vps::Voxmap* vm = override_vm_;
+  std::uint64_t build = override_build_;
+  if (vm == nullptr && p_.render && model.version != 0) {
+    if (const auto* snap = dynamic_cast<const OperatorModelSnapshot*>(&model)) {
+      vm = snap->voxmap.get();
+      build = snap->voxmap_builds;
+    }
+  }
+  TelemanipSetpoint& sp = setpoints_.back();
+  sp.t_ns = in.t_ns;
+  sp.tick = ticks_;
+  std::int64_t work = 0;
+  for (int k = 0; k < kTeleArms; ++k) {
+    const std::size_t ki = static_cast<std::size_t>(k);
+    ArmMappingState& ms = map_[ki];
+    if (!ms.initialized && remote != nullptr && remote->valid)
+      reset_arm_mapping(&ms, teletask_pose(remote->arm[ki].p_A, remote->arm[ki].q_A));
+    map_arm_step(p_.mapping[ki], teletask_hand(in, k, p_.mapping[ki]), &ms, &cmd_[ki]);
+    const ArmCommandOut& c = cmd_[ki];
+    if (c.pressed) ++stats_[ki].engaged_ticks;
+    if (p_.render && ms.initialized) {
+      // The shell at the opening the remote gripper has (measured), else the commanded one.
+      const double opening = remote != nullptr && remote->valid ? remote->gripper[ki].opening_m
+                             : c.has_gripper                    ? c.opening_m
+                                                                : p_.mapping[ki].opening_open_m;
+      render_hand(k, vm, build, opening, out.deadline_ns, out.command.ee[ki]);
+      work += stats_[ki].last_work;
+    }
+    ArmSetpoint& a = sp.arm[ki];
+    a.active = ms.initialized;
+    a.pressed = c.pressed;
+    a.p_A = c.T_A_G.translation();
+    a.q_A = Eigen::Quaterniond(c.T_A_G.linear());
+    a.has_gripper = c.has_gripper;
+    a.opening_m = c.opening_m;
+    a.force_n = c.force_n;
+    MappingAnchor& an = anchors_[ki].back();
+    an.engaged = ms.engaged;
+    an.state = ms;
+    anchors_[ki].publish();
+  }
+  setpoints_.publish();
+  if (roi_out_ != nullptr && map_[0].initialized && map_[1].initialized) {
+    ProbePosition& pp = roi_out_->back();
+    pp.p_W = 0.5 * (map_[0].T_A_G_cmd.translation() + map_[1].T_A_G_cmd.translation());
+    pp.active = true;
+    roi_out_->publish();
+  }
+  out.publish_setpoint = false;  // the loop's one-end-effector setpoint is not ours
+  out.renderer = "telemanip";
+  out.work = work;
+}
+
+}  // namespace hemm::op::telemanip

@@ -1,0 +1,133 @@
+// Telemanipulation's servo task (issue 25, parts 2-3): both hands of the
+// bimanual device drive the two remote arms, and feel the operator's local
+// model (model-mediated teleoperation: never the network).
+//
+// Per tick, per hand k (arm k: 0 right, 1 left):
+//  1. the newest remote state (RemoteArmsState, from the link) initializes
+//     the mapping where the remote G is, once;
+//  2. the mapping (arm_mapping.h) turns the hand's pose, the gating
+//     dead-man and the grip lever into the commanded T_A_G and gripper;
+//  3. while the hand is engaged, the gripper's pointshell at its opening
+//     (the remote one's, or the commanded one before any state) is pulled to
+//     the commanded T_A_G by the 6-DoF virtual coupling and rendered with VPS
+//     against the snapshot's live voxmap (frame W; the workbench's A is W);
+//     the coupling's reaction, at E and in D (force times the translation
+//     scale: the hand's work equals the tool's), goes to the device;
+//     released, nothing is displayed and the tool follows the command;
+//  4. both arms' setpoints go into the mailbox the link sends from.
+//
+// Real time: tick() allocates nothing, locks nothing, logs nothing; each
+// hand's VPS work is bounded (vps::TickWorkBudget: tick_budget_ns per hand,
+// capped in units by `budget`), calibrated at construction on a box voxmap
+// of the live voxmap's resolution. Counters and the last wrench per hand
+// are the servo thread's: read them after the loop stopped.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "common/concurrency/newest_mailbox.h"
+#include "common/haptics/vps/work_budget.h"
+#include "operator/device/haptic_device.h"
+#include "operator/model/model_thread.h"
+#include "operator/servo/servo_loop.h"
+#include "operator/telemanip/arm_mapping.h"
+#include "operator/telemanip/gripper_tool.h"
+#include "operator/telemanip/telemanip_link.h"
+
+namespace hemm::op::telemanip {
+
+struct TelemanipTaskParams {
+  std::array<ArmMappingParams, kTeleArms> mapping{};
+  bool render = true;  // model-mediated forces (false: commands only)
+  GripperGeometry gripper;
+  double contact_stiffness = 3e7;        // N/m^3 (as the 6-DoF probe tool)
+  std::int64_t budget = 4000;            // VPS work units per hand per tick
+  std::int64_t tick_budget_ns = 100'000; // VPS time per hand per tick (0: none)
+  std::int64_t tick_margin_ns = 100'000;
+  double calibration_voxel = 0.01;
+  int calibration_layers = 4;
+  std::array<device::EndEffectorLimits, kTeleArms> limits{};  // the device's (the coupling's design)
+  double period_s = 1e-3;
+};
+// Empty when usable.
+std::string validate(const TelemanipTaskParams& p);
+
+struct HandRenderStats {
+  std::uint64_t engaged_ticks = 0;
+  std::uint64_t contact_ticks = 0;   // engaged with VPS contacts
+  std::uint64_t no_model_ticks = 0;  // engaged without a voxmap
+  double peak_force_n = 0.0;         // |F| displayed (D)
+  double sum_force_n = 0.0;          // over contact ticks
+  Eigen::Vector3d last_force_D = Eigen::Vector3d::Zero();
+  Eigen::Vector3d last_torque_D = Eigen::Vector3d::Zero();
+  std::int64_t last_work = 0;
+};
+
+class TelemanipTask final : public servo::ServoTask {
+ public:
+  // Builds the gripper shells, their pair states and the budgets
+  // (allocates); throws std::invalid_argument on bad parameters.
+  explicit TelemanipTask(const TelemanipTaskParams& p);
+
+  void tick(const device::DeviceSample& in, const servo::ModelSnapshot& model,
+            servo::TickOutput& out) noexcept override;
+  // The voxmap a tick renders against (the model snapshot's otherwise):
+  // tests and benches hand one in. Null: the snapshot's.
+  void set_voxmap_override(const vps::Voxmap* vm, std::uint64_t build) noexcept {
+    override_vm_ = vm;
+    override_build_ = build;
+  }
+
+  NewestMailbox<TelemanipSetpoint>& setpoints() noexcept { return setpoints_; }  // the link consumes
+  NewestMailbox<RemoteArmsState>& remote() noexcept { return remote_; }           // the link produces
+  // Each hand's mapping state every tick (the SIMULATED human consumes).
+  NewestMailbox<MappingAnchor>& anchors(int k) noexcept { return anchors_[static_cast<std::size_t>(k)]; }
+  // Where the live voxmap's region of interest should follow (the model
+  // thread's probe box: the midpoint of both commanded G, W = A); null: nowhere.
+  // Set before the loop starts.
+  void set_roi_out(NewestMailbox<ProbePosition>* m) noexcept { roi_out_ = m; }
+
+  const TelemanipTaskParams& params() const noexcept { return p_; }
+  const GripperToolSet& grippers() const noexcept { return tools_; }
+  const vps::ToolParams& tool_params(int k) const noexcept { return tool_params_[static_cast<std::size_t>(k)]; }
+  // Servo thread, or after the loop stopped.
+  const ArmMappingState& mapping(int k) const noexcept { return map_[static_cast<std::size_t>(k)]; }
+  const ArmCommandOut& command(int k) const noexcept { return cmd_[static_cast<std::size_t>(k)]; }
+  const HandRenderStats& render_stats(int k) const noexcept { return stats_[static_cast<std::size_t>(k)]; }
+  const vps::TickWorkBudget& budget(int k) const noexcept { return budget_[static_cast<std::size_t>(k)]; }
+  const vps::WorkRateCalibration& calibration() const noexcept { return calibration_; }
+  std::uint64_t ticks() const noexcept { return ticks_; }
+  // The newest remote state a tick took (null: none).
+  const RemoteArmsState* latest_remote() const noexcept { return remote_.latest(); }
+
+ private:
+  struct Hand {
+    std::vector<vps::ToolState> states;  // one per shell (sized at start)
+    int shell = 0;                       // the one in use
+    std::uint64_t voxmap_build = 0;      // the build its pair state belongs to
+  };
+  void render_hand(int k, const vps::Voxmap* vm, std::uint64_t build, double opening, std::int64_t deadline_ns,
+                   device::EndEffectorCommand& c) noexcept;
+
+  TelemanipTaskParams p_;
+  GripperToolSet tools_;
+  std::array<vps::ToolParams, kTeleArms> tool_params_{};
+  std::array<Hand, kTeleArms> hands_;
+  std::array<vps::TickWorkBudget, kTeleArms> budget_{};
+  vps::WorkRateCalibration calibration_;
+  std::array<ArmMappingState, kTeleArms> map_{};
+  std::array<ArmCommandOut, kTeleArms> cmd_{};
+  std::array<HandRenderStats, kTeleArms> stats_{};
+  NewestMailbox<TelemanipSetpoint> setpoints_;
+  NewestMailbox<RemoteArmsState> remote_;
+  std::array<NewestMailbox<MappingAnchor>, kTeleArms> anchors_;
+  NewestMailbox<ProbePosition>* roi_out_ = nullptr;
+  const vps::Voxmap* override_vm_ = nullptr;
+  std::uint64_t override_build_ = 0;
+  std::uint64_t ticks_ = 0;
+};
+
+}  // namespace hemm::op::telemanip

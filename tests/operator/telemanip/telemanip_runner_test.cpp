@@ -1,0 +1,86 @@
+// The real hemm-operator binary in its telemanip mode (the shipped config:
+// the SIMULATED bimanual device, its SIMULATED humans on the demo route
+// through the mapping) against the FAKE two-arm robot over real sockets,
+// whose head camera sees a flat top 5 mm above both grippers' finger tips:
+// the robot's right G goes 10 cm towards the bench and back, its gripper is
+// commanded closed, the left arm stays, both hands feel the top through the
+// live voxmap built from the depth chunks (pushed up, +z in D), and
+// --stats-json carries the telemanip report.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <string>
+
+#include "config_operator.pb.h"
+#include "report.pb.h"
+#include "tests/integration/link/child_process.h"
+#include "tests/operator/telemanip/fake_twoarm_robot.h"
+#include "tests/temp_dir.h"
+
+#include <google/protobuf/util/json_util.h>
+
+TEST(TelemanipRunner, DemoRouteDrivesTheFakeRobotAndTheReportSaysSo) {
+  hemm::test::FakeTwoArmRobot robot;
+  robot.depth_camera.store(true);
+  const std::string dir = hemm::test::make_temp_dir("telemanip-runner");
+  // The fake robot's key as a key file (64 hex characters).
+  const std::string key_path = dir + "/test.key";
+  {
+    std::ofstream k(key_path);
+    const hemm::net::Key key = hemm::test::fake_twoarm_key();
+    for (std::uint8_t b : key) {
+      char h[3];
+      std::snprintf(h, sizeof h, "%02x", b);
+      k << h;
+    }
+    k << "\n";
+  }
+  const std::string json_path = dir + "/telemanip.json";
+  const std::string bin = std::string(HEMM_BINARY_DIR) + "/bin/hemm-operator";
+  std::string config = HEMM_SOURCE_DIR;
+  config += "/deploy/configs/operator_telemanip.pbtxt";
+  const hemm::test::ProcessResult r = hemm::test::run_to_completion(
+      {bin, "--config", config, "--key", key_path, "--session-port", std::to_string(robot.server->session_port()),
+       "--duration", "13", "--stats-json", json_path, "--log-level", "warn"},
+      dir, std::chrono::seconds(40));
+  ASSERT_EQ(r.rc, 0) << r.err;
+  std::printf("%s", r.out.c_str());
+  {
+    std::lock_guard<std::mutex> lk(robot.mu);
+    std::printf("fake robot: %llu commands (%llu pressed), right G furthest %.4f m towards the bench, now (%.4f, %.4f, "
+                "%.4f); right opening commanded down to %.4f m\n",
+                static_cast<unsigned long long>(robot.commands), static_cast<unsigned long long>(robot.pressed),
+                robot.max_dx_0, robot.G[0].x(), robot.G[0].y(), robot.G[0].z(), robot.min_opening_0);
+    EXPECT_GT(robot.depth_chunks_sent, 500u);
+    EXPECT_NEAR(robot.max_dx_0, 0.10, 0.015);
+    EXPECT_LT((robot.G[0] - hemm::test::kFakeG0[0]).norm(), 0.015);  // and back
+    EXPECT_LT((robot.G[1] - hemm::test::kFakeG0[1]).norm(), 0.01);   // the left stays
+    EXPECT_LT(robot.min_opening_0, 0.02);                            // the lever closed the gripper
+    EXPECT_EQ(robot.refusals, 0u);
+  }
+  hemm::report::Telemanip rep;
+  const std::string json = hemm::test::read_file(json_path);
+  ASSERT_TRUE(google::protobuf::util::JsonStringToMessage(json, &rep).ok()) << json;
+  EXPECT_GT(rep.commands_sent(), 1500u);  // >= 100 Hz over the connected part
+  EXPECT_GT(rep.deadman_pressed(), 1000u);
+  EXPECT_GT(rep.states_in(), 1500u);
+  EXPECT_EQ(rep.states_rejected(), 0u);
+  ASSERT_EQ(rep.hand_size(), 2);
+  EXPECT_EQ(rep.hand(0).presses(), 1u);
+  // Model-mediated: both grippers rest on the top the camera saw, and the hands are pushed up.
+  for (int k = 0; k < 2; ++k) {
+    const hemm::report::TelemanipHand& h = rep.hand(k);
+    std::printf("hand %d: contact ticks %llu of %llu engaged, peak %.2f N, mean %.2f N, last F_D (%.2f, %.2f, %.2f) N\n", k,
+                static_cast<unsigned long long>(h.contact_ticks()), static_cast<unsigned long long>(h.engaged_ticks()),
+                h.peak_force_n(), h.mean_contact_force_n(), h.last_force_d().x(), h.last_force_d().y(),
+                h.last_force_d().z());
+    EXPECT_GT(h.contact_ticks(), 3000u);
+    EXPECT_GT(h.mean_contact_force_n(), 0.3);
+    EXPECT_GT(h.last_force_d().z(), 0.1);  // up, out of the top (its size: the hand yields, 300 N/m)
+    EXPECT_LT(std::hypot(h.last_force_d().x(), h.last_force_d().y()), 0.5 * h.last_force_d().z());
+  }
+  EXPECT_GT(rep.timing().ticks(), 10000u);
+}

@@ -1,0 +1,211 @@
+// The telemanipulation servo task with both hands: the remote G follows the
+// hand through the mapping, each gripper's pointshell pressed into a bench
+// voxmap pushes its own hand back with the series-spring closed form of the
+// coupling and the pads' contact (K * pad area), the hand in free space
+// feels nothing, a released dead-man stops pressing and displays nothing,
+// and the tick allocates nothing with both hands rendering.
+#include "operator/telemanip/telemanip_task.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <numbers>
+#include <vector>
+
+#include "common/clock/steady_clock.h"
+#include "common/haptics/vps/voxmap.h"
+#include "common/mesh/primitives.h"
+#include "tests/operator/servo/alloc_counter.h"
+
+namespace tele = hemm::op::telemanip;
+namespace hd = hemm::device;
+
+namespace {
+
+// A bench of its own (not workbench.xml's, on which nothing was tuned):
+// top at z = 0.72, x 0.4..1.0, y -0.6..0.6 (A = W).
+constexpr double kTaskTestTopZ = 0.72;
+
+hemm::vps::Voxmap task_test_bench(double voxel) {
+  hemm::mesh::TriangleMesh m;
+  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+  T.translation() = Eigen::Vector3d(0.7, 0.0, kTaskTestTopZ - 0.05);
+  hemm::mesh::append_mesh(&m, hemm::mesh::make_box({0.3, 0.6, 0.05}, 6), T);
+  hemm::vps::VoxmapParams vp;
+  vp.voxel_size = voxel;
+  vp.layers_in = vp.layers_out = 4;
+  hemm::vps::Voxmap vm;
+  auto e = hemm::vps::build_voxmap(m, vp, &vm, nullptr);
+  EXPECT_FALSE(e.has_value()) << (e ? e->message : "");
+  return vm;
+}
+
+// The robot faces the operator: D's x is A's -x (z shared).
+tele::TelemanipTaskParams task_test_params() {
+  tele::TelemanipTaskParams p;
+  for (auto& m : p.mapping) {
+    m.R_A_D = Eigen::AngleAxisd(std::numbers::pi, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    m.opening_open_m = 0.08;
+  }
+  const hd::DeviceLimits l = hd::rigid_hand_limits(2);
+  p.limits = {l.ee[0], l.ee[1]};
+  p.tick_budget_ns = 0;  // the force test: every level, whatever the machine's load
+  p.budget = hemm::vps::kUnlimitedWork;
+  return p;
+}
+
+// G pointing down (its z along A's -z), fingers along A's y.
+Eigen::Quaterniond task_test_down() { return Eigen::Quaterniond(Eigen::AngleAxisd(std::numbers::pi, Eigen::Vector3d::UnitX())); }
+
+tele::RemoteArmsState task_test_remote(const Eigen::Vector3d& right, const Eigen::Vector3d& left) {
+  tele::RemoteArmsState r;
+  r.valid = true;
+  r.arm[0].p_A = right;
+  r.arm[0].q_A = task_test_down();
+  r.arm[1].p_A = left;
+  r.arm[1].q_A = task_test_down();
+  r.gripper[0].opening_m = r.gripper[1].opening_m = 0.08;
+  return r;
+}
+
+hd::DeviceSample task_test_sample(const Eigen::Vector3d& right_D, const Eigen::Vector3d& left_D, bool deadman) {
+  hd::DeviceSample s;
+  s.end_effectors = 2;
+  const std::array<Eigen::Vector3d, 2> p{right_D, left_D};
+  for (int k = 0; k < 2; ++k) {
+    hd::EndEffectorSample& e = s.ee[static_cast<std::size_t>(k)];
+    e.position_H = p[static_cast<std::size_t>(k)];
+    e.handle.has_deadman = true;
+    e.handle.deadman = deadman;
+  }
+  return s;
+}
+
+struct TaskTestRun {
+  tele::TelemanipTask task;
+  hemm::servo::ModelSnapshot empty;
+  hemm::servo::TickOutput out;
+  std::uint64_t tick = 0;
+  explicit TaskTestRun(const tele::TelemanipTaskParams& p) : task(p) {}
+  void step(const hd::DeviceSample& s) {
+    hemm::servo::prepare_tick_output(s, ++tick, out);
+    task.tick(s, empty, out);
+  }
+};
+
+const Eigen::Vector3d kTaskTestRightA(0.65, -0.25, 0.85), kTaskTestLeftA(0.7, 0.25, 0.9);
+const Eigen::Vector3d kTaskTestRightD(0.3, -0.2, 0.3), kTaskTestLeftD(0.3, 0.2, 0.3);
+
+}  // namespace
+
+TEST(TelemanipTask, GripperPressedIntoTheBenchPushesItsOwnHandBack) {
+  const tele::TelemanipTaskParams p = task_test_params();
+  const hemm::vps::Voxmap bench = task_test_bench(0.01);
+  TaskTestRun run(p);
+  run.task.set_voxmap_override(&bench, 1);
+  run.task.remote().publish(task_test_remote(kTaskTestRightA, kTaskTestLeftA));
+  // The right hand goes down 12 cm over 0.4 s: G to 0.73, the finger tips
+  // (2.5 cm beyond G along G's z, here A's -z) to 0.705, 15 mm into the bench top.
+  const double down = 0.12;
+  const int ramp = 400, hold = 1500;
+  for (int i = 0; i <= ramp + hold; ++i) {
+    const double f = std::min(1.0, static_cast<double>(i) / ramp);
+    run.step(task_test_sample(kTaskTestRightD - Eigen::Vector3d(0, 0, down * f), kTaskTestLeftD, true));
+  }
+  // The remote G was told where the hand went (z is shared by A and D).
+  const Eigen::Isometry3d G = run.task.command(0).T_A_G;
+  EXPECT_LT((G.translation() - (kTaskTestRightA - Eigen::Vector3d(0, 0, down))).norm(), 1e-9);
+  EXPECT_TRUE(run.task.command(0).pressed);
+  // Finger tips: 2.5 cm beyond G along its z (here A's -z).
+  const double tips_z = G.translation().z() - 0.025;
+  const double commanded_depth = kTaskTestTopZ - tips_z;
+  ASSERT_NEAR(commanded_depth, 0.015, 1e-9);
+  // Closed form: the coupling's spring in series with the pads' contact
+  // stiffness K * A (two 36 x 12 mm pads).
+  const double k_c = run.task.tool_params(0).coupling.k_lin;
+  const double k_s = p.contact_stiffness * 2.0 * 0.036 * 0.012;
+  const double f_expected = k_c * k_s / (k_c + k_s) * commanded_depth;
+  const Eigen::Vector3d F = run.out.command.ee[0].force_H;
+  std::printf("k_c %.0f N/m, k_s %.0f N/m: F_D (%.3f, %.3f, %.3f) N, closed form %.3f N\n", k_c, k_s, F.x(), F.y(),
+              F.z(), f_expected);
+  EXPECT_NEAR(F.z(), f_expected, 0.2 * f_expected);
+  EXPECT_LT(F.head<2>().norm(), 0.05 * F.z());  // symmetric pads: straight up
+  EXPECT_LT(run.out.command.ee[0].torque_H.norm(), 0.05 * F.z() * 0.1);
+  // The left hand, in free space above the bench, feels nothing.
+  EXPECT_LT(run.out.command.ee[1].force_H.norm(), 1e-6);
+  EXPECT_GT(run.task.render_stats(0).contact_ticks, 1000u);
+  EXPECT_EQ(run.task.render_stats(1).contact_ticks, 0u);
+  // The setpoint for the link carries both arms, the right one pressed down there.
+  const tele::TelemanipSetpoint* sp = run.task.setpoints().take();
+  ASSERT_NE(sp, nullptr);
+  EXPECT_TRUE(sp->arm[0].active && sp->arm[0].pressed && sp->arm[1].active);
+  EXPECT_NEAR(sp->arm[0].p_A.z(), 0.73, 1e-9);
+  // Dead-man released: nothing pressed, nothing displayed, the command holds.
+  run.step(task_test_sample(kTaskTestRightD - Eigen::Vector3d(0, 0, down + 0.05), kTaskTestLeftD, false));
+  EXPECT_FALSE(run.task.command(0).pressed);
+  EXPECT_LT(run.out.command.ee[0].force_H.norm(), 1e-12);
+  EXPECT_TRUE(run.task.command(0).T_A_G.isApprox(G, 1e-12));
+}
+
+TEST(TelemanipTask, WithoutARobotStateNothingIsCommanded) {
+  TaskTestRun run(task_test_params());
+  for (int i = 0; i < 50; ++i) run.step(task_test_sample(kTaskTestRightD, kTaskTestLeftD, true));
+  const tele::TelemanipSetpoint* sp = run.task.setpoints().take();
+  ASSERT_NE(sp, nullptr);
+  EXPECT_FALSE(sp->arm[0].active);
+  EXPECT_FALSE(sp->arm[1].active);
+  EXPECT_FALSE(run.task.command(0).pressed);
+}
+
+// Both hands pressing their grippers into the bench, with the time budget as
+// shipped: no heap allocation in 2000 ticks; the compute is printed.
+TEST(TelemanipTask, TickAllocatesNothingWithBothHandsRendering) {
+  tele::TelemanipTaskParams p = task_test_params();
+  p.tick_budget_ns = 100'000;
+  p.budget = 4000;
+  const hemm::vps::Voxmap bench = task_test_bench(0.01);
+  TaskTestRun run(p);
+  run.task.set_voxmap_override(&bench, 1);
+  run.task.remote().publish(task_test_remote(kTaskTestRightA, kTaskTestLeftA));
+  // Both down to 1 cm into the bench first (and the grippers' shells chosen).
+  for (int i = 0; i < 600; ++i) {
+    const double f = std::min(1.0, i / 400.0);
+    run.step(task_test_sample(kTaskTestRightD - Eigen::Vector3d(0, 0, 0.12 * f),
+                              kTaskTestLeftD - Eigen::Vector3d(0, 0, 0.165 * f), true));
+  }
+  hemm::test::count_allocations_on_this_thread(true);
+  const std::uint64_t probe = hemm::test::counted_allocations();
+  {
+    auto* q = new std::array<double, 16>{};  // the counter counts
+    asm volatile("" : : "g"(q) : "memory");
+    delete q;
+  }
+  ASSERT_GT(hemm::test::counted_allocations(), probe);
+  std::vector<std::int64_t> ns(2000);
+  std::vector<double> cpu(2000);  // the thread's own CPU time: the loaded machine's preemption left out
+  const std::uint64_t before = hemm::test::counted_allocations();
+  for (int i = 0; i < 2000; ++i) {
+    // Slide both grippers along the bench (y), 2 cm and back.
+    const double y = 0.02 * std::sin(2.0 * std::numbers::pi * i / 2000.0);
+    const hd::DeviceSample s = task_test_sample(kTaskTestRightD + Eigen::Vector3d(0, y, -0.12),
+                                                kTaskTestLeftD + Eigen::Vector3d(0, y, -0.165), true);
+    const std::int64_t t0 = hemm::steady_now_ns();
+    const double c0 = hemm::thread_cpu_s();
+    hemm::servo::prepare_tick_output(s, ++run.tick, run.out);
+    run.out.deadline_ns = t0 + 1'000'000;
+    run.task.tick(s, run.empty, run.out);
+    ns[static_cast<std::size_t>(i)] = hemm::steady_now_ns() - t0;
+    cpu[static_cast<std::size_t>(i)] = hemm::thread_cpu_s() - c0;
+  }
+  const std::uint64_t after = hemm::test::counted_allocations();
+  hemm::test::count_allocations_on_this_thread(false);
+  EXPECT_EQ(after - before, 0u);
+  EXPECT_GT(run.task.render_stats(0).contact_ticks, 2000u);
+  EXPECT_GT(run.task.render_stats(1).contact_ticks, 2000u);
+  std::sort(ns.begin(), ns.end());
+  std::sort(cpu.begin(), cpu.end());
+  std::printf("tick compute, both hands in contact (beside other builds): wall median %.1f us, p99 %.1f us, max %.1f us; "
+              "thread CPU median %.1f us, p99 %.1f us, max %.1f us\n",
+              ns[1000] * 1e-3, ns[1980] * 1e-3, ns.back() * 1e-3, cpu[1000] * 1e6, cpu[1980] * 1e6, cpu.back() * 1e6);
+}
