@@ -276,6 +276,7 @@ TEST(ContactCorrection, ObservingAndSlewingAllocateNothing) {
   CorrectedVoxmap model{&correction_bench(), correction_plane_pose(s0 - 0.005 * n, n)};
   ContactCorrection c = make_contact_correction(p);
   Eigen::Vector3d applied = Eigen::Vector3d::Zero();
+  const vps::PointShell& gripper = correction_gripper();  // built before counting
   test::count_allocations_on_this_thread(true);
   const auto before = test::counted_allocations();
   for (int i = 1; i <= 200; ++i) {
@@ -283,7 +284,7 @@ TEST(ContactCorrection, ObservingAndSlewingAllocateNothing) {
     s.stamp_ns = i * kSampleNs;
     s.T_A_G = correction_grasp(s0 + (i > 100 ? 0.01 : 0.0) * n, n);
     s.force_A = (i > 100 ? 0.0 : 8.0) * n;
-    observe_contact(p, model, correction_gripper(), s, &c);
+    observe_contact(p, model, gripper, s, &c);
     slew_surface_offset(p, c.offset_A, 4e-3, &applied);
   }
   const auto after = test::counted_allocations();
