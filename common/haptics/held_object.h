@@ -17,7 +17,8 @@
 // Jacobian J_h = [I, -[r_h]x]):
 //
 //   (M + dt D + dt^2 K) nu+ = M nu + dt (F_spring + F_hand_damping + m g + F_contact - omega x I_A omega)
-//   D = sum w_h (J_h^T B J_h + diag(0, B_r I)),  K = sum w_h (J_h^T K J_h + diag(0, K_r I))
+//   D = sum w_h (J_h^T B J_h + diag(0, B_r I)) + diag(c I, c_r I),  K = sum w_h (J_h^T K J_h + diag(0, K_r I))
+//   (c, c_r: the optional damping to A, HeldCouplingGains::linear_damping / angular_damping)
 //
 // i.e. linearized backward Euler on the coupling springs and dampers, explicit
 // gravity, contact and gyroscopic terms; then c += dt v+, R <- exp(dt omega+) R.
