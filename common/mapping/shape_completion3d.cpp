@@ -1,7 +1,10 @@
 #include "common/mapping/shape_completion3d.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
+#include <cstring>
+#include <cstdio>
 #include <numbers>
 #include <numeric>
 
@@ -738,6 +741,60 @@ void complete_shapes_3d(const Shape3dParams& p, const std::vector<CellSample3>& 
     for (std::uint32_t k = 0; k < cells.size(); ++k)
       if (taken[k]) own(k);
   }
+}
+
+std::string primitive_csv_header() {
+  return "kind,cx,cy,cz,zx,zy,zz,xx,xy,xz,hx,hy,hz,rms,inliers,points,faces,arc,kept";
+}
+
+std::string primitive_csv_row(const Primitive3& q) {
+  const char* kind = q.kind == PrimitiveKind::kBox ? "box" : q.kind == PrimitiveKind::kCylinder ? "cylinder" : "sphere";
+  const Vector3d c = q.T_W_P.translation(), z = q.T_W_P.linear().col(2), x = q.T_W_P.linear().col(0);
+  char buf[512];
+  std::snprintf(buf, sizeof buf, "%s,%.5f,%.5f,%.5f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.5f,%.5f,%.5f,%.5f,%u,%u,%d,%.3f,%d",
+                kind, c.x(), c.y(), c.z(), z.x(), z.y(), z.z(), x.x(), x.y(), x.z(), q.half.x(), q.half.y(), q.half.z(),
+                q.rms, q.inliers, q.points, q.faces, q.arc, q.kept ? 1 : 0);
+  return buf;
+}
+
+namespace {
+constexpr std::size_t kCellFloats = 10;
+static_assert(std::endian::native == std::endian::little, "the cell log is little-endian float32");
+}  // namespace
+
+std::string cells_to_bytes(const std::vector<CellSample3>& cells) {
+  std::string out(cells.size() * kCellFloats * sizeof(float), '\0');
+  std::size_t o = 0;
+  for (const CellSample3& c : cells) {
+    const float f[kCellFloats] = {static_cast<float>(c.p.x()),    static_cast<float>(c.p.y()),    static_cast<float>(c.p.z()),
+                                  static_cast<float>(c.n.x()),    static_cast<float>(c.n.y()),    static_cast<float>(c.n.z()),
+                                  static_cast<float>(c.view.x()), static_cast<float>(c.view.y()), static_cast<float>(c.view.z()),
+                                  static_cast<float>(c.range_pitch)};
+    std::memcpy(out.data() + o, f, sizeof f);
+    o += sizeof f;
+  }
+  return out;
+}
+
+std::string cells_from_bytes(const std::string& bytes, std::vector<CellSample3>* out) {
+  constexpr std::size_t rec = kCellFloats * sizeof(float);
+  if (bytes.size() % rec != 0) return "shape log cells: size is not a whole number of cells";
+  std::vector<CellSample3> cells(bytes.size() / rec);
+  for (std::size_t i = 0; i < cells.size(); ++i) {
+    float f[kCellFloats];
+    std::memcpy(f, bytes.data() + i * rec, rec);
+    for (float v : f)
+      if (!std::isfinite(v)) return "shape log cells: cell " + std::to_string(i) + " is not finite";
+    CellSample3& c = cells[i];
+    c.p = Vector3d(f[0], f[1], f[2]);
+    c.n = Vector3d(f[3], f[4], f[5]);
+    c.view = Vector3d(f[6], f[7], f[8]);
+    c.range_pitch = f[9];
+    if (std::abs(c.n.norm() - 1.0) > 1e-3 || std::abs(c.view.norm() - 1.0) > 1e-3 || c.range_pitch < 0.0)
+      return "shape log cells: cell " + std::to_string(i) + " has no unit normal or view";
+  }
+  out->swap(cells);
+  return {};
 }
 
 }  // namespace hemm::mapping

@@ -162,4 +162,16 @@ using SeenFree = std::function<bool(const Eigen::Vector3d&)>;
 void complete_shapes_3d(const Shape3dParams& p, const std::vector<CellSample3>& cells, const SeenFree& seen_free,
                         Shape3dModel& out);
 
+// The shape log (issue 24: why a primitive was accepted). One CSV line per
+// accepted primitive: kind, centre (W), the frame's z and x axes, half
+// extents, rms, inliers, object points, faces, arc, kept. No newline.
+std::string primitive_csv_header();
+std::string primitive_csv_row(const Primitive3& q);
+// A completion's input cells as little-endian float32, 10 per cell (p, n,
+// view, range_pitch), so a logged rebuild can be fitted again offline.
+std::string cells_to_bytes(const std::vector<CellSample3>& cells);
+// Empty when the bytes are not a whole number of finite cells with unit
+// normals and views; *out is untouched then.
+std::string cells_from_bytes(const std::string& bytes, std::vector<CellSample3>* out);
+
 }  // namespace hemm::mapping

@@ -9,9 +9,12 @@
 // sampling, see shape_completion3d.h).
 #include "common/mapping/shape_completion3d.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
+#include <limits>
 #include <numbers>
 #include <random>
 
@@ -377,4 +380,40 @@ TEST(LiveVoxmapUnknownSolid, UnseenSpaceIsSolidAndInferredWhileSeenSurfacesStayW
               0);
   }
   EXPECT_NEAR(crossing[0], crossing[1], 0.0006);  // unknown space never moves a seen surface
+}
+
+TEST(ShapeCompletion3dLog, CellsRoundTripAndBadBytesAreRefusedWithoutChange) {
+  std::vector<hm::CellSample3> cells = {
+      {Eigen::Vector3d(1.25, -0.5, 0.75), Eigen::Vector3d(0, 0.6, 0.8), Eigen::Vector3d(-0.8, 0, 0.6), 0.0125},
+      {Eigen::Vector3d(0.1, 0.2, 0.3), Eigen::Vector3d::UnitX(), Eigen::Vector3d::UnitZ(), 0.0}};
+  const std::string bytes = hm::cells_to_bytes(cells);
+  EXPECT_EQ(bytes.size(), cells.size() * 40u);
+  std::vector<hm::CellSample3> back;
+  ASSERT_EQ(hm::cells_from_bytes(bytes, &back), "");
+  ASSERT_EQ(back.size(), cells.size());
+  for (std::size_t i = 0; i < cells.size(); ++i) {
+    EXPECT_LT((back[i].p - cells[i].p).norm(), 1e-6);  // float32
+    EXPECT_LT((back[i].n - cells[i].n).norm(), 1e-6);
+    EXPECT_LT((back[i].view - cells[i].view).norm(), 1e-6);
+    EXPECT_NEAR(back[i].range_pitch, cells[i].range_pitch, 1e-7);
+  }
+  // A torn record, a NaN, a normal that is not a unit vector: an error, *out untouched.
+  const std::vector<hm::CellSample3> kept = back;
+  EXPECT_NE(hm::cells_from_bytes(bytes.substr(0, 39), &back), "");
+  std::string nan = bytes;
+  const float q = std::numeric_limits<float>::quiet_NaN();
+  std::memcpy(nan.data() + 4, &q, 4);
+  EXPECT_NE(hm::cells_from_bytes(nan, &back), "");
+  std::string longn = bytes;
+  const float two = 2.0f;
+  std::memcpy(longn.data() + 12, &two, 4);
+  EXPECT_NE(hm::cells_from_bytes(longn, &back), "");
+  ASSERT_EQ(back.size(), kept.size());
+  EXPECT_EQ(back[0].p, kept[0].p);
+  // The CSV row has the header's columns.
+  hm::Primitive3 b;
+  b.half = Eigen::Vector3d(0.05, 0.04, 0.03);
+  const auto count = [](const std::string& s) { return std::count(s.begin(), s.end(), ','); };
+  EXPECT_EQ(count(hm::primitive_csv_row(b)), count(hm::primitive_csv_header()));
+  EXPECT_EQ(hm::primitive_csv_row(b).rfind("box,0.00000,0.00000,0.00000,0.0000,0.0000,1.0000,1.0000,0.0000,0.0000,0.05000", 0), 0u);
 }
