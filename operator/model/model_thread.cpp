@@ -449,14 +449,14 @@ void ModelThread::log_shapes(std::uint64_t build, std::int64_t now_ns) {
       std::fprintf(stderr, "shape log: cannot write %s/primitives.csv: off\n", p_.shape_log_dir.c_str());
       return;
     }
-    std::fprintf(shape_log_.get(), "build,t_ns,cells,objects,refused_free,support_nx,support_ny,support_nz,support_d,%s\n",
+    std::fprintf(shape_log_.get(), "build,t_ns,cells,objects,refused_free,refused_inside,support_nx,support_ny,support_nz,support_d,%s\n",
                  mapping::primitive_csv_header().c_str());
   }
   const mapping::Shape3dModel& sm = voxmap_->shapes();
   const auto& cells = voxmap_->shape_samples();
   char head[256];
-  std::snprintf(head, sizeof head, "%llu,%lld,%zu,%zu,%zu,%.4f,%.4f,%.4f,%.5f", static_cast<unsigned long long>(build),
-                static_cast<long long>(now_ns), cells.size(), sm.objects, sm.refused_free, sm.support[0], sm.support[1],
+  std::snprintf(head, sizeof head, "%llu,%lld,%zu,%zu,%zu,%zu,%.4f,%.4f,%.4f,%.5f", static_cast<unsigned long long>(build),
+                static_cast<long long>(now_ns), cells.size(), sm.objects, sm.refused_free, sm.refused_inside, sm.support[0], sm.support[1],
                 sm.support[2], sm.support[3]);
   for (const mapping::Primitive3& q : sm.primitives)
     std::fprintf(shape_log_.get(), "%s,%s\n", head, mapping::primitive_csv_row(q).c_str());
