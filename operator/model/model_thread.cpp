@@ -349,7 +349,15 @@ void ModelThread::step_voxmap(std::int64_t now_ns) {
   const std::int64_t t0 = steady_now_ns();
   std::uint64_t integrated = 0;
   std::shared_ptr<const wire::DepthChunk> m;
-  while (depth_.try_pop(m)) {
+  // On its own thread, integration yields to the rebuild after half a
+  // rebuild period: where chunks arrive faster than they integrate (a
+  // loaded machine), draining the queue in one go held the rebuild off for
+  // 11-32 s of a 60 s route (max_integrate_ms, explore3d beside builds) and
+  // the tool felt a model that old. What stays queued waits for the next
+  // step; a full queue drops the newest chunks (counted).
+  const auto integrate_budget_ns = static_cast<std::int64_t>(0.5e9 / p_.voxmap_rate_hz);
+  const bool budgeted = voxmap_threaded_.load(std::memory_order_acquire);
+  while ((!budgeted || steady_now_ns() - t0 < integrate_budget_ns) && depth_.try_pop(m)) {
     const std::uint64_t epoch = m->frame_epoch();
     if (epoch != 0 && epoch != voxmap_epoch_) {
       if (std::find(voxmap_retired_epochs_.begin(), voxmap_retired_epochs_.end(), epoch) != voxmap_retired_epochs_.end()) {
