@@ -28,7 +28,11 @@
 # (operator_explore3d_gaze.pbtxt; sim-hand6 only); output under
 # out/explore3d_head[_SCENE].
 #
-# Usage: deploy/explore3d.sh BUILD_DIR [--scene NAME|FILE] [--route NAME] [--device sim-hand6|sim-bimanual] [--head] [--rtts 0,300] [--out DIR] [--doc DIR] [--port-base P] [--views] [--no-plots] [--operator-config FILE] [--robot-config FILE] [--operator-arg ARG]... [--robot-arg ARG]... [--label TEXT]
+# --shape-log (issue 24): the operator writes each rebuild's accepted 3D
+# primitives and their input cells to DIR/<rtt>ms/shapes/ (hemm-operator
+# --shape-log); deploy/explore3d_shapes.py compares them with the scene.
+#
+# Usage: deploy/explore3d.sh BUILD_DIR [--shape-log] [--scene NAME|FILE] [--route NAME] [--device sim-hand6|sim-bimanual] [--head] [--rtts 0,300] [--out DIR] [--doc DIR] [--port-base P] [--views] [--no-plots] [--operator-config FILE] [--robot-config FILE] [--operator-arg ARG]... [--robot-arg ARG]... [--label TEXT]
 # (ports P, P+1 for the robot and P+100, P+101 for the relay; P default 47300;
 # --views: both stations write PNGs of their live view every 2 s into
 # DIR/<rtt>ms/{operator,robot}_view/, on the caller's X display.)
@@ -53,6 +57,7 @@ base=47300
 views=0
 head=0
 plots=1
+shape_log=0
 scene=home
 route=explore-table
 opcfg_arg="" robotcfg_arg="" label=""
@@ -67,6 +72,7 @@ while (($#)); do
     --robot-arg) robot_extra+=("${2?--robot-arg needs an argument}"); shift 2 ;;
     --label) label="${2:?--label needs a text}"; shift 2 ;;
     --no-plots) plots=0; shift ;;
+    --shape-log) shape_log=1; shift ;;
     --head) head=1; shift ;;
     --port-base) base="${2:?--port-base needs a port}"; shift 2 ;;
     --device) device="${2:?--device needs sim-hand6 or sim-bimanual}"; shift 2 ;;
@@ -130,7 +136,12 @@ trap cleanup EXIT
 run() {  # RTT_MS
   local rtt="$1" dir="$out/${1}ms"
   mkdir -p "$dir"
-  local op_view=() robot_view=()
+  local op_view=() robot_view=() op_log=()
+  if ((shape_log)); then
+    mkdir -p "$dir/shapes"
+    rm -f "$dir/shapes/"cells_*.f32
+    op_log=(--shape-log "$dir/shapes")
+  fi
   if ((views)); then
     op_view=(--view-png "$dir/operator_view" --view-interval 2)
     robot_view=(--view-png "$dir/robot_view" --view-interval 2)
@@ -162,7 +173,7 @@ run() {  # RTT_MS
   local rc=0
   "$bin/hemm-operator" --config "$opcfg_file" "${hand6[@]}" --session-port "$port" --stream-port "$stream" \
     --log "$dir/servo.csv" --duration "$secs" --log-level warn --station-json "$dir/station.json" "${op_view[@]}" \
-    "${op_extra[@]}" \
+    "${op_log[@]}" "${op_extra[@]}" \
     >"$dir/operator.txt" 2>"$dir/operator.log" || rc=$?
   kill -INT "$robot" 2>/dev/null || true
   wait "$robot" 2>/dev/null || true

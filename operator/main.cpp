@@ -71,6 +71,7 @@ struct RawArgs {
   std::string probe_line_arg;
   std::string hand6_route, hand6_script;  // override probe_3d.tool_hand_route / tool_hand_script
   bool print_hand6_route = false;
+  std::string shape_log_dir;  // overrides probe_3d.shape_log_dir
 #ifdef HEMM_WITH_VIEW
   view::ViewOptionStrings view_strs;
 #endif
@@ -125,6 +126,10 @@ void add_options(CLI::App* app, OperatorArgs* a, RawArgs* raw) {
                   "live voxmap (probe_3d): on: space no ray has seen is solid, flagged inferred; off: free beside the "
                   "seen surfaces (overrides probe_3d.unknown_solid, default off)")
       ->check(CLI::IsMember({"on", "off"}));
+  app->add_option("--shape-log", raw->shape_log_dir,
+                  "live voxmap with 3D shape completion: write each rebuild's accepted primitives to "
+                  "DIR/primitives.csv and the cells they were fitted to to DIR/cells_<build>.f32 (an existing "
+                  "directory; overrides probe_3d.shape_log_dir, default none)");
   app->add_option("--inferred-stiffness", a->inferred_stiffness,
                   "stiffness on inferred surfaces (a fitted primitive's unseen side, unknown space): full, or a "
                   "factor in (0, 1] (overrides probe_3d.inferred_stiffness, default full)");
@@ -270,6 +275,7 @@ void apply_hand6_args(const RawArgs& raw, config::OperatorConfig* cfg) {
   if (!raw.hand6_route.empty())
     cfg->mutable_probe_3d()->set_tool_hand_route(std::filesystem::absolute(raw.hand6_route).lexically_normal().string());
   if (!raw.hand6_script.empty()) cfg->mutable_probe_3d()->set_tool_hand_script(raw.hand6_script);
+  if (!raw.shape_log_dir.empty()) cfg->mutable_probe_3d()->set_shape_log_dir(raw.shape_log_dir);
 }
 
 // --print-hand6-route: the route as deploy/explore3d.sh reads it, one

@@ -91,6 +91,7 @@ struct LiveVoxmap::Impl {
   Eigen::Vector3i free_lo = Eigen::Vector3i::Zero(), free_dims = Eigen::Vector3i::Zero();
   // The newest snapshot's completion (temporal coherence) and report.
   mutable Shape3dModel shapes;
+  mutable std::vector<CellSample3> shape_samples;  // its input (the shape log)
   mutable LiveVoxmapSnapshotReport snap_stats;
 
   // The free grid's slot of voxel v, or -1 outside the ROI's voxels.
@@ -473,6 +474,7 @@ std::optional<std::string> LiveVoxmap::snapshot(vps::Voxmap* out, std::int64_t (
     const SeenFree seen_free = [&m](const Eigen::Vector3d& x) { return m.is_free(m.index(x)) || m.seen_free(x); };
     complete_shapes_3d(p.shapes, samples, seen_free, shapes);
     for (std::size_t r = 0; r < rendered.size(); ++r) owner[rendered[r]] = shapes.owner[r];
+    m.shape_samples.swap(samples);
     for (const Primitive3& q : shapes.primitives) {
       ++rep.primitives;
       rep.boxes += q.kind == PrimitiveKind::kBox ? 1 : 0;
@@ -485,6 +487,7 @@ std::optional<std::string> LiveVoxmap::snapshot(vps::Voxmap* out, std::int64_t (
     if (now_ns != nullptr) rep.completion_ns = now_ns() - t0;
   } else {
     shapes = Shape3dModel{};
+    m.shape_samples.clear();
   }
   Eigen::Vector3i lo = idx[0], hi = idx[0];
   for (const auto& v : idx) {
@@ -853,6 +856,7 @@ std::size_t LiveVoxmap::memory_bytes() const {
 const LiveVoxmapStats& LiveVoxmap::stats() const { return impl_->stats; }
 const LiveVoxmapSnapshotReport& LiveVoxmap::snapshot_report() const { return impl_->snap_stats; }
 const Shape3dModel& LiveVoxmap::shapes() const { return impl_->shapes; }
+const std::vector<CellSample3>& LiveVoxmap::shape_samples() const { return impl_->shape_samples; }
 std::size_t LiveVoxmap::free_space_bytes() const { return impl_->free_grid.capacity(); }
 bool LiveVoxmap::recorded_free(const Eigen::Vector3d& x) const { return impl_->is_free(impl_->index(x)); }
 const LiveVoxmapParams& LiveVoxmap::params() const { return impl_->p; }

@@ -152,6 +152,8 @@ class LiveVoxmap {
   std::optional<std::string> snapshot(vps::Voxmap* out, std::int64_t (*now_ns)() = nullptr) const;
   // The newest snapshot's shape completion (model thread; tests, view).
   const Shape3dModel& shapes() const;
+  // The cells that completion was fitted to (empty with it off): the shape log's input.
+  const std::vector<CellSample3>& shape_samples() const;
   // The free-space record's bytes (0 with unknown_solid off).
   std::size_t free_space_bytes() const;
   // Whether a ray passed through the voxel holding x (free-space record).

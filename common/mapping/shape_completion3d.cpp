@@ -1,7 +1,10 @@
 #include "common/mapping/shape_completion3d.h"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
+#include <cstring>
+#include <cstdio>
 #include <numbers>
 #include <numeric>
 
@@ -25,7 +28,8 @@ std::string validate(const Shape3dParams& p) {
   const double v[] = {p.inlier_distance, p.normal_angle,  p.max_rms,          p.cluster_tolerance, p.fit_normal_radius,
                       p.min_support_share, p.min_inlier_ratio, p.min_radius, p.max_radius,
                       p.min_arc,         p.min_sphere_spread, p.right_angle_tolerance, p.min_box_height,
-                      p.max_box_size,    p.support_snap, p.max_edge_extension,  p.max_free_share,   p.free_sample_step};
+                      p.max_box_size,    p.support_snap, p.max_edge_extension,  p.max_free_share,   p.free_sample_step,
+                      p.max_inside_share};
   for (double x : v)
     if (!std::isfinite(x) || x < 0.0) return "shape completion 3d: parameters must be finite and >= 0";
   if (!(p.inlier_distance > 0.0) || !(p.cluster_tolerance > 0.0) || !(p.free_sample_step > 0.0) ||
@@ -34,7 +38,7 @@ std::string validate(const Shape3dParams& p) {
   if (p.min_points < 4 || p.min_face_points < 3) return "shape completion 3d: min_points >= 4, min_face_points >= 3";
   if (p.max_objects < 1 || p.max_objects > 10000) return "shape completion 3d: max_objects in [1, 10000]";
   if (p.max_iterations < 1 || p.max_iterations > 100000) return "shape completion 3d: max_iterations in [1, 100000]";
-  if (p.min_inlier_ratio > 1.0 || p.min_support_share > 1.0 || p.max_free_share > 1.0)
+  if (p.min_inlier_ratio > 1.0 || p.min_support_share > 1.0 || p.max_free_share > 1.0 || p.max_inside_share > 1.0)
     return "shape completion 3d: ratios must be <= 1";
   if (!(p.max_radius > p.min_radius)) return "shape completion 3d: need min_radius < max_radius";
   if (p.normal_angle > 1.5 || p.right_angle_tolerance > 0.5) return "shape completion 3d: angles too wide";
@@ -261,6 +265,20 @@ double free_share(const Shape3dParams& p, const Primitive3& q, const SeenFree& s
         if (inside > 200000) break;  // bounded: a huge primitive is refused elsewhere
       }
   return inside > 0 ? static_cast<double>(free) / static_cast<double>(inside) : 0.0;
+}
+
+// Seen cells more than inlier_distance inside q, over its object's cell count.
+double inside_share(const Shape3dParams& p, const Primitive3& q, const std::vector<CellSample3>& cells,
+                    std::size_t object_cells) {
+  const Eigen::AlignedBox3d b = primitive_bounds(q);
+  std::size_t inside = 0;
+  for (const CellSample3& c : cells) {
+    if (!b.contains(c.p)) continue;
+    Vector3d g;
+    bool kink = false;
+    if (primitive_sdf(q, c.p, &g, &kink, 0.0) < -p.inlier_distance) ++inside;
+  }
+  return static_cast<double>(inside) / static_cast<double>(std::max<std::size_t>(1, object_cells));
 }
 
 bool seen_from_outside(const Primitive3& q, const std::vector<CellSample3>& cells,
@@ -496,6 +514,37 @@ void min_rectangle(const std::vector<Eigen::Vector2d>& pts, double* angle, Eigen
   }
 }
 
+// Whether the box's side along side * R.col(a) was seen although no plane
+// was fitted to it: at least min_face_points of the object's cells off the
+// faces' planes lie at or beyond the seen edge (within the other axes'
+// extents). A low side (a book's 3 cm front) has too few rows for its 5 cm
+// normals to leave the top's: they are blended, so no face fit takes them,
+// and moving that edge out by the top's sample spacing put the book's front
+// 6-19 mm proud of where the camera saw it (the shape log, home table).
+// Its cells pin the edge instead (their median, when beyond it).
+bool side_seen(const Shape3dParams& p, const std::vector<CellSample3>& cells, const std::vector<std::uint32_t>& obj,
+               const std::vector<std::uint8_t>& on_face, const Eigen::Matrix3d& R, int a, int side,
+               const Vector3d& lo_seen, const Vector3d& hi_seen, Vector3d* lo, Vector3d* hi) {
+  const double tol = p.inlier_distance;
+  const double edge = side > 0 ? hi_seen[a] : lo_seen[a];
+  std::vector<double> at;
+  for (std::uint32_t k : obj) {
+    if (on_face[k]) continue;
+    const Vector3d l = R.transpose() * cells[k].p;
+    if (side * (l[a] - edge) < -1.5 * tol) continue;
+    bool within = true;
+    for (int b = 0; b < 3; ++b)
+      if (b != a) within = within && l[b] >= lo_seen[b] - tol && l[b] <= hi_seen[b] + tol;
+    if (within) at.push_back(l[a]);
+  }
+  if (at.size() < p.min_face_points) return false;
+  std::nth_element(at.begin(), at.begin() + static_cast<std::ptrdiff_t>(at.size() / 2), at.end());
+  const double median = at[at.size() / 2];
+  if (side > 0) (*hi)[a] = std::max((*hi)[a], median);
+  else (*lo)[a] = std::min((*lo)[a], median);
+  return true;
+}
+
 bool fit_box(const Shape3dParams& p, const std::vector<CellSample3>& cells, const std::vector<std::uint32_t>& obj,
              const Shape3dModel& model, Fit& out) {
   // Up to three planes in turn on what the previous ones left.
@@ -589,13 +638,18 @@ bool fit_box(const Shape3dParams& p, const std::vector<CellSample3>& cells, cons
     }
   }
   // Sides with no face of their own (nor the support): out by half the
-  // sample spacing of the cells at that edge (see the header).
+  // sample spacing of the cells at that edge (see the header), unless the
+  // side itself was seen: then its cells pin it (side_seen).
+  const Vector3d lo_seen = lo, hi_seen = hi;
+  std::vector<std::uint8_t> on_face(cells.size(), 0);
+  for (std::uint32_t k : inl) on_face[k] = 1;
   for (int a = 0; a < 3; ++a) {
     for (const int side : {-1, 1}) {
       bool face = false;
       for (const PlaneFit& f : faces) face = face || side * R.col(a).dot(f.n) > 0.9;
       if (model.have_support && side * R.col(a).dot(Vector3d(model.support.head<3>())) < -0.9) face = true;
       if (face) continue;
+      if (side_seen(p, cells, obj, on_face, R, a, side, lo_seen, hi_seen, &lo, &hi)) continue;
       const Vector3d u = side * R.col(a);
       const double edge = side > 0 ? hi[a] : lo[a];
       double sum = 0.0;
@@ -647,6 +701,7 @@ void complete_shapes_3d(const Shape3dParams& p, const std::vector<CellSample3>& 
   out.objects = 0;
   out.kept = 0;
   out.refused_free = 0;
+  out.refused_inside = 0;
   if (!p.enabled || !validate(p).empty() || cells.size() < p.min_points) return;
   std::vector<std::uint32_t> all(cells.size());
   std::iota(all.begin(), all.end(), 0u);
@@ -702,6 +757,10 @@ void complete_shapes_3d(const Shape3dParams& p, const std::vector<CellSample3>& 
         ++out.refused_free;
         continue;
       }
+      if (inside_share(p, f.q, cells, obj.size()) > p.max_inside_share) {
+        ++out.refused_inside;
+        continue;
+      }
       if (!ok || f.q.inliers > fit.q.inliers) {
         fit = std::move(f);
         ok = true;
@@ -712,7 +771,9 @@ void complete_shapes_3d(const Shape3dParams& p, const std::vector<CellSample3>& 
       for (const Primitive3& q : previous) {
         std::size_t on = 0;
         for (std::uint32_t k : obj) on += on_primitive(q, cells[k], tol) ? 1 : 0;
-        if (on >= p.min_points && static_cast<double>(on) >= p.min_inlier_ratio * static_cast<double>(obj.size())) {
+        if (on >= p.min_points && static_cast<double>(on) >= p.min_inlier_ratio * static_cast<double>(obj.size()) &&
+            free_share(p, q, seen_free) <= p.max_free_share &&
+            inside_share(p, q, cells, obj.size()) <= p.max_inside_share) {
           fit.q = q;
           fit.q.kept = true;
           ok = true;
@@ -738,6 +799,60 @@ void complete_shapes_3d(const Shape3dParams& p, const std::vector<CellSample3>& 
     for (std::uint32_t k = 0; k < cells.size(); ++k)
       if (taken[k]) own(k);
   }
+}
+
+std::string primitive_csv_header() {
+  return "kind,cx,cy,cz,zx,zy,zz,xx,xy,xz,hx,hy,hz,rms,inliers,points,faces,arc,kept";
+}
+
+std::string primitive_csv_row(const Primitive3& q) {
+  const char* kind = q.kind == PrimitiveKind::kBox ? "box" : q.kind == PrimitiveKind::kCylinder ? "cylinder" : "sphere";
+  const Vector3d c = q.T_W_P.translation(), z = q.T_W_P.linear().col(2), x = q.T_W_P.linear().col(0);
+  char buf[512];
+  std::snprintf(buf, sizeof buf, "%s,%.5f,%.5f,%.5f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.5f,%.5f,%.5f,%.5f,%u,%u,%d,%.3f,%d",
+                kind, c.x(), c.y(), c.z(), z.x(), z.y(), z.z(), x.x(), x.y(), x.z(), q.half.x(), q.half.y(), q.half.z(),
+                q.rms, q.inliers, q.points, q.faces, q.arc, q.kept ? 1 : 0);
+  return buf;
+}
+
+namespace {
+constexpr std::size_t kCellFloats = 10;
+static_assert(std::endian::native == std::endian::little, "the cell log is little-endian float32");
+}  // namespace
+
+std::string cells_to_bytes(const std::vector<CellSample3>& cells) {
+  std::string out(cells.size() * kCellFloats * sizeof(float), '\0');
+  std::size_t o = 0;
+  for (const CellSample3& c : cells) {
+    const float f[kCellFloats] = {static_cast<float>(c.p.x()),    static_cast<float>(c.p.y()),    static_cast<float>(c.p.z()),
+                                  static_cast<float>(c.n.x()),    static_cast<float>(c.n.y()),    static_cast<float>(c.n.z()),
+                                  static_cast<float>(c.view.x()), static_cast<float>(c.view.y()), static_cast<float>(c.view.z()),
+                                  static_cast<float>(c.range_pitch)};
+    std::memcpy(out.data() + o, f, sizeof f);
+    o += sizeof f;
+  }
+  return out;
+}
+
+std::string cells_from_bytes(const std::string& bytes, std::vector<CellSample3>* out) {
+  constexpr std::size_t rec = kCellFloats * sizeof(float);
+  if (bytes.size() % rec != 0) return "shape log cells: size is not a whole number of cells";
+  std::vector<CellSample3> cells(bytes.size() / rec);
+  for (std::size_t i = 0; i < cells.size(); ++i) {
+    float f[kCellFloats];
+    std::memcpy(f, bytes.data() + i * rec, rec);
+    for (float v : f)
+      if (!std::isfinite(v)) return "shape log cells: cell " + std::to_string(i) + " is not finite";
+    CellSample3& c = cells[i];
+    c.p = Vector3d(f[0], f[1], f[2]);
+    c.n = Vector3d(f[3], f[4], f[5]);
+    c.view = Vector3d(f[6], f[7], f[8]);
+    c.range_pitch = f[9];
+    if (std::abs(c.n.norm() - 1.0) > 1e-3 || std::abs(c.view.norm() - 1.0) > 1e-3 || c.range_pitch < 0.0)
+      return "shape log cells: cell " + std::to_string(i) + " has no unit normal or view";
+  }
+  out->swap(cells);
+  return {};
 }
 
 }  // namespace hemm::mapping

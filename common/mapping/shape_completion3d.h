@@ -45,10 +45,14 @@
 //       degrees from 0.8 m), at most max_edge_extension.
 //     Every primitive is refused when more than max_free_share of the
 //     volume it adds was seen free by the camera (seen_free below): the
-//     fitted shape may close what was not seen, never what was seen empty.
+//     fitted shape may close what was not seen, never what was seen empty;
+//     and when more than max_inside_share of seen cells lie inside it
+//     beyond inlier_distance: it may not stand in front of a seen surface.
 //  4. Temporal coherence: a primitive of the previous completion is kept
 //     for an object whose cells still lie on it (min_inlier_ratio of them
-//     within inlier_distance) when this map alone does not pass.
+//     within inlier_distance) when this map alone does not pass, and when
+//     it passes this map's free-space and inside tests (the camera may have
+//     seen since that it was wrong).
 //  A primitive stands for its object's and the support's cells within 2
 //  inlier_distance of its surface or inside it (Shape3dModel::owner).
 //
@@ -97,6 +101,11 @@ struct Shape3dParams {
   double support_snap = 0.04;        // m: a box whose bottom is this near the support stands on it
   double max_edge_extension = 0.015; // m: the most an unseen edge is moved out for the sample spacing
   double max_free_share = 0.05;      // of the added volume's samples that may have been seen free
+  // Seen surface cells (any object's or the support's) more than
+  // inlier_distance inside a primitive, as a share of its object's cells:
+  // beyond this the primitive covers what the camera saw as a surface
+  // (its surface stands proud of the seen one) and is refused.
+  double max_inside_share = 0.05;
   double free_sample_step = 0.01;    // m between the samples of that test
 };
 
@@ -150,6 +159,7 @@ struct Shape3dModel {
   std::size_t objects = 0;     // objects considered
   std::size_t kept = 0;        // primitives held from the previous completion
   std::size_t refused_free = 0;  // fits refused because the camera saw their volume free
+  std::size_t refused_inside = 0;  // fits refused for standing in front of seen cells
 };
 
 // x (W) was seen as free space by the camera (a ray passed through it).
@@ -161,5 +171,17 @@ using SeenFree = std::function<bool(const Eigen::Vector3d&)>;
 // seen_free may be empty (nothing known to be free).
 void complete_shapes_3d(const Shape3dParams& p, const std::vector<CellSample3>& cells, const SeenFree& seen_free,
                         Shape3dModel& out);
+
+// The shape log (issue 24: why a primitive was accepted). One CSV line per
+// accepted primitive: kind, centre (W), the frame's z and x axes, half
+// extents, rms, inliers, object points, faces, arc, kept. No newline.
+std::string primitive_csv_header();
+std::string primitive_csv_row(const Primitive3& q);
+// A completion's input cells as little-endian float32, 10 per cell (p, n,
+// view, range_pitch), so a logged rebuild can be fitted again offline.
+std::string cells_to_bytes(const std::vector<CellSample3>& cells);
+// Empty when the bytes are not a whole number of finite cells with unit
+// normals and views; *out is untouched then.
+std::string cells_from_bytes(const std::string& bytes, std::vector<CellSample3>* out);
 
 }  // namespace hemm::mapping

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <fstream>
 #include <numbers>
 #include <stdexcept>
 #include <utility>
@@ -348,7 +349,15 @@ void ModelThread::step_voxmap(std::int64_t now_ns) {
   const std::int64_t t0 = steady_now_ns();
   std::uint64_t integrated = 0;
   std::shared_ptr<const wire::DepthChunk> m;
-  while (depth_.try_pop(m)) {
+  // On its own thread, integration yields to the rebuild after half a
+  // rebuild period: where chunks arrive faster than they integrate (a
+  // loaded machine), draining the queue in one go held the rebuild off for
+  // 11-32 s of a 60 s route (max_integrate_ms, explore3d beside builds) and
+  // the tool felt a model that old. What stays queued waits for the next
+  // step; a full queue drops the newest chunks (counted).
+  const auto integrate_budget_ns = static_cast<std::int64_t>(0.5e9 / p_.voxmap_rate_hz);
+  const bool budgeted = voxmap_threaded_.load(std::memory_order_acquire);
+  while ((!budgeted || steady_now_ns() - t0 < integrate_budget_ns) && depth_.try_pop(m)) {
     const std::uint64_t epoch = m->frame_epoch();
     if (epoch != 0 && epoch != voxmap_epoch_) {
       if (std::find(voxmap_retired_epochs_.begin(), voxmap_retired_epochs_.end(), epoch) != voxmap_retired_epochs_.end()) {
@@ -416,6 +425,7 @@ void ModelThread::step_voxmap(std::int64_t now_ns) {
       st.max_unknown_ms = std::max(st.max_unknown_ms, ums);
       st.sum_unknown_ms += ums;
       st.free_space_bytes = voxmap_->free_space_bytes();
+      if (!p_.shape_log_dir.empty()) log_shapes(st.builds, now_ns);
       std::lock_guard<std::mutex> lock(voxmap_mu_);
       retired = std::exchange(voxmap_published_, std::move(vm));
       voxmap_published_builds_ = st.builds;
@@ -434,6 +444,35 @@ void ModelThread::step_voxmap(std::int64_t now_ns) {
   voxmap_stats_ = st;
   std::lock_guard<std::mutex> lock(stats_mutex_);
   voxmap_stats_out_ = st;
+}
+
+void ModelThread::log_shapes(std::uint64_t build, std::int64_t now_ns) {
+  // Off the servo thread (the voxmap thread); a file that cannot be written
+  // leaves the log off (said once), the model unchanged.
+  if (!shape_log_) {
+    if (shape_log_failed_) return;
+    shape_log_.reset(std::fopen((p_.shape_log_dir + "/primitives.csv").c_str(), "w"));
+    if (!shape_log_) {
+      shape_log_failed_ = true;
+      std::fprintf(stderr, "shape log: cannot write %s/primitives.csv: off\n", p_.shape_log_dir.c_str());
+      return;
+    }
+    std::fprintf(shape_log_.get(), "build,t_ns,cells,objects,refused_free,refused_inside,support_nx,support_ny,support_nz,support_d,%s\n",
+                 mapping::primitive_csv_header().c_str());
+  }
+  const mapping::Shape3dModel& sm = voxmap_->shapes();
+  const auto& cells = voxmap_->shape_samples();
+  char head[256];
+  std::snprintf(head, sizeof head, "%llu,%lld,%zu,%zu,%zu,%zu,%.4f,%.4f,%.4f,%.5f", static_cast<unsigned long long>(build),
+                static_cast<long long>(now_ns), cells.size(), sm.objects, sm.refused_free, sm.refused_inside, sm.support[0], sm.support[1],
+                sm.support[2], sm.support[3]);
+  for (const mapping::Primitive3& q : sm.primitives)
+    std::fprintf(shape_log_.get(), "%s,%s\n", head, mapping::primitive_csv_row(q).c_str());
+  if (sm.primitives.empty()) std::fprintf(shape_log_.get(), "%s,none%s\n", head, std::string(18, ',').c_str());
+  std::fflush(shape_log_.get());
+  char name[64];
+  std::snprintf(name, sizeof name, "/cells_%05llu.f32", static_cast<unsigned long long>(build));
+  std::ofstream(p_.shape_log_dir + name, std::ios::binary) << mapping::cells_to_bytes(cells);
 }
 
 void ModelThread::run_voxmap() {

@@ -49,6 +49,7 @@
 #include <array>
 #include <atomic>
 #include <cstdint>
+#include <cstdio>
 #include <functional>
 #include <limits>
 #include <memory>
@@ -138,6 +139,11 @@ struct ModelThreadParams {
   // before it is integrated (a frame is held until its last chunk).
   bool depth_registration = false;
   mapping::DepthRegistrationParams depth_registration_params;
+  // The shape log (issue 24; empty: none): the voxmap thread writes every
+  // rebuild's accepted 3D primitives to DIR/primitives.csv and the cells
+  // they were fitted to to DIR/cells_<build>.f32 (mapping::cells_to_bytes),
+  // so a rebuild can be compared with the scene and fitted again offline.
+  std::string shape_log_dir;
 };
 
 // The live voxmap's figures (model thread, copied out under stats_mutex_).
@@ -322,6 +328,9 @@ class ModelThread {
   std::uint64_t voxmap_epoch_ = 0;                // the frame epoch of the chunks in the voxmap (0: none yet)
   std::array<std::uint64_t, 4> voxmap_retired_epochs_{};
   std::int64_t voxmap_next_build_ns_ = 0;
+  void log_shapes(std::uint64_t build, std::int64_t now_ns);  // shape_log_dir set
+  std::unique_ptr<std::FILE, int (*)(std::FILE*)> shape_log_{nullptr, &std::fclose};
+  bool shape_log_failed_ = false;  // could not be opened: off, said once on stderr
   VoxmapStats voxmap_stats_;          // voxmap work only
   VoxmapStats voxmap_stats_out_;      // under stats_mutex_
   std::mutex voxmap_mu_;              // guards the four below

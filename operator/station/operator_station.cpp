@@ -35,6 +35,7 @@ void apply_probe3d_config(const config::Probe3dConfig& c, OperatorStationOptions
   o->model.voxmap.clear_margin = std::max(o->model.voxmap.clear_margin, 1.5 * c.voxel_size_m());
   o->model.voxmap.shape_completion = c.shape_completion();
   o->model.voxmap.unknown_solid = c.unknown_solid();
+  o->model.shape_log_dir = c.shape_log_dir();
   o->model.voxmap_roi_R = Eigen::AlignedBox3d(Eigen::Vector3d(c.roi_x_min_m(), -c.roi_half_width_m(), c.roi_z_min_m()),
                                               Eigen::Vector3d(c.roi_x_max_m(), c.roi_half_width_m(), c.roi_z_max_m()));
   o->model.voxmap_rate_hz = c.rebuild_rate_hz();
