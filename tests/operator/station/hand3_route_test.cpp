@@ -74,9 +74,16 @@ TEST(Hand3Route, TheSimulatedOmniFollowsEachTableScenesRouteInSimulatedTime) {
     }
     EXPECT_EQ(next_key, r->keys.size()) << scene;
     EXPECT_GE(held, 3u) << scene;
-    // The grip (200 N/m on 0.35 kg, damping ratio ~0.66) trails a moving
-    // target by ~2 zeta / omega times its speed: at most ~0.2 m/s in W here.
-    EXPECT_LT(worst_lag, 0.02) << scene;
+    // The grip (a spring-damper on the stylus) trails a target moving at v by
+    // (b_hand + b_device) / k_hand v once the ramp settles; the route's
+    // fastest segment sets the bound, with half again for the start of each
+    // ramp (the damped overshoot).
+    double v_max = 0.0;
+    for (std::size_t i = 1; i < r->keys.size(); ++i)
+      v_max = std::max(v_max, (r->keys[i].p_W - r->keys[i - 1].p_W).norm() / (r->keys[i].t_s - r->keys[i - 1].t_s));
+    const double ramp_lag = (om.hand_damping + om.device_damping) / om.hand_stiffness * v_max;
+    EXPECT_GT(v_max, 0.05) << scene;
+    EXPECT_LT(worst_lag, 1.5 * ramp_lag) << scene << ": fastest segment " << v_max << " m/s";
   }
 }
 
