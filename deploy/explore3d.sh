@@ -27,12 +27,19 @@
 # (robot_depth_head.pbtxt) turned by the operator's gaze
 # (operator_explore3d_gaze.pbtxt; sim-hand6 only); output under
 # out/explore3d_head[_SCENE].
+# --device sim-omni (issue 24 part 4): the 3-DoF point probe instead
+# (operator_explore3d_omni.pbtxt: the SIMULATED Omni whose hand follows the
+# scene's explore3 route, hemm-operator --hand3-route/--hand3-script), the
+# truth hemm-truth --probe3 (the logged device path, the same point-probe
+# contact model, against the same 2.5 mm voxmap of the scene); prints the
+# force error table and the per-feature table; output under
+# out/explore3d_omni[_SCENE], no wrench plot.
 #
 # --shape-log (issue 24): the operator writes each rebuild's accepted 3D
 # primitives and their input cells to DIR/<rtt>ms/shapes/ (hemm-operator
 # --shape-log); deploy/explore3d_shapes.py compares them with the scene.
 #
-# Usage: deploy/explore3d.sh BUILD_DIR [--shape-log] [--scene NAME|FILE] [--route NAME] [--device sim-hand6|sim-bimanual] [--head] [--rtts 0,300] [--out DIR] [--doc DIR] [--port-base P] [--views] [--no-plots] [--operator-config FILE] [--robot-config FILE] [--operator-arg ARG]... [--robot-arg ARG]... [--label TEXT]
+# Usage: deploy/explore3d.sh BUILD_DIR [--shape-log] [--scene NAME|FILE] [--route NAME] [--device sim-hand6|sim-bimanual|sim-omni] [--head] [--rtts 0,300] [--out DIR] [--doc DIR] [--port-base P] [--views] [--no-plots] [--operator-config FILE] [--robot-config FILE] [--operator-arg ARG]... [--robot-arg ARG]... [--label TEXT]
 # (ports P, P+1 for the robot and P+100, P+101 for the relay; P default 47300;
 # --views: both stations write PNGs of their live view every 2 s into
 # DIR/<rtt>ms/{operator,robot}_view/, on the caller's X display.)
@@ -75,7 +82,7 @@ while (($#)); do
     --shape-log) shape_log=1; shift ;;
     --head) head=1; shift ;;
     --port-base) base="${2:?--port-base needs a port}"; shift 2 ;;
-    --device) device="${2:?--device needs sim-hand6 or sim-bimanual}"; shift 2 ;;
+    --device) device="${2:?--device needs sim-hand6, sim-bimanual or sim-omni}"; shift 2 ;;
     --views) views=1; shift ;;
     --rtts) rtts="${2:?--rtts needs a list}"; shift 2 ;;
     --out) out="${2:?--out needs a directory}"; shift 2 ;;
@@ -87,7 +94,8 @@ done
 case "$device" in
   sim-hand6) opcfg="operator_explore3d.pbtxt"; tag="explore3d" ;;
   sim-bimanual) opcfg="operator_explore3d_bimanual.pbtxt"; tag="explore3d_bimanual" ;;
-  *) echo "explore3d: --device '$device': sim-hand6 or sim-bimanual" >&2; exit 2 ;;
+  sim-omni) opcfg="operator_explore3d_omni.pbtxt"; tag="explore3d_omni" ;;
+  *) echo "explore3d: --device '$device': sim-hand6, sim-bimanual or sim-omni" >&2; exit 2 ;;
 esac
 robotcfg="robot_depth.pbtxt"
 if ((head)); then
@@ -120,7 +128,17 @@ mkdir -p "$out" "$doc"
 # The route as the operator reads it (checked against the SIMULATED hand's
 # reach): the robot's start, the truth region, its end, its features.
 hand6=(--hand6-route "$scene_file" --hand6-script "$route")
-"$bin/hemm-operator" --config "$opcfg_file" "${hand6[@]}" "${op_extra[@]}" --print-hand6-route >"$out/route.txt" \
+print_route=--print-hand6-route
+truth_tool=(--tool6)  # + the run's tool file (run below)
+# ---- --device sim-omni (issue 24 part 4): the 3-DoF route and its truth.
+if [[ "$device" == sim-omni ]]; then
+  hand6=(--hand3-route "$scene_file" --hand3-script "$route")
+  print_route=--print-hand3-route
+  truth_tool=(--probe3 "$opcfg_file")
+  plots_wrench=0
+fi
+# ---- end sim-omni
+"$bin/hemm-operator" --config "$opcfg_file" "${hand6[@]}" "${op_extra[@]}" "$print_route" >"$out/route.txt" \
   || { echo "explore3d: the route '$route' of $scene_file does not load (above)" >&2; exit 2; }
 read -r _ sx sy st < <(grep '^start ' "$out/route.txt")
 read -r _ r0 r1 r2 r3 r4 r5 < <(grep '^region ' "$out/route.txt")
@@ -191,8 +209,10 @@ run() {  # RTT_MS
   ((plots)) && /usr/bin/python3 "$root/deploy/plots/plot_timing.py" "$dir/robot_station.json" --out "$dir/robot_timing.png" \
     --title "$tag, ${rtt} ms: robot control loop" >&2
   echo "explore3d: truth replay (2.5 mm voxmap of the scene) for ${rtt} ms" >&2
+  local tt=("${truth_tool[@]}")
+  [[ "${tt[0]}" == --tool6 ]] && tt+=("$dir/servo.csv.tool6.txt")
   "$bin/hemm-truth" --scene "$scene_file" --region "$r0" "$r1" "$r2" "$r3" "$r4" "$r5" --log "$dir/servo.csv.world.csv" \
-    --tool6 "$dir/servo.csv.tool6.txt" --csv "$dir/truth.csv" --json "$dir/truth.json" >"$dir/truth.txt"
+    "${tt[@]}" --csv "$dir/truth.csv" --json "$dir/truth.json" >"$dir/truth.txt"
   cat "$dir/truth.txt" >&2
 }
 
@@ -209,7 +229,7 @@ png="$tag"
 # home keeps its image (the table top); another scene: its truth region, seen from behind the robot.
 plot_view=()
 [[ "$scene_name" == home ]] || plot_view=(--region "$r0" "$r1" 0.70 "$r3" "$r4" 0.95 --heading "$(awk -v t="$st" 'BEGIN {printf "%.1f", t * 180 / 3.141592653589793}')")
-if ((!plots)); then
+if ((!plots)) || ((!${plots_wrench:-1})); then
   :
 elif [[ "$device" == sim-bimanual ]]; then
   /usr/bin/python3 "$root/deploy/plots/plot_explore3d.py" --wrench "$doc/${png}_wrench.png" \
@@ -224,7 +244,7 @@ else
   echo "explore3d: wrote $doc/${png}_wrench.png and $doc/${png}_voxmap.png" >&2
 fi
 
-/usr/bin/python3 - "$out" "$rtts" <<'PY'
+/usr/bin/python3 - "$out" "$rtts" "$device" <<'PY'
 import json, os, sys
 out, rtts = sys.argv[1], sys.argv[2].split(",")
 print("| link | contact ticks | force error RMS / max N | true force peak N | torque error RMS / max N m | "
@@ -235,6 +255,8 @@ for r in rtts:
     s = json.load(open(os.path.join(out, f"{r}ms", "station.json")))
     tm = s.get("timing", {})
     link = "direct, 0 ms" if r == "0" else f"hemm-relay, {r} ms RTT, 5 % loss each way"
+    if sys.argv[3] == "sim-omni":  # the point probe renders no torque
+        t["torque_rms_nm"] = t["torque_max_nm"] = t["true_torque_peak_nm"] = float("nan")
     print(f"| {link} | {t['contact_ticks']} | {t['force_rms_n']:.3f} / {t['force_max_n']:.3f} | "
           f"{t['true_force_peak_n']:.2f} | {t['torque_rms_nm']:.4f} / {t['torque_max_nm']:.4f} | "
           f"{t['true_torque_peak_nm']:.3f} | {tm['period_us']['median']} / {tm['period_us']['p99']} | "

@@ -43,6 +43,7 @@
 #include "operator/runners/runners.h"
 #include "operator/station/demo_scripts.h"
 #include "operator/station/explore_route.h"
+#include "operator/station/operator_station.h"
 
 namespace {
 
@@ -72,6 +73,8 @@ struct RawArgs {
   std::string hand6_route, hand6_script;  // override probe_3d.tool_hand_route / tool_hand_script
   bool print_hand6_route = false;
   std::string shape_log_dir;  // overrides probe_3d.shape_log_dir
+  std::string hand3_route, hand3_script;  // probe_3d.hand3_route / hand3_script
+  bool print_hand3_route = false;
 #ifdef HEMM_WITH_VIEW
   view::ViewOptionStrings view_strs;
 #endif
@@ -183,6 +186,15 @@ void add_options(CLI::App* app, OperatorArgs* a, RawArgs* raw) {
   app->add_flag("--print-hand6-route", raw->print_hand6_route,
                 "print the chosen route (robot start, truth region, end time, features with their times) after "
                 "checking it against the SIMULATED rigid hand's reach, and exit");
+  app->add_option("--hand3-route", raw->hand3_route,
+                  "scene file whose header holds the 3-DoF point probe's SIMULATED Omni hand routes (sets "
+                  "probe_3d.hand3_route; explore3 lines, deploy/scenes/README.md \"Exploration routes\")");
+  app->add_option("--hand3-script", raw->hand3_script,
+                  "the explore3 route of that file the SIMULATED Omni's hand follows instead of --script (sets "
+                  "probe_3d.hand3_script; device sim-omni, probe_3d.tool point)");
+  app->add_flag("--print-hand3-route", raw->print_hand3_route,
+                "print the chosen explore3 route (robot start, truth region, end time, features with their times) "
+                "after checking it against the SIMULATED Omni's reach through probe_3d's map, and exit");
 #ifdef HEMM_WITH_VIEW
   view::add_view_options(*app, &a->view_opts, &raw->view_strs);
 #endif
@@ -278,6 +290,52 @@ void apply_hand6_args(const RawArgs& raw, config::OperatorConfig* cfg) {
   if (!raw.shape_log_dir.empty()) cfg->mutable_probe_3d()->set_shape_log_dir(raw.shape_log_dir);
 }
 
+// --hand3-route / --hand3-script into the config, as apply_hand6_args.
+void apply_hand3_args(const RawArgs& raw, config::OperatorConfig* cfg) {
+  if (!raw.hand3_route.empty())
+    cfg->mutable_probe_3d()->set_hand3_route(std::filesystem::absolute(raw.hand3_route).lexically_normal().string());
+  if (!raw.hand3_script.empty()) cfg->mutable_probe_3d()->set_hand3_script(raw.hand3_script);
+}
+
+// The route lines deploy/explore3d.sh reads (--print-hand6-route, --print-hand3-route).
+void print_route_lines(const std::string& path, const std::string& name, const op::SceneExploration& x, double end_s,
+                       const std::vector<op::RouteFeature>& features) {
+  const Eigen::AlignedBox3d& b = x.region_W;
+  std::printf("scene %s\nroute %s\nstart %.10g %.10g %.10g\nregion %.10g %.10g %.10g %.10g %.10g %.10g\nend %.10g\n",
+              path.c_str(), name.c_str(), x.start_W.x, x.start_W.y, x.start_W.theta, b.min().x(), b.min().y(),
+              b.min().z(), b.max().x(), b.max().y(), b.max().z(), end_s);
+  for (const op::RouteFeature& f : features) std::printf("feature %s %.10g %.10g\n", f.name.c_str(), f.t0_s, f.t1_s);
+}
+
+// An explore3 route set (probe_3d.hand3_script): it loads and the SIMULATED
+// Omni reaches it (said on stderr, false, if not); with --print-hand3-route
+// its lines are printed.
+bool check_hand3_route(const config::OperatorConfig& cfg, const OperatorArgs& a, bool print) {
+  const auto& p3 = cfg.probe_3d();
+  const std::string device = a.device_type.empty() ? cfg.device().type() : a.device_type;
+  if (device != "sim-omni" || !p3.enabled() || p3.tool() != "point" || a.script_given || !a.replay_file.empty()) {
+    std::cerr << "hemm-operator: --hand3-script / probe_3d.hand3_script: the explore3 route is the SIMULATED Omni's "
+                 "hand (device sim-omni, probe_3d { enabled: true tool: \"point\" }, no --script, no --replay)\n";
+    return false;
+  }
+  const std::string path = config::resolve_relative_to(a.config_path, p3.hand3_route());
+  op::OperatorStationOptions so;
+  op::apply_probe3d_config(p3, &so);
+  try {
+    (void)op::load_hand3_route(path, p3.hand3_script(), so.task);
+  } catch (const std::invalid_argument& e) {
+    std::cerr << "hemm-operator: " << e.what() << "\n";
+    return false;
+  }
+  if (print) {
+    op::SceneExploration x;
+    (void)op::load_scene_exploration(path, &x);  // loaded above
+    const op::ExploreRoute3& r = *x.find3(p3.hand3_script());
+    print_route_lines(path, r.name, x, r.keys.back().t_s, op::route_features(r));
+  }
+  return true;
+}
+
 // --print-hand6-route: the route as deploy/explore3d.sh reads it, one
 // "key value..." line each; exit 2 (said on stderr) when it does not load or
 // leaves the SIMULATED rigid hand's reach.
@@ -300,12 +358,7 @@ int print_hand6_route(const config::OperatorConfig& cfg, const OperatorArgs& a) 
     std::cerr << "hemm-operator: --print-hand6-route: " << *e << "\n";
     return net::kExitUsage;
   }
-  const Eigen::AlignedBox3d& b = x.region_W;
-  std::printf("scene %s\nroute %s\nstart %.10g %.10g %.10g\nregion %.10g %.10g %.10g %.10g %.10g %.10g\nend %.10g\n",
-              path.c_str(), r->name.c_str(), x.start_W.x, x.start_W.y, x.start_W.theta, b.min().x(), b.min().y(),
-              b.min().z(), b.max().x(), b.max().y(), b.max().z(), r->keys.back().t_s);
-  for (const op::RouteFeature& f : op::route_features(*r))
-    std::printf("feature %s %.10g %.10g\n", f.name.c_str(), f.t0_s, f.t1_s);
+  print_route_lines(path, r->name, x, r->keys.back().t_s, op::route_features(*r));
   return net::kExitOk;
 }
 
@@ -394,6 +447,14 @@ int run(int argc, char** argv) {
   if (!load_config(&a, &cfg)) return net::kExitUsage;
   apply_hand6_args(raw, &cfg);
   if (raw.print_hand6_route) return print_hand6_route(cfg, a);
+  apply_hand3_args(raw, &cfg);
+  if (raw.print_hand3_route && cfg.probe_3d().hand3_script().empty()) {
+    std::cerr << "hemm-operator: --print-hand3-route needs --hand3-script (or probe_3d.hand3_script)\n";
+    return net::kExitUsage;
+  }
+  if (!cfg.probe_3d().hand3_script().empty() && !check_hand3_route(cfg, a, raw.print_hand3_route))
+    return net::kExitUsage;
+  if (raw.print_hand3_route) return net::kExitOk;
   return dispatch(cfg, a);
 }
 

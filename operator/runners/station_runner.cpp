@@ -69,6 +69,10 @@ OperatorStationOptions station_options(const config::OperatorConfig& cfg, const 
   so.task.proxy.period = static_cast<double>(so.servo.period_ns) * 1e-9;
   // The 3D probe / exploration and the 6-DoF tool (probe_3d block).
   apply_probe3d_config(cfg.probe_3d(), &so);
+  // The SIMULATED Omni's hand on an explore3 route (probe_3d.hand3_script; demo_scripts.h).
+  if (!cfg.probe_3d().hand3_script().empty())
+    so.hand = load_hand3_route(config::resolve_relative_to(a.config_path, cfg.probe_3d().hand3_route()),
+                               cfg.probe_3d().hand3_script(), so.task);
   so.hand6_route_file = config::resolve_relative_to(a.config_path, so.hand6_route_file);
   so.bimanual = std::make_shared<const config::BimanualDeviceConfig>(cfg.device().bimanual());
   return so;

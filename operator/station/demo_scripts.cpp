@@ -190,4 +190,34 @@ DemoScript make_demo_script(std::string_view name, const DemoScriptOptions& o) {
   return d;
 }
 
+math::ScaledMap probe3d_map_of(const OperatorTaskParams& p) {
+  // As OperatorServoTask maps the stylus for the point probe (operator_task.cpp).
+  return {p.probe3d_range / math::horizontal_half_extent(p.workspace), p.workspace.centre_B, p.probe3d_origin_R};
+}
+
+std::shared_ptr<const device::WaypointScript> make_hand3_script(const ExploreRoute3& r, const math::Pose2& start_W,
+                                                                const math::ScaledMap& m) {
+  std::vector<device::Waypoint> w;
+  w.reserve(r.keys.size());
+  for (const Route3Key& k : r.keys) w.push_back({k.t_s, route3_point_H(k.p_W, start_W, m), 0, false});
+  return std::make_shared<const device::WaypointScript>(std::move(w));
+}
+
+std::shared_ptr<const device::WaypointScript> load_hand3_route(const std::string& scene_path, const std::string& name,
+                                                               const OperatorTaskParams& task) {
+  if (!task.probe_3d)
+    throw std::invalid_argument("probe_3d.hand3_script: the 3-DoF route needs the point probe (probe_3d { enabled: "
+                                "true tool: \"point\" })");
+  SceneExploration x;
+  if (auto e = load_scene_exploration(scene_path, &x)) throw std::invalid_argument("probe_3d.hand3_route: " + *e);
+  const ExploreRoute3* r = x.find3(name);
+  if (r == nullptr)
+    throw std::invalid_argument("probe_3d.hand3_script: no route '" + name + "' in " + scene_path +
+                                " (its explore3 routes: " + x.route3_names() + ")");
+  const math::ScaledMap m = probe3d_map_of(task);
+  if (auto e = check_route3_reach(*r, x.start_W, m, device::phantom_omni_limits().ee[0], scene_path))
+    throw std::invalid_argument("probe_3d.hand3_script: " + *e);
+  return make_hand3_script(*r, x.start_W, m);
+}
+
 }  // namespace hemm::op

@@ -36,6 +36,7 @@
 
 #include "common/math/workspace_maps.h"
 #include "operator/device/hand_script.h"
+#include "operator/station/explore_route.h"
 #include "operator/station/operator_task.h"
 
 namespace hemm::op {
@@ -174,5 +175,23 @@ std::vector<Eigen::Vector2d> default_probe_line();
 // the robot's start.
 DemoScript make_demo_script(std::string_view name, const DemoScriptOptions& o = {});
 std::vector<std::string> demo_script_names();
+
+// ------------------------------------------------------------ hand3 routes
+// The SIMULATED Omni's hand following an explore3 route of a scene file's
+// header (explore_route.h; hemm-operator --hand3-route FILE --hand3-script
+// NAME): the stylus target at each key is the key's device point in H
+// through the task's 3-DoF probe map (probe3d_map_of: probe_3d's range and
+// origin), linear between keys, exploration mode, no dead-man. The Omni's
+// SIMULATED grip (simulated_omni.h) pulls the stylus towards the target and
+// yields to the force, so the logged device point is the path the truth
+// replays, not the route itself.
+math::ScaledMap probe3d_map_of(const OperatorTaskParams& p);
+std::shared_ptr<const device::WaypointScript> make_hand3_script(const ExploreRoute3& r, const math::Pose2& start_W,
+                                                                const math::ScaledMap& m);
+// Loads the route (errors "probe_3d.hand3_script: FILE:LINE: reason", the
+// route missing, or out of the Omni's reach: std::invalid_argument); the
+// task must run the 3-DoF point probe (probe_3d enabled, tool "point").
+std::shared_ptr<const device::WaypointScript> load_hand3_route(const std::string& scene_path, const std::string& name,
+                                                               const OperatorTaskParams& task);
 
 }  // namespace hemm::op

@@ -9,6 +9,8 @@
 #include <fstream>
 #include <sstream>
 
+#include "operator/station/operator_task.h"
+
 namespace hemm::op {
 
 namespace {
@@ -49,6 +51,68 @@ std::string fmt(const char* f, double a, double b = 0, double c = 0) {
   return buf;
 }
 
+// Appends key k to the route `name` of `routes` (a new route when none has
+// that name; `seen`: per route the features met, in order): the rules every
+// route shares (explore6 and explore3). nullopt, or the reason after `at`.
+template <class Route, class Key>
+std::optional<std::string> route_add_key(std::vector<Route>& routes, std::vector<std::vector<std::string>>& seen,
+                                         const std::string& name, Key k, const std::string& at, const char* d) {
+  std::size_t ri = 0;
+  while (ri < routes.size() && routes[ri].name != name) ++ri;
+  if (ri == routes.size()) {
+    if (k.t_s != 0.0)
+      return at + d + ": route " + name + "'s first key must be at t = 0 (the hand starts there)";
+    routes.push_back({name, {}});
+    seen.emplace_back();
+  }
+  Route& route = routes[ri];
+  if (!route.keys.empty() && !(k.t_s > route.keys.back().t_s))
+    return at + d + fmt(": t = %g s is not after the previous key's %g s", k.t_s, route.keys.back().t_s) + " (line " +
+           std::to_string(route.keys.back().line) + ")";
+  if (k.feature != "-") {
+    std::vector<std::string>& s = seen[ri];
+    if (s.empty() || s.back() != k.feature) {
+      for (const std::string& f : s)
+        if (f == k.feature)
+          return at + d + ": feature '" + k.feature + "' of route " + name + " resumes after '" + s.back() +
+                 "': a feature's keys must be consecutive";
+      s.push_back(k.feature);
+    }
+  }
+  route.keys.push_back(std::move(k));
+  return std::nullopt;
+}
+
+// A route file's closing checks (explore6 or explore3: d).
+template <class Route>
+std::optional<std::string> routes_complete(const std::vector<Route>& routes,
+                                           const std::vector<std::vector<std::string>>& seen, const std::string& at,
+                                           const char* d) {
+  for (std::size_t i = 0; i < routes.size(); ++i) {
+    if (routes[i].keys.size() < 2) return at + d + " route " + routes[i].name + " needs at least two keys";
+    if (seen[i].empty()) return at + d + " route " + routes[i].name + " names no feature (every key is '-')";
+  }
+  return std::nullopt;
+}
+
+template <class Route>
+std::vector<RouteFeature> features_of(const Route& r) {
+  std::vector<RouteFeature> f;
+  for (const auto& k : r.keys) {
+    if (k.feature == "-") continue;
+    if (f.empty() || f.back().name != k.feature) f.push_back({k.feature, k.t_s, k.t_s});
+    f.back().t1_s = k.t_s;
+  }
+  return f;
+}
+
+template <class Route>
+std::string names_of(const std::vector<Route>& routes) {
+  std::string s;
+  for (const Route& r : routes) s += (s.empty() ? "" : ", ") + r.name;
+  return s.empty() ? "none" : s;
+}
+
 }  // namespace
 
 const ExploreRoute* SceneExploration::find(const std::string& name) const {
@@ -57,11 +121,14 @@ const ExploreRoute* SceneExploration::find(const std::string& name) const {
   return nullptr;
 }
 
-std::string SceneExploration::route_names() const {
-  std::string s;
-  for (const ExploreRoute& r : routes) s += (s.empty() ? "" : ", ") + r.name;
-  return s.empty() ? "none" : s;
+const ExploreRoute3* SceneExploration::find3(const std::string& name) const {
+  for (const ExploreRoute3& r : routes3)
+    if (r.name == name) return &r;
+  return nullptr;
 }
+
+std::string SceneExploration::route_names() const { return names_of(routes); }
+std::string SceneExploration::route3_names() const { return names_of(routes3); }
 
 std::optional<std::string> parse_scene_exploration(std::string_view text, const std::string& source,
                                                    SceneExploration* out) {
@@ -88,7 +155,7 @@ std::optional<std::string> parse_scene_exploration(std::string_view text, const 
   bool has_start = false, has_region = false;
   int start_line = 0;
   // Per route: the features seen, to refuse one that resumes after another.
-  std::vector<std::vector<std::string>> seen;
+  std::vector<std::vector<std::string>> seen, seen3;
   std::size_t pos = 0;
   for (; pos <= header.size(); ++line) {
     std::size_t nl = header.find('\n', pos);
@@ -152,52 +219,40 @@ std::optional<std::string> parse_scene_exploration(std::string_view text, const 
       if (!(k.t_s >= 0 && k.t_s <= kRouteMaxTime_s)) return at + "explore6: T must be within [0, 3600] s";
       if (k.tip_R.norm() > kRouteMaxTip_m) return at + "explore6: the tip must be within 5 m of R's origin";
       if (std::abs(k.tilt_x_rad) > kRouteMaxTilt_rad) return at + "explore6: |TILT_X| must be at most pi/2";
-      std::size_t ri = 0;
-      while (ri < r.routes.size() && r.routes[ri].name != name) ++ri;
-      if (ri == r.routes.size()) {
-        if (k.t_s != 0.0) return at + "explore6: route " + name + "'s first key must be at t = 0 (the hand starts there)";
-        r.routes.push_back({name, {}});
-        seen.emplace_back();
-      }
-      ExploreRoute& route = r.routes[ri];
-      if (!route.keys.empty() && !(k.t_s > route.keys.back().t_s))
-        return at + fmt("explore6: t = %g s is not after the previous key's %g s", k.t_s, route.keys.back().t_s) +
-               " (line " + std::to_string(route.keys.back().line) + ")";
-      if (feature != "-") {
-        std::vector<std::string>& s = seen[ri];
-        if (s.empty() || s.back() != feature) {
-          for (const std::string& f : s)
-            if (f == feature)
-              return at + "explore6: feature '" + feature + "' of route " + name + " resumes after '" + s.back() +
-                     "': a feature's keys must be consecutive";
-          s.push_back(feature);
-        }
-      }
-      route.keys.push_back(std::move(k));
+      if (auto e = route_add_key(r.routes, seen, name, std::move(k), at, "explore6")) return e;
+    } else if (d == "explore3:") {
+      if (w.size() != 7)
+        return at + "explore3: expected ROUTE T X Y Z FEATURE (6 fields), got " + std::to_string(w.size() - 1);
+      const std::string& name = w[1];
+      if (!is_name(name)) return at + "explore3: route name '" + name + "': lower-case letters, digits and '-'";
+      if (!numbers(2, 4, &why)) return at + "explore3: " + why;
+      const std::string& feature = w[6];
+      if (feature != "-" && !is_name(feature))
+        return at + "explore3: feature '" + feature + "': lower-case letters, digits and '-', or '-' for a transit";
+      Route3Key k;
+      k.t_s = v[0];
+      k.p_W = Eigen::Vector3d(v[1], v[2], v[3]);
+      k.feature = feature;
+      k.line = line;
+      if (!(k.t_s >= 0 && k.t_s <= kRouteMaxTime_s)) return at + "explore3: T must be within [0, 3600] s";
+      if (k.p_W.cwiseAbs().maxCoeff() > kRouteMaxWorld_m) return at + "explore3: the point must be within 100 m";
+      if (auto e = route_add_key(r.routes3, seen3, name, std::move(k), at, "explore3")) return e;
     } else {
-      return at + "unknown directive '" + d + "' (explore-start:, explore-region:, explore6:)";
+      return at + "unknown directive '" + d + "' (explore-start:, explore-region:, explore6:, explore3:)";
     }
   }
   const std::string at = source + ": ";
-  for (std::size_t i = 0; i < r.routes.size(); ++i) {
-    if (r.routes[i].keys.size() < 2) return at + "route " + r.routes[i].name + " needs at least two keys";
-    if (seen[i].empty()) return at + "route " + r.routes[i].name + " names no feature (every key is '-')";
-  }
-  if (!r.routes.empty() && !has_start) return at + "a scene with explore6 routes needs explore-start: X Y THETA";
-  if (!r.routes.empty() && !has_region) return at + "a scene with explore6 routes needs explore-region: (6 numbers)";
+  if (auto e = routes_complete(r.routes, seen, at, "explore6")) return e;
+  if (auto e = routes_complete(r.routes3, seen3, at, "explore3")) return e;
+  const bool any = !r.routes.empty() || !r.routes3.empty();
+  if (any && !has_start) return at + "a scene with explore6 or explore3 routes needs explore-start: X Y THETA";
+  if (any && !has_region) return at + "a scene with explore6 or explore3 routes needs explore-region: (6 numbers)";
   *out = std::move(r);
   return std::nullopt;
 }
 
-std::vector<RouteFeature> route_features(const ExploreRoute& r) {
-  std::vector<RouteFeature> f;
-  for (const RouteKey& k : r.keys) {
-    if (k.feature == "-") continue;
-    if (f.empty() || f.back().name != k.feature) f.push_back({k.feature, k.t_s, k.t_s});
-    f.back().t1_s = k.t_s;
-  }
-  return f;
-}
+std::vector<RouteFeature> route_features(const ExploreRoute& r) { return features_of(r); }
+std::vector<RouteFeature> route_features(const ExploreRoute3& r) { return features_of(r); }
 
 std::optional<std::string> check_route_reach(const ExploreRoute& r, const Eigen::Vector3d& origin_R,
                                              const device::EndEffectorLimits& l, const std::string& source) {
@@ -217,6 +272,26 @@ std::optional<std::string> check_route_reach(const ExploreRoute& r, const Eigen:
         return at + fmt("the tip moves at %.2f m/s from the previous key, above the device's %.2f m/s", speed,
                         l.max_linear_speed);
     }
+  }
+  return std::nullopt;
+}
+
+Eigen::Vector3d route3_point_H(const Eigen::Vector3d& p_W, const math::Pose2& start_W, const math::ScaledMap& m) {
+  const Eigen::Vector3d p_R = math::apply(math::inverse(start_W), p_W);
+  return R_B_H().transpose() * math::unmap_point(m, p_R);
+}
+
+std::optional<std::string> check_route3_reach(const ExploreRoute3& r, const math::Pose2& start_W,
+                                              const math::ScaledMap& m, const device::EndEffectorLimits& l,
+                                              const std::string& source) {
+  auto vec = [](const Eigen::Vector3d& p) { return fmt("(%.3f %.3f %.3f)", p.x(), p.y(), p.z()); };
+  for (const Route3Key& k : r.keys) {
+    const Eigen::Vector3d p_H = route3_point_H(k.p_W, start_W, m);
+    if (!l.contains(p_H))
+      return source + ":" + std::to_string(k.line) + ": explore3 " + r.name + fmt(" at t = %g s: ", k.t_s) +
+             "the point " + vec(k.p_W) + " in W is out of the Omni's reach: " + vec(p_H) +
+             " in H, outside its workspace box " + vec(l.workspace_min_H) + " to " + vec(l.workspace_max_H) +
+             fmt(" (probe_3d: %.3f W m per device m, origin ", m.scale) + vec(m.origin_R) + " in R)";
   }
   return std::nullopt;
 }

@@ -18,6 +18,9 @@
 #include "common/config/config.h"
 #include "common/haptics/vps/cache.h"
 #include "common/haptics/proxy/virtual_proxy.h"
+#include "common/math/workspace_maps.h"
+#include "config_operator.pb.h"
+#include "robot_side/truth/probe3_truth.h"
 #include "robot_side/truth/scene_slice.h"
 #include "robot_side/truth/tool6_truth.h"
 #include "robot_side/truth/truth_eval.h"
@@ -40,6 +43,29 @@ void print_entries(const char* title, const std::vector<robot::SliceEntry>& v) {
   for (const auto& e : v) std::printf("  %-16s %-9s %s\n", e.name.c_str(), e.kind.c_str(), e.detail.c_str());
 }
 
+// What a replay (--tool6, --probe3) runs against: the scene's true geometry
+// in region voxelised at `voxel`, or (diagnosis, `against`) a saved live
+// voxmap (RUN.csv.voxmap.vps); false with *error.
+bool replay_voxmap(const std::string& scene, const std::vector<double>& region, double voxel, const std::string& against,
+                   vps::Voxmap* vm, std::vector<std::string>* parts, std::string* error) {
+  const Eigen::AlignedBox3d box(Eigen::Vector3d(region[0], region[1], region[2]),
+                                Eigen::Vector3d(region[3], region[4], region[5]));
+  if (box.isEmpty()) {
+    *error = "--region: min must be below max";
+    return false;
+  }
+  if (against.empty()) return robot::build_truth_voxmap(scene, box, voxel, vm, parts, error);
+  std::ifstream f(against, std::ios::binary);
+  const std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  vps::PointShell ps;
+  if (auto e = vps::deserialize_vps(bytes.data(), bytes.size(), vm, &ps)) {
+    *error = against + ": " + e->message;
+    return false;
+  }
+  parts->push_back(against);
+  return true;
+}
+
 // --tool6: the 6-DoF probe tool's goal path (issue 13) against the scene's
 // true geometry in --region, voxelised at --voxel.
 int run_tool6(const std::string& scene, const std::string& log_path, const std::string& params_path,
@@ -54,20 +80,9 @@ int run_tool6(const std::string& scene, const std::string& log_path, const std::
   if (!robot::read_tool6_params(params_path, &g, &p, &error)) return usage_error(error);
   vps::ProbeTool tool;
   if (auto e = vps::make_probe_tool(g, &tool)) return usage_error(params_path + ": " + e->message);
-  const Eigen::AlignedBox3d box(Eigen::Vector3d(region[0], region[1], region[2]),
-                                Eigen::Vector3d(region[3], region[4], region[5]));
-  if (box.isEmpty()) return usage_error("--region: min must be below max");
   vps::Voxmap vm;
   std::vector<std::string> parts;
-  if (!against.empty()) {  // diagnosis: the same path against a saved (live) voxmap instead of the truth
-    std::ifstream f(against, std::ios::binary);
-    const std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
-    vps::PointShell ps;
-    if (auto e = vps::deserialize_vps(bytes.data(), bytes.size(), &vm, &ps)) return usage_error(against + ": " + e->message);
-    parts.push_back(against);
-  } else if (!robot::build_truth_voxmap(scene, box, voxel, &vm, &parts, &error)) {
-    return usage_error(error);
-  }
+  if (!replay_voxmap(scene, region, voxel, against, &vm, &parts, &error)) return usage_error(error);
   p.budget = vps::kUnlimitedWork;  // the reference: every point at full resolution
   const robot::Tool6Truth t = robot::evaluate_tool6(ticks, tool, p, vm);
   std::printf("hemm-truth --tool6 (SIMULATION ONLY): %zu parts (", parts.size());
@@ -107,6 +122,89 @@ int run_tool6(const std::string& scene, const std::string& log_path, const std::
     j.set_torque_max_nm(t.torque_max);
     j.set_true_torque_peak_nm(t.true_torque_peak);
     j.set_voxel_m(voxel);
+    f << config::to_json(j);
+    if (!f) return usage_error(json_path + ": write failed");
+  }
+  return kExitOk;
+}
+
+// The point probe's contact model as the operator config sets it up
+// (operator_station.cpp apply_probe3d_config, station_runner.cpp): the
+// proxy's force law at its defaults with the servo's period and probe_3d's
+// radius, the scale probe_3d.range_m over the device's horizontal half
+// extent (the task's default workspace).
+bool probe3_params_from_config(const std::string& path, vps::PointProbeParams* p, double* scale, std::string* error) {
+  config::OperatorConfig c;
+  if (auto e = config::load_operator_config(path, &c)) {
+    *error = e->file + ":" + std::to_string(e->line) + ": " + (e->field.empty() ? "" : e->field + ": ") + e->message;
+    return false;
+  }
+  if (!c.probe_3d().enabled() || c.probe_3d().tool() != "point") {
+    *error = path + ": not a 3-DoF point probe config (probe_3d { enabled: true tool: \"point\" })";
+    return false;
+  }
+  vps::PointProbeParams q;
+  q.force.period = 1.0 / static_cast<double>(c.servo().rate_hz());
+  q.force.probe_radius = c.probe_3d().probe_radius_m();
+  if (std::string e = vps::validate(q); !e.empty()) {
+    *error = path + ": point probe: " + e;
+    return false;
+  }
+  *p = q;
+  *scale = c.probe_3d().range_m() / math::horizontal_half_extent(math::DeviceWorkspace{});
+  return true;
+}
+
+// --probe3: the 3-DoF point probe's logged device path (issue 24 part 4)
+// against the scene's true geometry in --region, voxelised at --voxel.
+int run_probe3(const std::string& scene, const std::string& log_path, const std::string& config_path,
+               const std::vector<double>& region, double voxel, const std::string& against,
+               const std::string& csv_path, const std::string& json_path) {
+  std::string error;
+  std::vector<robot::Probe3Tick> ticks;
+  if (!robot::read_probe3_world_log(log_path, &ticks, &error)) return usage_error(error);
+  if (ticks.empty()) return usage_error(log_path + ": no data rows");
+  vps::PointProbeParams p;
+  double scale = 0;
+  if (!probe3_params_from_config(config_path, &p, &scale, &error)) return usage_error(error);
+  vps::Voxmap vm;
+  std::vector<std::string> parts;
+  if (!replay_voxmap(scene, region, voxel, against, &vm, &parts, &error)) return usage_error(error);
+  const robot::Probe3Truth t = robot::evaluate_probe3(ticks, p, scale, vm);
+  std::printf("hemm-truth --probe3 (SIMULATION ONLY): %zu parts (", parts.size());
+  for (std::size_t i = 0; i < parts.size(); ++i) std::printf("%s%s", i ? " " : "", parts[i].c_str());
+  std::printf("), voxel %.4f m, %.1f MB; probe radius %.4f m, scale %.3f; %zu ticks\n", voxel, vm.memory_bytes() / 1e6,
+              p.force.probe_radius, scale, ticks.size());
+  std::printf("contact ticks %zu: force error RMS %.4f N, max %.4f N (true peak %.4f N)\n", t.contact_ticks, t.force_rms,
+              t.force_max, t.true_force_peak);
+  if (!csv_path.empty()) {
+    std::FILE* f = std::fopen(csv_path.c_str(), "w");
+    if (f == nullptr) return usage_error(csv_path + ": cannot write");
+    // The columns deploy/report_tables.py explore3d-features reads (f_*, ft_*, contacts*), as --tool6 writes them.
+    std::fprintf(f, "tick,t_s,f_x,f_y,f_z,ft_x,ft_y,ft_z,goal_x,goal_y,goal_z,proxy_x,proxy_y,proxy_z,proxyt_x,proxyt_y,"
+                    "proxyt_z,contacts,contacts_true,model\n");
+    for (std::size_t i = 0; i < ticks.size(); ++i) {
+      const robot::Probe3Tick& k = ticks[i];
+      const Eigen::Vector3d& ft = t.force_W[i];
+      const Eigen::Vector3d& pt = t.proxy_W[i];
+      std::fprintf(f, "%zu,%.6f,%.4f,%.4f,%.4f,%.4f,%.4f,%.4f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%.5f,%d,%d,%d\n", i,
+                   k.t_s, k.force_W.x(), k.force_W.y(), k.force_W.z(), ft.x(), ft.y(), ft.z(), k.goal_W.x(),
+                   k.goal_W.y(), k.goal_W.z(), k.proxy_W.x(), k.proxy_W.y(), k.proxy_W.z(), pt.x(), pt.y(), pt.z(),
+                   k.contact ? 1 : 0, t.contact[i], k.model ? 1 : 0);
+    }
+    if (std::fclose(f) != 0) return usage_error(csv_path + ": write failed");
+  }
+  if (!json_path.empty()) {
+    std::ofstream f(json_path);
+    report::Probe3Truth j;
+    j.set_ticks(ticks.size());
+    j.set_contact_ticks(static_cast<std::uint64_t>(t.contact_ticks));
+    j.set_force_rms_n(t.force_rms);
+    j.set_force_max_n(t.force_max);
+    j.set_true_force_peak_n(t.true_force_peak);
+    j.set_voxel_m(voxel);
+    j.set_probe_radius_m(p.force.probe_radius);
+    j.set_scale(scale);
     f << config::to_json(j);
     if (!f) return usage_error(json_path + ": write failed");
   }
@@ -157,11 +255,18 @@ int run(int argc, char** argv) {
                  "--voxel, with the same tool, contact and coupling; --csv gets per-tick live and true wrenches");
   std::string against;
   app.add_option("--against", against,
-                 "with --tool6 (diagnosis): replay against this saved voxmap (RUN.csv.voxmap.vps: the final live "
+                 "with --tool6 or --probe3 (diagnosis): replay against this saved voxmap (RUN.csv.voxmap.vps: the final live "
                  "voxmap) instead of the scene's truth");
-  app.add_option("--region", region, "with --tool6: xmin ymin zmin xmax ymax zmax in W (default: the home table)")
+  std::string probe3_config;
+  app.add_option("--probe3", probe3_config,
+                 "the 3-DoF point probe's run (issue 24): the operator config it ran with (probe_3d.tool point: "
+                 "its probe radius, range and servo rate); replays the logged device path (--log) against the "
+                 "scene's static geometry in --region, voxelised at --voxel, with the same point-probe contact "
+                 "model; --csv gets per-tick live and true forces");
+  app.add_option("--region", region,
+                 "with --tool6 or --probe3: xmin ymin zmin xmax ymax zmax in W (default: the home table)")
       ->expected(6);
-  app.add_option("--voxel", voxel, "with --tool6: truth voxel size in m (default 0.0025)")->check(CLI::Range(0.0005, 0.02));
+  app.add_option("--voxel", voxel, "with --tool6 or --probe3: truth voxel size in m (default 0.0025)")->check(CLI::Range(0.0005, 0.02));
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -181,6 +286,9 @@ int run(int argc, char** argv) {
       return usage_error(*out + ": cannot write (no such directory, or it is a directory)");
   }
 
+  if (!tool6_params.empty() && !probe3_config.empty()) return usage_error("--tool6 and --probe3: one run at a time");
+  if (!probe3_config.empty())
+    return run_probe3(scene_path, log_path, probe3_config, region, voxel, against, csv_path, json_path);
   if (!tool6_params.empty()) return run_tool6(scene_path, log_path, tool6_params, region, voxel, against, csv_path, json_path);
 
   robot::SceneSlice slice;

@@ -6,31 +6,21 @@
 #include <sstream>
 
 #include "common/haptics/vps/voxmap.h"
+#include "robot_side/truth/probe3_truth.h"
 #include "robot_side/truth/scene_slice.h"
 
 namespace hemm::robot {
 
 bool read_tool6_world_log(const std::string& path, std::vector<Tool6Tick>* out, std::string* error) {
-  std::ifstream in(path);
-  std::string line;
-  if (!in || !std::getline(in, line)) {
-    *error = "cannot read " + path;
-    return false;
-  }
+  std::ifstream in;
   std::map<std::string, std::size_t> col;
-  {
-    std::stringstream ss(line);
-    std::string n;
-    for (std::size_t i = 0; std::getline(ss, n, ','); ++i) col[n] = i;
-  }
-  const char* need[] = {"t_ns", "mode", "goal_x", "goal_y", "goal_z", "goal_qw", "goal_qx", "goal_qy", "goal_qz",
-                        "fw_x", "fw_y", "fw_z", "tw_x", "tw_y", "tw_z", "tool_x", "tool_y", "tool_z", "force_gain",
-                        "contacts", "tool_model"};
-  for (const char* n : need)
-    if (!col.count(n)) {
-      *error = path + ": no column " + n + " (not a 6-DoF tool world log?)";
-      return false;
-    }
+  if (!open_world_log_columns(path,
+                              {"t_ns", "mode", "goal_x", "goal_y", "goal_z", "goal_qw", "goal_qx", "goal_qy", "goal_qz",
+                               "fw_x", "fw_y", "fw_z", "tw_x", "tw_y", "tw_z", "tool_x", "tool_y", "tool_z",
+                               "force_gain", "contacts", "tool_model"},
+                              "a 6-DoF tool world log", &in, &col, error))
+    return false;
+  std::string line;
   std::vector<Tool6Tick> rows;
   std::vector<double> v;
   double t0 = NAN;

@@ -37,6 +37,13 @@ sed 's/explore6: explore-table    13   0.85  -0.25  0.865 0.35/explore6: explore
   "$root/deploy/scenes/home.xml" >"$tmp/far.xml"
 expect2 bash "$e" "$build" --scene "$tmp/far.xml" --out "$tmp/e4" "explore6 explore-table at t = 13 s: the tip (0.850 -0.250 2.200) in R is out of the device's reach"
 expect2 bash "$e" "$build" --route explore-moon --out "$tmp/e5" "no route 'explore-moon'"
+# --device sim-omni: the explore3 route, checked against the SIMULATED Omni's reach through probe_3d's map.
+sed 's/explore3: explore-table   48.5   1.6000   2.2000  0.9200  mug-top/explore3: explore-table   48.5   1.6000   2.4000  0.9200  mug-top/' \
+  "$root/deploy/scenes/home.xml" >"$tmp/far3.xml"
+expect2 bash "$e" "$build" --device sim-omni --scene "$tmp/far3.xml" --out "$tmp/e7" \
+  "explore3 explore-table at t = 48.5 s: the point (1.600 2.400 0.920) in W is out of the Omni's reach"
+expect2 bash "$e" "$build" --device sim-omni --route explore-moon --out "$tmp/e8" "(its explore3 routes: explore-table)"
+[[ ! -e "$tmp/e7/0ms" ]] || fail "a refused explore3 route started a run"
 [[ ! -e "$tmp/e3/0ms" && ! -e "$tmp/e4/0ms" ]] || fail "a refused route started a run"
 # A robot port another process holds: the robot does not start, and the
 # operator is not left to connect to whatever listens there.

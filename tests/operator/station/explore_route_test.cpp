@@ -165,9 +165,10 @@ TEST(ExploreRoute, MalformedLinesAreRefusedWithTheLineAndReasonAndChangeNothing)
       {4, "    explore-start: 1.5 -2 inf", "s.xml:4: explore-start: 'inf' is not a finite number"},
       {5, "    explore-region: 0 1 2 3 0.5 5", "s.xml:5: explore-region: each minimum must be below its maximum"},
       {5, "    explore-start: 1 2 3", "s.xml:5: explore-start: given twice (first on line 4)"},
-      {5, "    explore3: a 0 0.8 0.1 0.9 -", "s.xml:5: unknown directive 'explore3:' (explore-start:, explore-region:, explore6:)"},
-      {4, "    prose", "s.xml: a scene with explore6 routes needs explore-start: X Y THETA"},
-      {5, "    prose", "s.xml: a scene with explore6 routes needs explore-region: (6 numbers)"},
+      {5, "    explore4: a 0 0.8 0.1 0.9 -",
+       "s.xml:5: unknown directive 'explore4:' (explore-start:, explore-region:, explore6:, explore3:)"},
+      {4, "    prose", "s.xml: a scene with explore6 or explore3 routes needs explore-start: X Y THETA"},
+      {5, "    prose", "s.xml: a scene with explore6 or explore3 routes needs explore-region: (6 numbers)"},
       {13, "", "s.xml:1: unterminated header comment"},  // the closing line gone
   };
   for (const Case& c : cases) {
@@ -182,10 +183,10 @@ TEST(ExploreRoute, MalformedLinesAreRefusedWithTheLineAndReasonAndChangeNothing)
   // A route of one key, and one naming no feature.
   const std::string one = "<!--\n explore-start: 0 0 0\n explore-region: 0 0 0 1 1 1\n explore6: a 0 1 0 1 0 x\n-->";
   ho::SceneExploration x = sentinel();
-  EXPECT_EQ(ho::parse_scene_exploration(one, "o.xml", &x), "o.xml: route a needs at least two keys");
+  EXPECT_EQ(ho::parse_scene_exploration(one, "o.xml", &x), "o.xml: explore6 route a needs at least two keys");
   const std::string transit =
       "<!--\n explore-start: 0 0 0\n explore-region: 0 0 0 1 1 1\n explore6: a 0 1 0 1 0 -\n explore6: a 1 1 0 1 0 -\n-->";
-  EXPECT_EQ(ho::parse_scene_exploration(transit, "o.xml", &x), "o.xml: route a names no feature (every key is '-')");
+  EXPECT_EQ(ho::parse_scene_exploration(transit, "o.xml", &x), "o.xml: explore6 route a names no feature (every key is '-')");
   EXPECT_EQ(x.routes[0].name, "keep");
   EXPECT_EQ(ho::load_scene_exploration("/nonexistent/scene.xml", &x), "/nonexistent/scene.xml: cannot read");
 }
@@ -223,4 +224,114 @@ TEST(ExploreRoute, KeysOutOfTheHandsReachAreRefusedWithTheReason) {
     EXPECT_EQ(std::string(e.what()).rfind("probe_3d.tool_hand_script: no route 'explore-moon' in ", 0), 0u) << e.what();
     EXPECT_NE(std::string(e.what()).find("(its explore6 routes: explore-table, explore-block)"), std::string::npos);
   }
+}
+
+// ------------------------------------------------------------ explore3
+namespace {
+
+// Beside an explore6 route of the same name (the two kinds do not mix).
+const char* kGood3 = R"(<!--
+    explore-start: 2 1 1.5707963267948966
+    explore-region: 0 1 2 3 4 5
+    explore6: a 0 0.8 0.1 0.9 0 -
+    explore6: a 1 0.8 0.1 0.8 0 top
+    explore3: a 0   2.1 1.9 0.95 -
+    explore3: a 1.5 2.1 1.9 0.85 top
+    explore3: p 0   2.0 1.8 0.9  -
+    explore3: a 2   2.0 1.9 0.85 top
+    explore3: a 3   2.0 1.8 0.8  side
+    explore3: p 1   2.0 1.8 0.85 floor
+-->
+<mujoco/>
+)";
+
+}  // namespace
+
+TEST(ExploreRoute3, AGoodHeaderIsReadExactlyBesideTheExplore6Routes) {
+  ho::SceneExploration x;
+  ASSERT_EQ(ho::parse_scene_exploration(kGood3, "s3.xml", &x), std::nullopt);
+  EXPECT_EQ(x.route_names(), "a");
+  EXPECT_EQ(x.route3_names(), "a, p");
+  ASSERT_EQ(x.find("a")->keys.size(), 2u);  // the explore6 route keeps its own keys
+  const ho::ExploreRoute3* a = x.find3("a");
+  ASSERT_NE(a, nullptr);
+  ASSERT_EQ(a->keys.size(), 4u);
+  EXPECT_EQ(a->keys[1].t_s, 1.5);
+  EXPECT_EQ(a->keys[1].p_W, Eigen::Vector3d(2.1, 1.9, 0.85));
+  EXPECT_EQ(a->keys[1].feature, "top");
+  EXPECT_EQ(a->keys[1].line, 7);
+  EXPECT_EQ(x.find3("nope"), nullptr);
+  const std::vector<ho::RouteFeature> f = ho::route_features(*a);
+  ASSERT_EQ(f.size(), 2u);
+  EXPECT_EQ(f[0].name, "top");
+  EXPECT_EQ(f[0].t0_s, 1.5);
+  EXPECT_EQ(f[0].t1_s, 2.0);
+  EXPECT_EQ(f[1].name, "side");
+  // W -> H by hand: the robot at (2, 1) facing +y, so R x = W y - 1, R y = 2 - W x;
+  // W (2.1, 1.9, 0.85) is R (0.9, -0.1, 0.85). The map (scale 7.5, origin R (0.9, 0, 0.85))
+  // gives B (0, -0.1 / 7.5, 0), and H = (-y_B, z_B, -x_B) = (0.1 / 7.5, 0, 0).
+  const hemm::math::ScaledMap m{7.5, Eigen::Vector3d::Zero(), Eigen::Vector3d(0.9, 0, 0.85)};
+  EXPECT_TRUE(ho::route3_point_H(a->keys[1].p_W, x.start_W, m).isApprox(Eigen::Vector3d(0.1 / 7.5, 0, 0), 1e-12))
+      << ho::route3_point_H(a->keys[1].p_W, x.start_W, m).transpose();
+}
+
+TEST(ExploreRoute3, MalformedLinesAreRefusedWithTheLineAndReasonAndChangeNothing) {
+  struct Case {
+    int line;
+    std::string text, error;
+  };
+  const std::vector<Case> cases = {
+      {7, "    explore3: a 1.5 2.1 1.9 0.85", "s.xml:7: explore3: expected ROUTE T X Y Z FEATURE (6 fields), got 5"},
+      {7, "    explore3: a 1.5 2.1 1.9 0.85 0 top", "s.xml:7: explore3: expected ROUTE T X Y Z FEATURE (6 fields), got 7"},
+      {7, "    explore3: a 1.5 2.1 y 0.85 top", "s.xml:7: explore3: 'y' is not a finite number"},
+      {7, "    explore3: a 1.5 2.1 1.9 inf top", "s.xml:7: explore3: 'inf' is not a finite number"},
+      {7, "    explore3: a 1.5 2.1 1.9 0.85 Top", "s.xml:7: explore3: feature 'Top': lower-case"},
+      {7, "    explore3: a_b 1.5 2.1 1.9 0.85 top", "s.xml:7: explore3: route name 'a_b'"},
+      {7, "    explore3: a 0 2.1 1.9 0.85 top", "s.xml:7: explore3: t = 0 s is not after the previous key's 0 s (line 6)"},
+      {7, "    explore3: a 1.5 200 1.9 0.85 top", "s.xml:7: explore3: the point must be within 100 m"},
+      {7, "    explore3: a 4000 2.1 1.9 0.85 top", "s.xml:7: explore3: T must be within [0, 3600] s"},
+      {8, "    explore3: p 0.5 2.0 1.8 0.9 -", "s.xml:8: explore3: route p's first key must be at t = 0"},
+      {11, "    explore3: a 4 2.0 1.8 0.8 top", "s.xml:11: explore3: feature 'top' of route a resumes after 'side'"},
+      {2, "    prose", "s.xml: a scene with explore6 or explore3 routes needs explore-start: X Y THETA"},
+  };
+  for (const Case& c : cases) {
+    ho::SceneExploration x = sentinel();
+    const auto e = ho::parse_scene_exploration(with_line(kGood3, c.line, c.text), "s.xml", &x);
+    ASSERT_TRUE(e.has_value()) << c.text;
+    EXPECT_EQ(e->rfind(c.error, 0), 0u) << *e;
+    EXPECT_EQ(x.start_W.x, 7.0) << c.text;  // untouched
+    ASSERT_EQ(x.routes.size(), 1u);
+    EXPECT_EQ(x.routes[0].name, "keep");
+    EXPECT_TRUE(x.routes3.empty());
+  }
+  const std::string one = "<!--\n explore-start: 0 0 0\n explore-region: 0 0 0 1 1 1\n explore3: a 0 1 0 1 x\n-->";
+  ho::SceneExploration x = sentinel();
+  EXPECT_EQ(ho::parse_scene_exploration(one, "o.xml", &x), "o.xml: explore3 route a needs at least two keys");
+  const std::string transit =
+      "<!--\n explore-start: 0 0 0\n explore-region: 0 0 0 1 1 1\n explore3: a 0 1 0 1 -\n explore3: a 1 1 0 1 -\n-->";
+  EXPECT_EQ(ho::parse_scene_exploration(transit, "o.xml", &x), "o.xml: explore3 route a names no feature (every key is '-')");
+  EXPECT_EQ(x.routes[0].name, "keep");
+}
+
+TEST(ExploreRoute3, PointsOutOfTheOmnisReachAreRefusedWithTheReason) {
+  const hemm::device::EndEffectorLimits omni = hemm::device::phantom_omni_limits().ee[0];  // +-80, 60, 35 mm
+  ho::SceneExploration x;
+  ASSERT_EQ(ho::parse_scene_exploration(kGood3, "s.xml", &x), std::nullopt);
+  const hemm::math::ScaledMap m{7.5, Eigen::Vector3d::Zero(), Eigen::Vector3d(0.9, 0, 0.85)};
+  EXPECT_EQ(ho::check_route3_reach(*x.find3("a"), x.start_W, m, omni, "s.xml"), std::nullopt);
+  // Depth: z_H = -x_B spans +-35 mm, +-0.2625 m of R x at scale 7.5. A key at R x 1.2
+  // (W y 2.2) is 0.3 m ahead of the origin: z_H = -0.04, out of the box.
+  const std::string far = with_line(kGood3, 9, "    explore3: a 2 2.05 2.2 0.85 top");
+  ASSERT_EQ(ho::parse_scene_exploration(far, "s.xml", &x), std::nullopt);
+  const auto e = ho::check_route3_reach(*x.find3("a"), x.start_W, m, omni, "s.xml");
+  ASSERT_TRUE(e);
+  EXPECT_EQ(e->rfind("s.xml:9: explore3 a at t = 2 s: the point (2.050 2.200 0.850) in W is out of the Omni's reach: "
+                     "(0.007 0.000 -0.040) in H, outside its workspace box (-0.080 -0.060 -0.035) to (0.080 0.060 "
+                     "0.035) (probe_3d: 7.500 W m per device m, origin (0.900 0.000 0.850) in R)",
+                     0),
+            0u)
+      << *e;
+  // The same route with the origin 10 cm further out: reached.
+  const hemm::math::ScaledMap m2{7.5, Eigen::Vector3d::Zero(), Eigen::Vector3d(1.0, 0, 0.85)};
+  EXPECT_EQ(ho::check_route3_reach(*x.find3("a"), x.start_W, m2, omni, "s.xml"), std::nullopt);
 }
