@@ -2,6 +2,7 @@
 #include <csignal>
 #include <iostream>
 
+#include "operator/client/operator_client.h"
 #include "operator/runners/runners.h"
 
 namespace hemm::op::runner {
@@ -15,6 +16,26 @@ servo::ServoConfig servo_config(const config::OperatorConfig& cfg) {
   c.simulated_hardware = cfg.servo().simulated_hardware() == "lock-step" ? device::HardwareMode::kLockStep
                                                                          : device::HardwareMode::kThreaded;
   return c;
+}
+
+OperatorClientOptions client_options(const config::OperatorConfig& cfg, const OperatorArgs& a,
+                                     const std::string& robot_address, const net::Key& key) {
+  OperatorClientOptions o;
+  const auto& link = cfg.link();
+  net::apply_link_config(link, key, &o);
+  o.robot_address = robot_address;
+  o.session_port =
+      static_cast<uint16_t>(a.session_port >= 0 ? a.session_port : static_cast<int>(cfg.net().session_port()));
+  o.stream_port =
+      static_cast<uint16_t>(a.stream_port >= 0 ? a.stream_port : static_cast<int>(cfg.net().stream_port()));
+  o.bind_address = cfg.net().bind_address();
+  o.local_stream_port = static_cast<uint16_t>(cfg.net().local_stream_port());
+  o.want_control = cfg.net().want_control();
+  if (a.test_version != 0) o.protocol_version = a.test_version;
+  o.connect_timeout_ms = link.connect_timeout_ms();
+  o.reconnect_for_ms = link.reconnect_for_ms();
+  o.connect_for_ms = link.connect_for_ms();
+  return o;
 }
 
 bool setup_logging(const std::string& log_level) {

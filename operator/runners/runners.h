@@ -31,6 +31,10 @@
 #include "operator/view/device_live_view.h"
 #endif
 
+namespace hemm::op {
+struct OperatorClientOptions;  // operator/client/operator_client.h
+}  // namespace hemm::op
+
 namespace hemm::op::runner {
 
 // The command line, parsed and checked (operator/main.cpp).
@@ -75,6 +79,11 @@ int export_recording_as_mcap(const std::string& in, const std::string& out);
 // The servo loop's period and real-time wishes from the config (one place for
 // every runner: the networked station, the VPS scene, the bimanual device).
 servo::ServoConfig servo_config(const config::OperatorConfig& cfg);
+
+// The link client's options from the config and the command line (ports,
+// --test-version): the networked station's and telemanipulation's.
+OperatorClientOptions client_options(const config::OperatorConfig& cfg, const OperatorArgs& a,
+                                     const std::string& robot_address, const net::Key& key);
 
 // The station's logging at --log-level; false (said on stderr) for a bad level.
 bool setup_logging(const std::string& log_level);

@@ -32,26 +32,6 @@ namespace hemm::op::runner {
 
 namespace {
 
-OperatorClientOptions client_options(const config::OperatorConfig& cfg, const OperatorArgs& a,
-                                     const std::string& robot_address, const net::Key& key) {
-  OperatorClientOptions o;
-  const auto& link = cfg.link();
-  net::apply_link_config(link, key, &o);
-  o.robot_address = robot_address;
-  o.session_port =
-      static_cast<uint16_t>(a.session_port >= 0 ? a.session_port : static_cast<int>(cfg.net().session_port()));
-  o.stream_port =
-      static_cast<uint16_t>(a.stream_port >= 0 ? a.stream_port : static_cast<int>(cfg.net().stream_port()));
-  o.bind_address = cfg.net().bind_address();
-  o.local_stream_port = static_cast<uint16_t>(cfg.net().local_stream_port());
-  o.want_control = cfg.net().want_control();
-  if (a.test_version != 0) o.protocol_version = a.test_version;
-  o.connect_timeout_ms = link.connect_timeout_ms();
-  o.reconnect_for_ms = link.reconnect_for_ms();
-  o.connect_for_ms = link.connect_for_ms();
-  return o;
-}
-
 OperatorStationOptions station_options(const config::OperatorConfig& cfg, const OperatorArgs& a) {
   OperatorStationOptions so;
   so.device = a.replay_file.empty() ? cfg.device().type() : "replay";

@@ -35,28 +35,6 @@ namespace hemm::op::runner {
 namespace hb = hemm::device::bimanual;
 namespace tele = hemm::op::telemanip;
 
-namespace {
-
-OperatorClientOptions telemanip_client_options(const config::OperatorConfig& cfg, const OperatorArgs& a,
-                                               const std::string& robot_address, const net::Key& key) {
-  OperatorClientOptions o;
-  net::apply_link_config(cfg.link(), key, &o);
-  o.robot_address = robot_address;
-  o.session_port =
-      static_cast<uint16_t>(a.session_port >= 0 ? a.session_port : static_cast<int>(cfg.net().session_port()));
-  o.stream_port =
-      static_cast<uint16_t>(a.stream_port >= 0 ? a.stream_port : static_cast<int>(cfg.net().stream_port()));
-  o.bind_address = cfg.net().bind_address();
-  o.local_stream_port = static_cast<uint16_t>(cfg.net().local_stream_port());
-  o.want_control = cfg.net().want_control();
-  o.connect_timeout_ms = cfg.link().connect_timeout_ms();
-  o.reconnect_for_ms = cfg.link().reconnect_for_ms();
-  o.connect_for_ms = cfg.link().connect_for_ms();
-  return o;
-}
-
-}  // namespace
-
 int run_telemanip(const config::OperatorConfig& cfg, const OperatorArgs& a) {
   if (cfg.device().type() != "sim-bimanual") {
     std::cerr << "hemm-operator: bad config: telemanip needs device.type \"sim-bimanual\"\n";
@@ -115,7 +93,7 @@ int run_telemanip(const config::OperatorConfig& cfg, const OperatorArgs& a) {
   servo::ServoLoop loop(*device, *task, channel, sc);
 
   asio::io_context io;
-  OperatorClient client(io, telemanip_client_options(cfg, a, robot_address, *key));
+  OperatorClient client(io, client_options(cfg, a, robot_address, *key));
   tele::TelemanipLink link(
       io, task->setpoints(), task->remote(), [&client](const wire::StreamMessage& m) { return client.streams().send(m); },
       &steady_now_ns, lp, [&client] { return client.link_up(); });

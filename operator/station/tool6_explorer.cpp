@@ -9,7 +9,6 @@
 #include "common/haptics/vps/cache.h"
 #include "common/haptics/vps/voxmap.h"
 #include "common/haptics/vps/voxmap_surface.h"
-#include "common/mesh/primitives.h"
 #include "operator/station/explore_route.h"
 #include "operator/station/operator_task.h"
 
@@ -70,13 +69,8 @@ Tool6Explorer::Tool6Explorer(const Tool6Params& p) : p_(p) {
   if (tb.tick_ns > 0) {
     // No live voxmap yet: the tool against a table-sized box of the live
     // voxmap's resolution stands in for it until the ticks measure their own.
-    vps::VoxmapParams vp;
-    vp.voxel_size = p.calibration_voxel;
-    vp.layers_in = vp.layers_out = p.calibration_layers;
-    vps::Voxmap box;
-    if (auto e = vps::build_voxmap(mesh::make_box({0.3, 0.3, 0.1}, 4), vp, &box, nullptr))
-      throw std::invalid_argument("tool6: calibration voxmap: " + e->message);
-    calibration_ = vps::calibrate_work_rate({{&box, &tool_.shell}}, params_.contact, tb.rate, 24, &steady_now_ns);
+    calibration_ = vps::calibrate_work_rate_on_box({0.3, 0.3, 0.1}, p.calibration_voxel, p.calibration_layers,
+                                                   tool_.shell, params_.contact, tb.rate, 24, &steady_now_ns);
   }
   budget_ = vps::TickWorkBudget(tb, calibration_.rate);
 }

@@ -5,7 +5,6 @@
 
 #include "common/clock/steady_clock.h"
 #include "common/haptics/vps/voxmap.h"
-#include "common/mesh/primitives.h"
 
 namespace hemm::op::telemanip {
 
@@ -87,14 +86,9 @@ TelemanipTask::TelemanipTask(const TelemanipTaskParams& p) : p_(p) {
   if (tb.tick_ns > 0) {
     // Before the live voxmap: a bench-sized box of its resolution stands in
     // (the ticks then track the live one's cost).
-    vps::VoxmapParams vp;
-    vp.voxel_size = p.calibration_voxel;
-    vp.layers_in = vp.layers_out = p.calibration_layers;
-    vps::Voxmap box;
-    if (auto e = vps::build_voxmap(mesh::make_box({0.35, 0.5, 0.05}, 4), vp, &box, nullptr))
-      throw std::invalid_argument("telemanip: calibration voxmap: " + e->message);
-    const vps::ProbeTool& open = tools_.tools.back();
-    calibration_ = vps::calibrate_work_rate({{&box, &open.shell}}, tool_params_[0].contact, tb.rate, 16, &steady_now_ns);
+    calibration_ = vps::calibrate_work_rate_on_box({0.35, 0.5, 0.05}, p.calibration_voxel, p.calibration_layers,
+                                                   tools_.tools.back().shell, tool_params_[0].contact, tb.rate, 16,
+                                                   &steady_now_ns);
   }
   for (auto& b : budget_) b = vps::TickWorkBudget(tb, calibration_.rate);
 }

@@ -4,6 +4,10 @@
 #include <cmath>
 #include <numbers>
 #include <random>
+#include <stdexcept>
+
+#include "common/haptics/vps/voxmap.h"
+#include "common/mesh/primitives.h"
 
 namespace hemm::vps {
 
@@ -157,6 +161,18 @@ void TickWorkBudget::end(std::int64_t now_ns, std::int64_t work, int levels_comp
   stats_.mean_ns_per_unit = rate_.mean_ns;
   stats_.min_ns_per_unit = stats_.min_ns_per_unit > 0 ? std::min(stats_.min_ns_per_unit, c) : c;
   stats_.max_ns_per_unit = std::max(stats_.max_ns_per_unit, c);
+}
+
+WorkRateCalibration calibrate_work_rate_on_box(const Eigen::Vector3d& half, double voxel_size, int layers,
+                                               const PointShell& shell, const ContactParams& params,
+                                               const WorkRateParams& rp, int poses, std::int64_t (*now_ns)()) {
+  VoxmapParams vp;
+  vp.voxel_size = voxel_size;
+  vp.layers_in = vp.layers_out = layers;
+  Voxmap box;
+  if (auto e = build_voxmap(mesh::make_box(half, 4), vp, &box, nullptr))
+    throw std::invalid_argument("calibration voxmap: " + e->message);
+  return calibrate_work_rate({{&box, &shell}}, params, rp, poses, now_ns);
 }
 
 }  // namespace hemm::vps

@@ -97,6 +97,14 @@ struct WorkRateCalibration {
 WorkRateCalibration calibrate_work_rate(const std::vector<CalibrationPair>& pairs, const ContactParams& params,
                                         const WorkRateParams& rp, int poses_per_pair, std::int64_t (*now_ns)());
 
+// The same before a live voxmap exists: `shell` against a box of half
+// extents `half` at the live voxmap's voxel size and layers, which stands in
+// for the scene until the ticks measure their own. Throws
+// std::invalid_argument ("calibration voxmap: ...") for bad voxmap params.
+WorkRateCalibration calibrate_work_rate_on_box(const Eigen::Vector3d& half, double voxel_size, int layers,
+                                               const PointShell& shell, const ContactParams& params,
+                                               const WorkRateParams& rp, int poses, std::int64_t (*now_ns)());
+
 struct TimeBudgetParams {
   std::int64_t tick_ns = 200'000;    // VPS time per tick at most; 0: no time budget
   std::int64_t margin_ns = 100'000;  // ... and the work ends this long before the tick's deadline
