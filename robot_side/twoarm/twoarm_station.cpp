@@ -23,6 +23,7 @@
 #include "robot_side/sim/depth_camera.h"
 #include "robot_side/sim/mujoco_ray_caster.h"
 #include "robot_side/sim/simulated_robot.h"
+#include "robot_side/station/control_pacer.h"
 
 namespace hemm::twoarm {
 
@@ -120,8 +121,8 @@ struct TwoArmStation::Shared {
   std::array<haptics::tdpa::ArmPortSummary, kArms> passivity{};  // guarded by passivity_mu
   uint64_t direct_commands = 0, direct_stale_ticks = 0, peer_old = 0, peer_refused = 0;  // guarded by passivity_mu
 
-  std::atomic<uint64_t> sim_steps{0}, late_steps{0}, resyncs{0}, lateness_n{0};
-  std::atomic<int64_t> max_lateness_ns{0}, lateness_sum_ns{0};
+  std::atomic<uint64_t> sim_steps{0};
+  robot::PacingCounters pacing;  // the control loop's (realtime pacing)
   std::atomic<uint64_t> commands_received{0}, commands_without_control{0}, commands_stale{0},
       commands_mode_mismatch{0}, commands_refused{0}, commands_accepted{0}, commands_applied{0};
   std::array<std::atomic<uint64_t>, kArmsRefusalReasons> refused_by_reason{};
@@ -135,7 +136,6 @@ struct TwoArmStation::Shared {
   std::atomic<uint64_t> mode_changes{0}, estop_changes{0}, requests_refused{0};
   std::atomic<uint32_t> safety{0};
   std::atomic<bool> armed{false}, following{false};
-  rt::TimingStats timing;
   rt::RealtimeStatus rt_status;
 };
 
@@ -590,16 +590,8 @@ bool TwoArmStation::start(std::string* error) {
   asio::post(io_, [sh] { twoarm_arm_poll(sh); });
 
   shared_->stop.store(false, std::memory_order_release);
-  shared_->rt_status = rt::RealtimeStatus{};
-  if (o_.control_thread.fifo) wake_latency_fd_ = rt::hold_cpu_wake_latency(&shared_->rt_status);
-  thread_ = std::thread([this] { run(); });
-  rt::apply_thread_realtime(thread_, o_.control_thread, &shared_->rt_status);
-  for (std::string& w :
-       rt::system_checks(shared_->rt_status.fifo, shared_->rt_status.pinned ? o_.control_thread.cpu : -1))
-    shared_->rt_status.warnings.push_back(std::move(w));
-  for (const std::string& w : shared_->rt_status.warnings) spdlog::warn("event=control_realtime warning=\"{}\"", w);
-  spdlog::info("event=control_thread kind=twoarm fifo={} cpu={}", shared_->rt_status.fifo,
-               shared_->rt_status.pinned ? shared_->rt_status.cpu : -1);
+  robot::start_control_thread(thread_, [this] { run(); }, o_.control_thread, &shared_->rt_status, &wake_latency_fd_,
+                       "twoarm");
   return true;
 }
 
@@ -636,11 +628,10 @@ TwoArmStationStatistics TwoArmStation::statistics() const {
   const Shared& sh = *shared_;
   TwoArmStationStatistics s;
   s.sim_steps = sh.sim_steps.load();
-  s.late_steps = sh.late_steps.load();
-  s.resyncs = sh.resyncs.load();
-  s.max_lateness_ns = sh.max_lateness_ns.load();
-  const uint64_t n = sh.lateness_n.load();
-  s.mean_lateness_ns = n ? static_cast<double>(sh.lateness_sum_ns.load()) / static_cast<double>(n) : 0.0;
+  s.late_steps = sh.pacing.late_steps.load();
+  s.resyncs = sh.pacing.resyncs.load();
+  s.max_lateness_ns = sh.pacing.max_lateness_ns.load();
+  s.mean_lateness_ns = sh.pacing.mean_lateness_ns();
   s.commands_received = sh.commands_received.load();
   s.commands_without_control = sh.commands_without_control.load();
   s.commands_stale = sh.commands_stale.load();
@@ -673,12 +664,7 @@ TwoArmStationStatistics TwoArmStation::statistics() const {
   s.safety = sh.safety.load();
   s.armed = sh.armed.load();
   s.following = sh.following.load();
-  s.control_timing = rt::summarize(sh.timing);
-  s.control_timing.period_target_us = static_cast<double>(timestep_ns()) * 1e-3;
-  s.control_timing.late_wake_threshold_us = static_cast<double>(o_.late_wake_threshold_ns) * 1e-3;
-  s.control_timing.fifo = sh.rt_status.fifo;
-  s.control_timing.wake_latency_held = sh.rt_status.wake_latency_held;
-  s.control_timing.cpu = sh.rt_status.pinned ? sh.rt_status.cpu : -1;
+  s.control_timing = robot::pacing_summary(sh.pacing, timestep_ns(), o_.late_wake_threshold_ns, sh.rt_status);
   {
     std::lock_guard<std::mutex> lk(sh.passivity_mu);
     s.passivity = sh.passivity;
@@ -700,9 +686,8 @@ void TwoArmStation::run() {
   const int64_t dt = robot.timestep_ns();
   const int64_t state_period = std::max<int64_t>(1, 1'000'000'000 / static_cast<int64_t>(o_.state_rate_hz));
 
-  int64_t anchor = steady_now_ns();
-  robot.set_time_origin_ns(anchor);
-  int64_t k = 0;  // steps since the anchor
+  robot::ControlPacer pacer(dt, o_.max_catch_up_ns, o_.late_wake_threshold_ns, steady_now_ns());
+  robot.set_time_origin_ns(pacer.anchor_ns());
   int64_t next_state_ns = robot.time_ns();
   uint64_t steps = 0;
   uint32_t depth_id = 0;
@@ -712,30 +697,10 @@ void TwoArmStation::run() {
   bool was_in_control = false;
   bool was_controlling = false;
 
-  rt::TickTiming tick;
-  tick.period_ns = dt;
-  tick.late_wake_threshold_ns = o_.late_wake_threshold_ns;
   if (o_.control_thread_hook) o_.control_thread_hook(true);
   while (!sh.stop.load(std::memory_order_acquire)) {
-    tick.what = "step";
-    if (o_.realtime) {
-      const int64_t deadline = anchor + (k + 1) * dt;
-      rt::sleep_until_ns(deadline);
-      tick.deadline_ns = deadline;
-      tick.wake_ns = steady_now_ns();
-      int64_t late = tick.wake_ns - deadline;
-      if (late > o_.max_catch_up_ns) {
-        anchor = steady_now_ns() - dt;
-        k = 0;
-        robot.set_time_origin_ns(anchor);
-        sh.resyncs.fetch_add(1, std::memory_order_relaxed);
-      }
-      if (late > dt) sh.late_steps.fetch_add(1, std::memory_order_relaxed);
-      if (late > sh.max_lateness_ns.load(std::memory_order_relaxed)) sh.max_lateness_ns.store(late);
-      late = std::max<int64_t>(late, 0);
-      sh.lateness_sum_ns.fetch_add(late, std::memory_order_relaxed);
-      sh.lateness_n.fetch_add(1, std::memory_order_relaxed);
-    }
+    pacer.set_what("step");
+    if (o_.realtime && pacer.wait(sh.pacing) > 0) robot.set_time_origin_ns(pacer.anchor_ns());
 
     // Link and control first: a command must see the current state.
     const bool link_up = server.link_up();
@@ -784,7 +749,7 @@ void TwoArmStation::run() {
     }
 
     robot.step();
-    ++k;
+    pacer.stepped();
     ++steps;
     sh.sim_steps.fetch_add(1, std::memory_order_relaxed);
 
@@ -802,18 +767,13 @@ void TwoArmStation::run() {
       sh.safety.store(robot.safety(), std::memory_order_relaxed);
       sh.armed.store(robot.armed(), std::memory_order_relaxed);
       sh.following.store(robot.following(), std::memory_order_relaxed);
-      tick.what = "state";
+      pacer.set_what("state");
     }
     if (depth_ && steps % static_cast<uint64_t>(depth_period_steps_) == 0) {
       depth_->submit(robot.sim().d(), now, depth_id++);
-      tick.what = "depth";
+      pacer.set_what("depth");
     }
-    if (o_.realtime) {
-      tick.done_ns = steady_now_ns();
-      rt::record_tick(sh.timing, tick);
-      tick.prev_wake_ns = tick.wake_ns;
-      ++tick.tick;
-    }
+    if (o_.realtime) pacer.record(sh.pacing);
   }
   if (o_.control_thread_hook) o_.control_thread_hook(false);
 }
