@@ -147,7 +147,7 @@ struct PassivityRun {
   Vec6 out_J = Vec6::Zero();
 };
 
-PassivityRun push_into_bench(td::PcMode mode, bool measured) {
+PassivityRun push_down(td::PcMode mode, bool measured) {
   DirectDriver d(options(mode, measured));
   PassivityRun r;
   // The operator's budget grows by 2 mJ/s per axis: far less than pressing
@@ -156,8 +156,9 @@ PassivityRun push_into_bench(td::PcMode mode, bool measured) {
   d.arm_direct(budget_at(0));
   Vec6 received = budget_at(0);
   Vec6 out = Vec6::Zero(), in = Vec6::Zero();
-  // Down at 0.15 m/s (into the bench below the grasp frame), sideways and
-  // turning, for 2 s.
+  // Down at 0.15 m/s towards the bench (the arm's joints stop G some 19 cm
+  // above it, so the target is held at the yield), sideways and turning,
+  // for 2 s.
   const td::ArmTwist tw{Eigen::Vector3d(0.04, 0.02, -0.15), Eigen::Vector3d(0.3, 0.0, -0.2)};
   for (int k = 1; k <= 2000; ++k) {
     if (k % 10 == 0) {
@@ -195,10 +196,10 @@ PassivityRun push_into_bench(td::PcMode mode, bool measured) {
 TEST(TwoArmDirect, RobotEndOutputStaysWithinReceivedEnergy) {
   for (const bool measured : {false, true}) {
     SCOPED_TRACE(measured ? "measured wrench" : "spring wrench");
-    const PassivityRun on = push_into_bench(td::PcMode::kControl, measured);
+    const PassivityRun on = push_down(td::PcMode::kControl, measured);
     EXPECT_LE(on.worst_excess_J, 1e-9);
     EXPECT_GT(on.dissipated_J, 0.0);
-    const PassivityRun off = push_into_bench(td::PcMode::kObserveOnly, measured);
+    const PassivityRun off = push_down(td::PcMode::kObserveOnly, measured);
     EXPECT_GT(off.worst_excess_J, 1e-3);
     std::printf("direct, %s wrench: controller on: worst excess %.3g J, dissipated %.3g J; off: excess %.3g J\n",
                 measured ? "measured" : "spring", on.worst_excess_J, on.dissipated_J, off.worst_excess_J);
@@ -305,5 +306,117 @@ TEST(TwoArmDirect, BadTwistOrPortIsRefusedAndChangesNothing) {
     EXPECT_EQ((d.robot.active_targets().T_A_G[1].matrix() - before.T_A_G[1].matrix()).norm(), 0.0);
     // Keep the twist fresh for the next case.
     ASSERT_TRUE(d.send(direct_command(true, {{0, tw, budget}})));
+  }
+}
+
+// Zero delay, closed loop, on the MuJoCo arm: a SIMULATED hand (0.5 kg,
+// the human a 200 N/m, 10 N s/m spring-damper to a reference) drives arm 0's
+// grasp frame down at 0.1 m/s towards a reference 5 cm below the bench top
+// and holds it there for 2 s; the operator end (tdpa operator_arm_tick)
+// shows the fed-back wrench on the hand. Both ends' controllers on, messages
+// each way every 1 ms tick. From the rest posture the arm cannot reach that
+// low: its joints stop G about 19 cm above the bench, touching nothing (the
+// wrist sensor reads 0). Fed back as the spring wrench the operator feels
+// that stop (the wrist limit's 40 N) and the hand rests where the statics
+// say; fed back as the measured wrench the hand feels nothing and goes on
+// to its reference while the arm cannot follow.
+namespace direct_test {
+
+struct ClosedLoopResult {
+  double worst_robot_excess_J = -1e9, worst_operator_excess_J = -1e9;
+  double peak_contact_N = 0.0;   // the wrist sensor's |f_z| (the bench on the gripper)
+  double hold_contact_N = 0.0;   // mean over the last 0.5 s of the press
+  double hold_contact_sd_N = 0.0;
+  double hold_shown_N = 0.0;     // mean force shown on the hand, same window
+  double hold_gap_m = 0.0;       // the true grasp frame's height above the bench top, same window
+  double hold_hand_offset_m = 0.0;  // where the hand rests less its reference (end of the press)
+  double min_arm_bench_m = 0.0;     // the avoidance's smallest link-bench gap at the end
+  bool force_limited = false;       // the spring at the wrist limit at the end
+};
+
+ClosedLoopResult zero_delay_press(bool measured) {
+  DirectDriver d(options(td::PcMode::kControl, measured));
+  td::ArmSide op;  // the operator end's port
+  const Vec6 zero6 = Vec6::Zero();
+  d.arm_direct(zero6);
+  const double z0 = d.grasp(ht::Side::kRight).z();
+  const double bench = 0.75;
+  const double m = 0.5, k = 200.0, b = 10.0, dt = 1e-3;
+  double x = 0.0, v = 0.0;  // the hand along z, from the start
+  const double depth = (z0 - bench) + 0.05;
+  ClosedLoopResult r;
+  Vec6 op_out = Vec6::Zero(), robot_in_sent = Vec6::Zero();
+  double sum = 0.0, sum2 = 0.0, shown_sum = 0.0, gap_sum = 0.0;
+  int n = 0;
+  const int ticks = static_cast<int>((depth / 0.1 + 2.0) * 1000.0);
+  for (int k_tick = 0; k_tick < ticks; ++k_tick) {
+    const double t = k_tick * dt;
+    const double ref = -std::min(depth, 0.1 * t);
+    // Operator end: show the robot's newest wrench on the hand.
+    td::receive_peer<6>(op, static_cast<uint64_t>(k_tick + 1), robot_in_sent);
+    const hk::Wrench6 f_recv = d.robot.feedback_A(0);
+    td::ArmTwist hand;
+    hand.v.z() = v;
+    const td::ArmWrench shown = td::operator_arm_tick(op, {f_recv.head<3>(), f_recv.tail<3>()}, hand, dt);
+    // The operator end's output energy, from the shown force and the hand's velocity (P_in = -f v).
+    const double p = -shown.force.z() * v;
+    if (p < 0.0) op_out[2] -= p * dt;
+    r.worst_operator_excess_J = std::max(r.worst_operator_excess_J, op_out[2] - robot_in_sent[2]);
+    // The hand: the human's spring-damper and the shown force.
+    const double a = (k * (ref - x) - b * v + shown.force.z()) / m;
+    v += a * dt;
+    x += v * dt;
+    // Robot end: the hand's twist and the operator's energy, no delay.
+    td::ArmTwist cmd;
+    cmd.v.z() = v;
+    EXPECT_TRUE(d.send(direct_command(true, {{0, cmd, op.in_J}, {1, {}, zero6}})));
+    d.robot.step();
+    robot_in_sent = d.robot.port(0).in_J;
+    const double fz = std::abs(d.robot.control_output().wrench_ext_A[0].z());
+    r.peak_contact_N = std::max(r.peak_contact_N, fz);
+    r.worst_robot_excess_J =
+        std::max(r.worst_robot_excess_J, (d.robot.port(0).out_J - d.robot.port(0).peer_in_J).maxCoeff());
+    if (k_tick >= ticks - 500) {
+      sum += fz;
+      sum2 += fz * fz;
+      shown_sum += shown.force.z();
+      gap_sum += d.grasp(ht::Side::kRight).z() - bench;
+      ++n;
+    }
+  }
+  r.hold_contact_N = sum / n;
+  r.hold_contact_sd_N = std::sqrt(std::max(0.0, sum2 / n - r.hold_contact_N * r.hold_contact_N));
+  r.hold_shown_N = shown_sum / n;
+  r.hold_gap_m = gap_sum / n;
+  r.hold_hand_offset_m = x + depth;
+  r.min_arm_bench_m = d.robot.control_output().avoidance.min_arm_bench_m;
+  r.force_limited = d.robot.control_output().arm[0].force_limited;
+  return r;
+}
+
+}  // namespace direct_test
+
+TEST(TwoArmDirect, ZeroDelayPressWhereTheArmCannotFollowWithEitherWrench) {
+  for (const bool measured : {false, true}) {
+    SCOPED_TRACE(measured ? "measured wrench" : "spring wrench");
+    const ClosedLoopResult r = zero_delay_press(measured);
+    std::printf("zero delay, %s wrench fed back: peak contact %.1f N; hold: contact %.2f N (sd %.2f), shown %.2f N, "
+                "G %.1f mm above the bench, hand %.1f mm above its reference; link-bench gap %.1f mm, force limited %d; "
+                "worst excess robot %.2g J, operator %.2g J\n",
+                measured ? "measured" : "spring", r.peak_contact_N, r.hold_contact_N, r.hold_contact_sd_N,
+                r.hold_shown_N, r.hold_gap_m * 1e3, r.hold_hand_offset_m * 1e3, r.min_arm_bench_m * 1e3,
+                r.force_limited, r.worst_robot_excess_J, r.worst_operator_excess_J);
+    EXPECT_LE(r.worst_robot_excess_J, 1e-9);
+    EXPECT_LE(r.worst_operator_excess_J, 1e-9);
+    EXPECT_GT(r.hold_gap_m, 0.1);          // the arm stopped short (truth)
+    EXPECT_LT(r.hold_contact_N, 0.5);      // on nothing
+    // The hand at rest: k (ref - x) + shown = 0.
+    EXPECT_NEAR(r.hold_hand_offset_m, r.hold_shown_N / 200.0, 0.005);
+    if (measured) {
+      EXPECT_LT(std::abs(r.hold_shown_N), 0.5);
+    } else {
+      EXPECT_GT(r.hold_shown_N, 30.0);  // the spring at (nearly) the 40 N wrist limit
+      EXPECT_LE(r.hold_shown_N, 40.0 + 0.5);
+    }
   }
 }
