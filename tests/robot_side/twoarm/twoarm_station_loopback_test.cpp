@@ -32,6 +32,7 @@
 #include "robot_side/twoarm/twoarm_station.h"
 #include "tests/common/net/udp_forwarder.h"
 #include "tests/operator/servo/alloc_counter.h"
+#include "tests/robot_side/station/station_io.h"
 #include "tests/robot_side/twoarm/workbench_scene.h"
 
 namespace ht = hemm::twoarm;
@@ -68,20 +69,12 @@ hemm::config::RobotConfig twoarm_test_config(bool depth = false) {
 }
 
 // The station: server + TwoArmStation on one network thread.
-struct TwoArmSide {
-  asio::io_context io;
-  std::optional<asio::executor_work_guard<asio::io_context::executor_type>> work;
+struct TwoArmSide : hemm::test::StationIo {
   std::unique_ptr<hemm::robot::RobotServer> server;
   std::unique_ptr<ht::TwoArmStation> station;
-  std::thread thread;
 
   explicit TwoArmSide(const hemm::config::RobotConfig& cfg, std::function<void(bool)> control_thread_hook = {}) {
-    hemm::robot::RobotServerOptions o;
-    o.session_port = 0;
-    o.stream_port = 0;
-    o.psk = twoarm_test_key();
-    o.link_timeout_ms = cfg.link().link_timeout_ms();
-    server = std::make_unique<hemm::robot::RobotServer>(io, o);
+    server = std::make_unique<hemm::robot::RobotServer>(io, hemm::test::loopback_server_options(cfg, twoarm_test_key()));
     ht::TwoArmStationOptions so;
     so.state_rate_hz = cfg.net().state_rate_hz();
     so.control_thread_hook = std::move(control_thread_hook);
@@ -91,16 +84,11 @@ struct TwoArmSide {
     const auto load_err = station->load(cfg, kWorkbenchScene);
     EXPECT_FALSE(load_err) << *load_err;
     EXPECT_TRUE(station->start(&err)) << err;
-    work.emplace(io.get_executor());
-    thread = std::thread([this] { io.run(); });
+    run();
   }
   ~TwoArmSide() {
     station->stop();
-    asio::post(io, [this] { server->stop("test over"); });
-    work.reset();
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
-    io.stop();
-    if (thread.joinable()) thread.join();
+    shutdown(*server);
   }
   ht::TwoArmTruthSim truth() const {
     ht::TwoArmTruthSim t;
