@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <limits>
 #include <optional>
+#include <stdexcept>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -418,5 +419,13 @@ TEST(TwoArmDirect, ZeroDelayPressWhereTheArmCannotFollowWithEitherWrench) {
       EXPECT_GT(r.hold_shown_N, 30.0);  // the spring at (nearly) the 40 N wrist limit
       EXPECT_LE(r.hold_shown_N, 40.0 + 0.5);
     }
+  }
+}
+
+TEST(TwoArmDirect, ANonPositiveTwistHoldIsRefused) {
+  for (const int64_t hold_ns : {int64_t{0}, int64_t{-1}}) {
+    ht::TwoArmRobotOptions o;
+    o.direct_twist_hold_ns = hold_ns;
+    EXPECT_THROW(ht::TwoArmRobot(kWorkbenchScene, o), std::runtime_error);
   }
 }
