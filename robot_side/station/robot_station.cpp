@@ -17,6 +17,7 @@
 #include "config_robot.pb.h"
 #include "report.pb.h"
 #include "robot_side/sim/realtime.h"
+#include "robot_side/station/control_pacer.h"
 
 namespace hemm::robot {
 namespace {
@@ -69,9 +70,8 @@ struct RobotStation::Shared {
   SimulatedRobot::ArmContactStats arm_contacts;  // guarded by state_mu
   uint64_t arm_refused_last_seq = 0;  // guarded by state_mu
 
-  std::atomic<uint64_t> sim_steps{0}, late_steps{0}, resyncs{0}, contact_steps{0}, guard_states{0};
-  std::atomic<int64_t> max_lateness_ns{0}, lateness_sum_ns{0};
-  std::atomic<uint64_t> lateness_n{0};
+  std::atomic<uint64_t> sim_steps{0}, contact_steps{0}, guard_states{0};
+  PacingCounters pacing;  // the control loop's (simulation thread)
   std::atomic<uint64_t> commands_received{0}, commands_without_control{0}, commands_malformed{0},
       commands_mode_mismatch{0}, commands_stale{0}, commands_applied{0}, commands_rejected{0};
   std::atomic<uint64_t> arm_refused_floor{0}, arm_refused_base{0}, arm_refused_scene{0};
@@ -81,7 +81,6 @@ struct RobotStation::Shared {
   std::atomic<bool> estop{false}, estop_local{false};
   std::atomic<int> mode{0};
   std::atomic<uint32_t> safety{0};
-  rt::TimingStats timing;        // the control loop's (simulation thread)
   rt::RealtimeStatus rt_status;  // set before the thread is released
 };
 
@@ -337,15 +336,8 @@ bool RobotStation::start(std::string* error) {
   });
 
   shared_->stop.store(false, std::memory_order_release);
-  shared_->rt_status = rt::RealtimeStatus{};
-  if (o_.control_thread.fifo) wake_latency_fd_ = rt::hold_cpu_wake_latency(&shared_->rt_status);
-  thread_ = std::thread([this] { run(); });
-  rt::apply_thread_realtime(thread_, o_.control_thread, &shared_->rt_status);
-  for (std::string& w : rt::system_checks(shared_->rt_status.fifo, shared_->rt_status.pinned ? o_.control_thread.cpu : -1))
-    shared_->rt_status.warnings.push_back(std::move(w));
-  for (const std::string& w : shared_->rt_status.warnings) spdlog::warn("event=control_realtime warning=\"{}\"", w);
-  spdlog::info("event=control_thread fifo={} cpu={}", shared_->rt_status.fifo,
-               shared_->rt_status.pinned ? shared_->rt_status.cpu : -1);
+  start_control_thread(thread_, [this] { run(); }, o_.control_thread, &shared_->rt_status, &wake_latency_fd_,
+                       "");
   return true;
 }
 
@@ -368,13 +360,12 @@ RobotStationStatistics RobotStation::statistics() const {
   const Shared& sh = *shared_;
   RobotStationStatistics s;
   s.sim_steps = sh.sim_steps.load();
-  s.late_steps = sh.late_steps.load();
+  s.late_steps = sh.pacing.late_steps.load();
   s.contact_steps = sh.contact_steps.load();
   s.guard_states = sh.guard_states.load();
-  s.resyncs = sh.resyncs.load();
-  s.max_lateness_ns = sh.max_lateness_ns.load();
-  const uint64_t n = sh.lateness_n.load();
-  s.mean_lateness_ns = n ? static_cast<double>(sh.lateness_sum_ns.load()) / static_cast<double>(n) : 0.0;
+  s.resyncs = sh.pacing.resyncs.load();
+  s.max_lateness_ns = sh.pacing.max_lateness_ns.load();
+  s.mean_lateness_ns = sh.pacing.mean_lateness_ns();
   s.commands_received = sh.commands_received.load();
   s.commands_without_control = sh.commands_without_control.load();
   s.commands_malformed = sh.commands_malformed.load();
@@ -411,12 +402,7 @@ RobotStationStatistics RobotStation::statistics() const {
   s.estop_local = sh.estop_local.load();
   s.mode = sh.mode.load();
   s.safety = sh.safety.load();
-  s.control_timing = rt::summarize(sh.timing);
-  s.control_timing.period_target_us = static_cast<double>(robot_.timestep_ns()) * 1e-3;
-  s.control_timing.late_wake_threshold_us = static_cast<double>(o_.late_wake_threshold_ns) * 1e-3;
-  s.control_timing.fifo = sh.rt_status.fifo;
-  s.control_timing.wake_latency_held = sh.rt_status.wake_latency_held;
-  s.control_timing.cpu = sh.rt_status.pinned ? sh.rt_status.cpu : -1;
+  s.control_timing = pacing_summary(sh.pacing, robot_.timestep_ns(), o_.late_wake_threshold_ns, sh.rt_status);
   return s;
 }
 
@@ -432,9 +418,8 @@ void RobotStation::run() {
   const int64_t dt = robot_.timestep_ns();
   const int64_t state_period = std::max<int64_t>(1, 1'000'000'000 / static_cast<int64_t>(o_.state_rate_hz));
 
-  int64_t anchor = steady_now_ns();
-  robot_.set_time_origin_ns(anchor);
-  int64_t k = 0;  // steps since the anchor
+  ControlPacer pacer(dt, o_.max_catch_up_ns, o_.late_wake_threshold_ns, steady_now_ns());
+  robot_.set_time_origin_ns(pacer.anchor_ns());
   int64_t next_state_ns = robot_.time_ns();
   wire::Mode session_mode = wire::MODE_UNSPECIFIED;
   wire::Mode exec_mode = wire::MODE_IDLE;  // mode of the last command applied
@@ -461,33 +446,13 @@ void RobotStation::run() {
   };
   SimViewFrame view_frame;  // the live view's buffers (swapped with the feed's)
 
-  rt::TickTiming tick;  // the control loop's timing (realtime pacing)
-  tick.period_ns = dt;
-  tick.late_wake_threshold_ns = o_.late_wake_threshold_ns;
   while (!sh.stop.load(std::memory_order_acquire)) {
-    tick.what = "step";
+    pacer.set_what("step");
     if (o_.realtime) {
-      // Step k simulates [anchor + k dt, anchor + (k+1) dt]: it runs once that
-      // interval is over, so no state is stamped later than it is sent.
-      const int64_t deadline = anchor + (k + 1) * dt;
-      rt::sleep_until_ns(deadline);
-      tick.deadline_ns = deadline;
-      tick.wake_ns = steady_now_ns();
-      int64_t late = tick.wake_ns - deadline;
-      if (late > o_.max_catch_up_ns) {
-        // A long stall: catching up step by step would only replay the past
-        // faster than real time. Skip ahead; the clock jumps forward.
-        anchor = steady_now_ns() - dt;
-        k = 0;
-        robot_.set_time_origin_ns(anchor);
-        ++sh.resyncs;
+      if (const int64_t late = pacer.wait(sh.pacing); late > 0) {
+        robot_.set_time_origin_ns(pacer.anchor_ns());  // skipped ahead: the clock jumps forward
         spdlog::warn("event=sim_resync late_ms={}", late / 1'000'000);
       }
-      if (late > dt) ++sh.late_steps;
-      if (late > sh.max_lateness_ns.load(std::memory_order_relaxed)) sh.max_lateness_ns.store(late);
-      late = std::max<int64_t>(late, 0);
-      sh.lateness_sum_ns.fetch_add(late, std::memory_order_relaxed);
-      sh.lateness_n.fetch_add(1, std::memory_order_relaxed);
     }
 
     // Link and control first: a request or command must see the current state.
@@ -574,7 +539,7 @@ void RobotStation::run() {
     }
 
     robot_.step(1);
-    ++k;
+    pacer.stepped();
     sh.sim_steps.fetch_add(1, std::memory_order_relaxed);
     if (robot_.robot_contacts_sim() > 0) sh.contact_steps.fetch_add(1, std::memory_order_relaxed);
 
@@ -596,7 +561,7 @@ void RobotStation::run() {
         sh.arm_refused_last_seq = st.last_refused_seq;
       }
       sh.safety.store(st.safety);
-      tick.what = "state";
+      pacer.set_what("state");
       if (view_ && view_->due(now)) {
         robot_.view_frame_sim(&view_frame);
         view_frame.state = st;
@@ -622,7 +587,7 @@ void RobotStation::run() {
     }
 
     std::vector<RangeScanData> scans = robot_.take_scans();
-    if (!scans.empty()) tick.what = "scan";
+    if (!scans.empty()) pacer.set_what("scan");
     if (view_) view_->publish_scans(scans);
     if (streaming) {
       for (const RangeScanData& scan : scans) {
@@ -680,12 +645,7 @@ void RobotStation::run() {
         });
       }
     }
-    if (o_.realtime) {
-      tick.done_ns = steady_now_ns();
-      rt::record_tick(sh.timing, tick);
-      tick.prev_wake_ns = tick.wake_ns;
-      ++tick.tick;
-    }
+    if (o_.realtime) pacer.record(sh.pacing);
   }
 }
 

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <utility>
 
+#include "common/haptics/passivity/tdpa_wire.h"
 #include "common/mapping/depth_stream.h"
 
 namespace hemm::twoarm {
@@ -55,6 +56,27 @@ std::optional<ArmsRefusal> validate_arms_command(const TwoArmModel& model, const
     if (!std::isfinite(g.opening_m()) || !std::isfinite(g.force_n()))
       return refusal(wire::ARMS_REFUSAL_NONFINITE, g.index(), "gripper target not finite");
   }
+  for (const wire::DirectTwist& t : cmd.twist()) {
+    if (t.index() >= kArms || v.has_twist[t.index()])
+      return refusal(wire::ARMS_REFUSAL_UNKNOWN_ARM, t.index(), "twist of arm " + std::to_string(t.index()) + " unknown or named twice");
+    v.has_twist[t.index()] = true;
+    if (v.has_arm[t.index()])
+      return refusal(wire::ARMS_REFUSAL_BAD_POSE, t.index(), "arm named with both a target pose and a twist");
+    const Eigen::Vector3d lin(t.v_a().x(), t.v_a().y(), t.v_a().z());
+    const Eigen::Vector3d ang(t.omega_a().x(), t.omega_a().y(), t.omega_a().z());
+    if (!lin.allFinite() || !ang.allFinite())
+      return refusal(wire::ARMS_REFUSAL_NONFINITE, t.index(), "twist not finite");
+    v.twist[t.index()] = haptics::tdpa::ArmTwist{lin, ang};
+  }
+  for (const wire::PassivityPort& p : cmd.passivity()) {
+    if (p.index() >= kArms || v.has_energy[p.index()])
+      return refusal(wire::ARMS_REFUSAL_UNKNOWN_ARM, p.index(),
+                     "passivity port of arm " + std::to_string(p.index()) + " unknown or named twice");
+    v.has_energy[p.index()] = true;
+    std::string why;
+    if (!haptics::tdpa::read_energy_in(p, &v.peer_energy_in_J[p.index()], &why))
+      return refusal(wire::ARMS_REFUSAL_PASSIVITY, p.index(), why);
+  }
   for (const wire::GripperTarget& g : cmd.gripper()) {
     const GripperTarget t{g.opening_m(), g.force_n()};
     if (auto e = check_target(model.arms[g.index()].gripper, t))
@@ -84,6 +106,23 @@ TwoArmTargets merge_arms_command(const TwoArmTargets& current, const ValidatedAr
     if (v.has_gripper[i]) next.gripper[i] = v.named.gripper[i];
   }
   return next;
+}
+
+std::optional<ArmsRefusal> check_energy_not_decreasing(const ValidatedArmsCommand& v, const PeerEnergyRecord& r) {
+  for (std::size_t i = 0; i < kArms; ++i) {
+    if (v.has_energy[i] && r.have[i] && (v.peer_energy_in_J[i].array() < r.energy_in_J[i].array()).any())
+      return refusal(wire::ARMS_REFUSAL_PASSIVITY, static_cast<uint32_t>(i),
+                     "passivity port of arm " + std::to_string(i) + ": input energy below the last one taken");
+  }
+  return std::nullopt;
+}
+
+void note_energy(const ValidatedArmsCommand& v, PeerEnergyRecord* r) noexcept {
+  for (std::size_t i = 0; i < kArms; ++i) {
+    if (!v.has_energy[i]) continue;
+    r->have[i] = true;
+    r->energy_in_J[i] = v.peer_energy_in_J[i];
+  }
 }
 
 ArmsCommandResult apply_arms_command(const TwoArmModel& model, const ArmsCommandLimits& limits,

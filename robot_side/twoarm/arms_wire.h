@@ -11,6 +11,7 @@
 #include <optional>
 #include <string>
 
+#include "common/haptics/passivity/tdpa_arm.h"
 #include "robot_side/twoarm/twoarm_control.h"
 #include "wire.pb.h"
 
@@ -47,9 +48,17 @@ ArmsCommandResult apply_arms_command(const TwoArmModel& model, const ArmsCommand
 // mailbox); merge_arms_command puts them on top of the current targets.
 // apply_arms_command is exactly validate, then merge: the same refusals, in
 // the same order, and a refused command changes nothing.
+// The direct mode's parts (ArmsCommand twist, passivity): an arm named with
+// a DirectTwist follows it (integrated into its target on the control
+// thread) instead of a pose; one arm may not have both. A PassivityPort's six
+// input energies must be finite and >= 0; not below the last ones taken is
+// the caller's check (check_energy_not_decreasing: it needs the history).
 struct ValidatedArmsCommand {
   std::array<bool, kArms> has_arm{}, has_gripper{};
   TwoArmTargets named;  // the named parts' targets (the others unused)
+  std::array<bool, kArms> has_twist{}, has_energy{};
+  std::array<haptics::tdpa::ArmTwist, kArms> twist{};
+  std::array<haptics::tdpa::Vec6, kArms> peer_energy_in_J{haptics::tdpa::Vec6::Zero(), haptics::tdpa::Vec6::Zero()};
   bool deadman = false;
   wire::Mode mode = wire::MODE_UNSPECIFIED;
 };
@@ -58,6 +67,15 @@ std::optional<ArmsRefusal> validate_arms_command(const TwoArmModel& model, const
                                                  const std::array<ArmReading, kArms>& readings,
                                                  ValidatedArmsCommand* out);
 TwoArmTargets merge_arms_command(const TwoArmTargets& current, const ValidatedArmsCommand& v) noexcept;
+
+// The operator's input energies last taken per arm, to refuse a command whose
+// energy went down (a peer that lies or restarted without a new session).
+struct PeerEnergyRecord {
+  std::array<bool, kArms> have{};
+  std::array<haptics::tdpa::Vec6, kArms> energy_in_J{haptics::tdpa::Vec6::Zero(), haptics::tdpa::Vec6::Zero()};
+};
+std::optional<ArmsRefusal> check_energy_not_decreasing(const ValidatedArmsCommand& v, const PeerEnergyRecord& r);
+void note_energy(const ValidatedArmsCommand& v, PeerEnergyRecord* r) noexcept;
 
 // The command for the given targets (the operator's side, and the tests').
 void to_wire(const TwoArmTargets& targets, bool deadman, wire::ArmsCommand* out);

@@ -1,8 +1,11 @@
 #include "robot_side/twoarm/twoarm_robot.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <stdexcept>
+
+#include "common/haptics/passivity/tdpa_wire.h"
 
 namespace hemm::twoarm {
 
@@ -13,6 +16,7 @@ TwoArmRobot::TwoArmRobot(const std::string& scene_path, const TwoArmRobotOptions
       throw std::runtime_error("two-arm control params: " + *e);
   }
   if (!(o_.watchdog_ns > 0)) throw std::runtime_error("two-arm watchdog must be > 0");
+  if (!(o_.direct_twist_hold_ns > 0)) throw std::runtime_error("twoarm.direct_twist_hold_ms must be > 0");
   watchdog_.timeout_ns = o_.watchdog_ns;
   reset({sim_.model().arms[0].rest_q, sim_.model().arms[1].rest_q}, {0.0, 0.0});
 }
@@ -25,6 +29,14 @@ void TwoArmRobot::reset(const std::array<kinematics::Arm7Vector, kArms>& q, cons
   deadman_ = false;
   gate_disarm(gate_);
   watchdog_ = robot::Watchdog{o_.watchdog_ns};
+  direct_ = {};
+  tracked_ = {};
+  reset_passivity();
+}
+
+void TwoArmRobot::reset_passivity() noexcept {
+  for (haptics::tdpa::ArmSide& p : port_) haptics::tdpa::reset<6>(p);
+  energy_record_ = PeerEnergyRecord{};
 }
 
 int64_t TwoArmRobot::time_ns() const noexcept { return origin_ns_ + std::llround(sim_.time_s() * 1e9); }
@@ -41,7 +53,9 @@ std::array<ArmReading, kArms> TwoArmRobot::readings() const noexcept {
 
 bool TwoArmRobot::command(const wire::ArmsCommand& cmd, uint64_t seq, int64_t sent_ns) {
   ValidatedArmsCommand v;
-  if (auto r = validate_arms_command(sim_.model(), o_.limits, cmd, readings(), &v)) {
+  std::optional<ArmsRefusal> r = validate_arms_command(sim_.model(), o_.limits, cmd, readings(), &v);
+  if (!r) r = check_energy_not_decreasing(v, energy_record_);
+  if (r) {
     ++counters_.commands;
     ++counters_.refusals;
     counters_.last_refusal = r->reason;
@@ -50,6 +64,7 @@ bool TwoArmRobot::command(const wire::ArmsCommand& cmd, uint64_t seq, int64_t se
     counters_.last_refusal_detail = std::move(r->detail);
     return false;
   }
+  note_energy(v, &energy_record_);
   apply(v, seq, sent_ns);
   return true;
 }
@@ -62,8 +77,25 @@ void TwoArmRobot::apply(const ValidatedArmsCommand& v, uint64_t seq, int64_t sen
   // just fed: an expired one is not a stop in force for this command).
   gate_offer(gate_, !operator_in_control_ || !link_up_ || estop_, !v.deadman, v.deadman);
   deadman_ = v.deadman;
+  // The operator's energy is a budget, taken whether or not the arms follow
+  // (old ones are ignored, bad ones counted: receive_peer).
+  for (std::size_t i = 0; i < kArms; ++i) {
+    if (v.has_energy[i]) haptics::tdpa::receive_peer<6>(port_[i], seq, v.peer_energy_in_J[i]);
+  }
   if (gate_.armed && deadman_) {
     commanded_ = merge_arms_command(commanded_, v);
+    bool any_twist = false;
+    for (std::size_t i = 0; i < kArms; ++i) {
+      if (v.has_twist[i]) {
+        direct_[i] = true;
+        twist_[i] = v.twist[i];
+        twist_sent_ns_[i] = std::min(sent_ns, now);
+        any_twist = true;
+      } else if (v.has_arm[i]) {
+        direct_[i] = false;
+      }
+    }
+    if (any_twist) ++counters_.direct_commands;
     counters_.last_command_seq = seq;
     ++counters_.applied;
   }
@@ -92,6 +124,23 @@ void TwoArmRobot::step() noexcept {
   const std::array<ArmReading, kArms> in = readings();
   const bool follow = gate_.armed && deadman_;
   if (follow) {
+    const double dt_s = sim_.timestep_s();
+    for (std::size_t a = 0; a < kArms; ++a) {
+      if (!direct_[a]) continue;
+      // Resuming after a hold: the twist moves the arm from the hold, not
+      // from a target the stop left behind.
+      if (!following_) commanded_.T_A_G[a] = active_.T_A_G[a];
+      haptics::tdpa::ArmTwist received;  // zero: a stale twist stops the arm
+      if (now - twist_sent_ns_[a] <= o_.direct_twist_hold_ns) {
+        received = twist_[a];
+      } else {
+        ++counters_.direct_stale_ticks;
+      }
+      const kinematics::Wrench6& f = feedback_A_[a];
+      tracked_[a] = haptics::tdpa::robot_arm_tick(port_[a], received, haptics::tdpa::ArmWrench{f.head<3>(), f.tail<3>()},
+                                                  dt_s, o_.pc_mode);
+      commanded_.T_A_G[a] = haptics::tdpa::advance_target(commanded_.T_A_G[a], tracked_[a], dt_s);
+    }
     active_ = commanded_;
   } else if (following_) {
     // The stop begins: hold where the grasp frames are, under the load they
@@ -113,11 +162,28 @@ void TwoArmRobot::step() noexcept {
       active_.T_A_G[a] = T;
     }
   }
+  if (!follow) tracked_ = {};
   following_ = follow;
   const auto t0 = std::chrono::steady_clock::now();
   twoarm_control(sim_.model(), o_.control, in, active_, out_);
   const auto t1 = std::chrono::steady_clock::now();
   compute_.record(std::chrono::duration_cast<std::chrono::nanoseconds>(t1 - t0).count());
+  for (std::size_t a = 0; a < kArms; ++a) {
+    const ImpedanceOutput& io = out_.arm[a];
+    if (o_.direct_feedback_measured) {
+      feedback_A_[a] = out_.wrench_ext_A[a];
+    } else {
+      // The environment's wrench on the gripper that the (capped) spring
+      // balances: minus what the spring pushes with.
+      const ImpedanceParams& p = o_.control.arm[a];
+      feedback_A_[a].head<3>() = -p.stiffness_N_per_m * (io.T_A_G_yielded.translation() - io.T_A_G.translation());
+      feedback_A_[a].tail<3>() =
+          -p.rot_stiffness_Nm_per_rad * rotation_vector(io.T_A_G_yielded.linear() * io.T_A_G.linear().transpose());
+    }
+    // Past the wrist limit the target moves back to the yielded set point,
+    // so a twist into a wall does not wind the target up behind it.
+    if (follow && direct_[a] && io.force_limited) commanded_.T_A_G[a] = io.T_A_G_yielded;
+  }
   sim_.set_command(Side::kRight, out_.command[0]);
   sim_.set_command(Side::kLeft, out_.command[1]);
   sim_.step();
@@ -138,6 +204,13 @@ void TwoArmRobot::snapshot(TwoArmSnapshot* out) const noexcept {
   out->last_refusal = counters_.last_refusal;
   out->last_refused_seq = counters_.last_refused_seq;
   out->last_refused_index = counters_.last_refused_index;
+  out->port = port_;
+  out->feedback_A = feedback_A_;
+  out->direct = direct_;
+  out->pc_mode = o_.pc_mode;
+  out->feedback_measured = o_.direct_feedback_measured;
+  out->direct_commands = counters_.direct_commands;
+  out->direct_stale_ticks = counters_.direct_stale_ticks;
 }
 
 void to_wire(const TwoArmModel& model, const TwoArmSnapshot& s, wire::ArmsState* out) {
@@ -149,6 +222,22 @@ void to_wire(const TwoArmModel& model, const TwoArmSnapshot& s, wire::ArmsState*
   out->set_last_refusal(s.last_refusal);
   out->set_last_refused_seq(s.last_refused_seq);
   out->set_last_refused_index(s.last_refused_index);
+  // The direct mode's ports and fed-back wrenches, for the arms in it only
+  // (an ArmsState must fit one datagram: about 1100 of 1156 bytes with both arms
+  // direct); only E_in and pc_on go out, the operator needs no more (the
+  // station's report has E_out, the dissipation and the controller's ticks).
+  for (uint32_t i = 0; i < kArms; ++i) {
+    if (!s.direct[i]) continue;
+    wire::PassivityPort* p = out->add_passivity();
+    haptics::tdpa::fill(p, i, s.port[i], s.pc_mode);
+    p->clear_energy_out_j();
+    p->clear_dissipated_j();
+    p->clear_pc_active_ticks();
+    wire::DirectWrench* w = out->add_direct_wrench();
+    w->set_index(i);
+    for (int j = 0; j < 6; ++j) w->add_wrench_a(static_cast<float>(s.feedback_A[i](j)));
+    w->set_measured(s.feedback_measured);
+  }
 }
 
 void TwoArmRobot::state(wire::ArmsState* out) const {

@@ -20,6 +20,16 @@
 //     watchdog, no operator) the robot follows nothing until re-armed: a
 //     neutral command (dead-man released), then a pressed one; the pressed
 //     one's targets are what it follows then (SAFETY_REARM).
+//   * Direct force-feedback mode (issue 25 part 5): an arm whose newest
+//     applied command carries a DirectTwist follows that twist. Each tick
+//     the robot end's TDPA (tdpa_arm.h, admittance type) scales it against
+//     the operator's received input energy and the twist moves the arm's
+//     target (advance_target); past the wrist force limit the target is
+//     pulled back to where the spring yields, so it never winds up into what
+//     the arm presses on. A twist older than direct_twist_hold_ns is zero.
+//     The wrench the observer pairs with it, and streams back
+//     (ArmsState.direct_wrench), is the impedance's spring wrench by default
+//     (a passive terminal: docs/telemanipulation_passivity.md).
 //
 // Not thread-safe: one thread (the station's control thread) owns it.
 #pragma once
@@ -43,6 +53,10 @@ struct TwoArmRobotOptions {
   int64_t watchdog_ns = 250'000'000;
   // Grip force of the grippers' initial targets (open, at the rest opening).
   double initial_grip_force_N = 10.0;
+  // Direct mode (TwoArmConfig passivity, 41, 42).
+  haptics::tdpa::PcMode pc_mode = haptics::tdpa::PcMode::kControl;
+  bool direct_feedback_measured = false;  // false: the impedance's spring wrench
+  int64_t direct_twist_hold_ns = 50'000'000;
 };
 
 struct TwoArmRobotCounters {
@@ -54,6 +68,8 @@ struct TwoArmRobotCounters {
   uint32_t last_refused_index = 0;
   std::string last_refusal_detail;
   uint64_t last_command_seq = 0;  // the newest applied command's
+  uint64_t direct_commands = 0;     // applied with a DirectTwist
+  uint64_t direct_stale_ticks = 0;  // direct ticks whose twist was too old (zeroed)
 };
 
 // What the robot reports, as plain values: the station's control thread
@@ -74,6 +90,14 @@ struct TwoArmSnapshot {
   wire::ArmsRefusalReason last_refusal = wire::ARMS_REFUSAL_UNSPECIFIED;
   uint64_t last_refused_seq = 0;
   uint32_t last_refused_index = 0;
+  // The direct mode: each arm's robot-end TDPA port and the wrench it pairs
+  // with the tracked twist (the environment's on the gripper, in A).
+  std::array<haptics::tdpa::ArmSide, kArms> port{};
+  std::array<kinematics::Wrench6, kArms> feedback_A{kinematics::Wrench6::Zero(), kinematics::Wrench6::Zero()};
+  std::array<bool, kArms> direct{};
+  haptics::tdpa::PcMode pc_mode = haptics::tdpa::PcMode::kControl;
+  bool feedback_measured = false;
+  uint64_t direct_commands = 0, direct_stale_ticks = 0;
 };
 
 // The ArmsState of a snapshot (mode and frame epoch are the station's).
@@ -113,6 +137,17 @@ class TwoArmRobot {
   // One control period: safety, control, one plant step. Allocation-free.
   void step() noexcept;
 
+  // The direct mode's robot end (read-only views for tests and the station).
+  const haptics::tdpa::ArmSide& port(std::size_t arm) const noexcept { return port_[arm]; }
+  // The wrench the observer paired with the twist in the newest tick.
+  const kinematics::Wrench6& feedback_A(std::size_t arm) const noexcept { return feedback_A_[arm]; }
+  // The twist the newest tick moved the target with (after the controller).
+  const haptics::tdpa::ArmTwist& tracked_twist(std::size_t arm) const noexcept { return tracked_[arm]; }
+  bool direct(std::size_t arm) const noexcept { return direct_[arm]; }
+  haptics::tdpa::PcMode pc_mode() const noexcept { return o_.pc_mode; }
+  // A new session: both ends' energies start from zero.
+  void reset_passivity() noexcept;
+
   // The state to stream (stamp, arms, grippers, safety, sequence, refusals).
   void state(wire::ArmsState* out) const;
   void snapshot(TwoArmSnapshot* out) const noexcept;  // allocation-free
@@ -145,6 +180,14 @@ class TwoArmRobot {
   TwoArmRobotCounters counters_;
   rt::LogHistogram compute_;
   int64_t origin_ns_ = 0;
+  // Direct mode.
+  std::array<bool, kArms> direct_{};
+  std::array<haptics::tdpa::ArmTwist, kArms> twist_{};    // the newest applied
+  std::array<haptics::tdpa::ArmTwist, kArms> tracked_{};  // after the controller, the newest tick
+  std::array<int64_t, kArms> twist_sent_ns_{};
+  std::array<haptics::tdpa::ArmSide, kArms> port_{};
+  std::array<kinematics::Wrench6, kArms> feedback_A_{kinematics::Wrench6::Zero(), kinematics::Wrench6::Zero()};
+  PeerEnergyRecord energy_record_;  // command()'s own decreasing check
 };
 
 }  // namespace hemm::twoarm

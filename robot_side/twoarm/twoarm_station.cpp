@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <atomic>
 #include <bit>
+#include <cmath>
 #include <functional>
 #include <mutex>
 #include <random>
@@ -13,6 +14,7 @@
 
 #include "common/clock/steady_clock.h"
 #include "common/concurrency/newest_mailbox.h"
+#include "common/haptics/passivity/tdpa_wire.h"
 #include "common/mapping/depth_stream.h"
 #include "common/net/station_cli.h"
 #include "common/sim/mujoco_owner.h"
@@ -21,6 +23,7 @@
 #include "robot_side/sim/depth_camera.h"
 #include "robot_side/sim/mujoco_ray_caster.h"
 #include "robot_side/sim/simulated_robot.h"
+#include "robot_side/station/control_pacer.h"
 
 namespace hemm::twoarm {
 
@@ -63,6 +66,11 @@ TwoArmRobotOptions two_arm_robot_options(const config::RobotConfig& c) {
   o.control.avoidance.stiffness_N_per_m = t.avoidance_stiffness_n_per_m();
   o.limits.max_target_jump_m = t.max_target_jump_m();
   o.watchdog_ns = static_cast<int64_t>(c.safety().watchdog_ms()) * 1'000'000;
+  o.pc_mode = haptics::tdpa::pc_mode_from(t.passivity());
+  o.direct_feedback_measured = t.direct_feedback_measured();
+  o.direct_twist_hold_ns = std::isfinite(t.direct_twist_hold_ms())
+                               ? static_cast<int64_t>(std::llround(t.direct_twist_hold_ms() * 1e6))
+                               : 0;  // refused by TwoArmRobot
   return o;
 }
 
@@ -95,15 +103,26 @@ struct TwoArmStation::Shared {
   int64_t next_poll_ns = 0;
   bool estop_reported = false;
   rt::LogHistogram validate_ns;  // written on the network thread
+  // The operator's newest energies taken (a command whose energy went down is
+  // refused), reset when a new controlling session begins (control_epoch).
+  PeerEnergyRecord energy_record;
+  uint64_t energy_seq = 0;
+  uint32_t energy_epoch = 0;
 
   // Set by the network thread (and local_estop), read by the control thread.
   std::atomic<bool> remote_estop{false}, local_estop{false};
   std::atomic<int> session_mode{wire::MODE_UNSPECIFIED};
   std::atomic<uint32_t> mode_epoch{0};
   std::atomic<int> exec_mode{wire::MODE_IDLE};  // the control thread's: mode of the last command applied
+  std::atomic<uint32_t> control_epoch{0};       // the control thread's: +1 each time an operator takes control
 
-  std::atomic<uint64_t> sim_steps{0}, late_steps{0}, resyncs{0}, lateness_n{0};
-  std::atomic<int64_t> max_lateness_ns{0}, lateness_sum_ns{0};
+  // The newest snapshot's direct-mode figures (network thread writes, statistics() reads).
+  mutable std::mutex passivity_mu;
+  std::array<haptics::tdpa::ArmPortSummary, kArms> passivity{};  // guarded by passivity_mu
+  uint64_t direct_commands = 0, direct_stale_ticks = 0, peer_old = 0, peer_refused = 0;  // guarded by passivity_mu
+
+  std::atomic<uint64_t> sim_steps{0};
+  robot::PacingCounters pacing;  // the control loop's (realtime pacing)
   std::atomic<uint64_t> commands_received{0}, commands_without_control{0}, commands_stale{0},
       commands_mode_mismatch{0}, commands_refused{0}, commands_accepted{0}, commands_applied{0};
   std::array<std::atomic<uint64_t>, kArmsRefusalReasons> refused_by_reason{};
@@ -117,7 +136,6 @@ struct TwoArmStation::Shared {
   std::atomic<uint64_t> mode_changes{0}, estop_changes{0}, requests_refused{0};
   std::atomic<uint32_t> safety{0};
   std::atomic<bool> armed{false}, following{false};
-  rt::TimingStats timing;
   rt::RealtimeStatus rt_status;
 };
 
@@ -225,6 +243,17 @@ void twoarm_pump_states(TwoArmStation::Shared& sh) {
   if (s == nullptr) return;
   sh.latest = *s;
   sh.have_latest = true;
+  {
+    std::lock_guard<std::mutex> lk(sh.passivity_mu);
+    sh.peer_old = sh.peer_refused = 0;
+    for (std::size_t i = 0; i < kArms; ++i) {
+      sh.passivity[i] = haptics::tdpa::summarize(sh.latest.port[i]);
+      sh.peer_old += sh.latest.port[i].peer_old;
+      sh.peer_refused += sh.latest.port[i].peer_refused;
+    }
+    sh.direct_commands = sh.latest.direct_commands;
+    sh.direct_stale_ticks = sh.latest.direct_stale_ticks;
+  }
   if (!sh.server->link_up()) return;
   wire::ArmsState* st = sh.msg.mutable_arms_state();
   to_wire(sh.model, sh.latest, st);
@@ -283,6 +312,16 @@ void twoarm_on_command(TwoArmStation::Shared& sh, const net::DatagramHeader& h, 
   const int64_t t0 = steady_now_ns();
   std::optional<ArmsRefusal> r = validate_arms_command(sh.model, sh.limits, cmd, sh.latest.readings, &tc.command);
   sh.validate_ns.record(steady_now_ns() - t0);
+  // The energies: a new controlling session starts from zero; a newer
+  // command with less energy than the last taken is refused (an older one,
+  // reordered, carries less by nature: the control thread ignores it).
+  if (const uint32_t e = sh.control_epoch.load(std::memory_order_acquire); e != sh.energy_epoch) {
+    sh.energy_epoch = e;
+    sh.energy_record = PeerEnergyRecord{};
+    sh.energy_seq = 0;
+  }
+  const bool newest = h.seq > sh.energy_seq;
+  if (!r && newest) r = check_energy_not_decreasing(tc.command, sh.energy_record);
   if (r) {
     const uint64_t n = ++sh.commands_refused;
     const int reason = static_cast<int>(r->reason);
@@ -296,6 +335,10 @@ void twoarm_on_command(TwoArmStation::Shared& sh, const net::DatagramHeader& h, 
     std::lock_guard<std::mutex> lk(sh.detail_mu);
     sh.last_refusal_detail = std::move(r->detail);
     return;
+  }
+  if (newest) {
+    note_energy(tc.command, &sh.energy_record);
+    sh.energy_seq = h.seq;
   }
   tc.seq = h.seq;
   tc.excess_age_ns = age.excess_ns;
@@ -346,6 +389,23 @@ report::TwoArmStation to_report(const TwoArmStationStatistics& s) {
   r.set_safety(s.safety);
   r.set_armed(s.armed);
   r.set_following(s.following);
+  for (std::size_t i = 0; i < kArms; ++i) {
+    const haptics::tdpa::ArmPortSummary& p = s.passivity[i];
+    report::TwoArmPassivityPort* o = r.add_passivity();
+    o->set_index(static_cast<uint32_t>(i));
+    o->set_energy_in_j(p.in_J);
+    o->set_energy_out_j(p.out_J);
+    o->set_peer_energy_in_j(p.peer_in_J);
+    o->set_dissipated_j(p.dissipated_J);
+    o->set_min_margin_j(p.min_margin_J);
+    o->set_pc_active_ticks(p.pc_active_ticks);
+    o->set_pc_on(s.passivity_controller);
+  }
+  r.set_refused_passivity(s.refused_by_reason[wire::ARMS_REFUSAL_PASSIVITY]);
+  r.set_direct_commands(s.direct_commands);
+  r.set_direct_stale_ticks(s.direct_stale_ticks);
+  r.set_passivity_peer_old(s.passivity_peer_old);
+  r.set_passivity_peer_refused(s.passivity_peer_refused);
   return r;
 }
 
@@ -380,13 +440,21 @@ std::string to_summary(const TwoArmStationStatistics& s) {
      << s.refused_by_reason[wire::ARMS_REFUSAL_UNKNOWN_GRIPPER] << ", bad pose "
      << s.refused_by_reason[wire::ARMS_REFUSAL_BAD_POSE] << ", out of reach "
      << s.refused_by_reason[wire::ARMS_REFUSAL_OUT_OF_REACH] << ", gripper range "
-     << s.refused_by_reason[wire::ARMS_REFUSAL_GRIPPER_RANGE] << "; validation median " << s.validate.median_us
+     << s.refused_by_reason[wire::ARMS_REFUSAL_GRIPPER_RANGE] << ", passivity "
+     << s.refused_by_reason[wire::ARMS_REFUSAL_PASSIVITY] << "; validation median " << s.validate.median_us
      << " us, p99 " << s.validate.p99_us << " us\n"
      << "  sent: " << s.states_sent << " states, " << s.depth_frames_sent << " depth frames (" << s.depth_chunks_sent
      << " chunks, " << s.depth_frames_skipped << " skipped), " << s.send_failures << " send failures\n"
      << "  session: " << s.mode_changes << " mode changes, " << s.estop_changes << " e-stop changes, "
      << s.requests_refused << " requests refused; e-stop " << (s.estop ? "engaged" : "released")
-     << (s.estop_local ? " (at the robot)" : "") << "\n";
+     << (s.estop_local ? " (at the robot)" : "") << "\n"
+     << "  direct mode: " << s.direct_commands << " twist commands, " << s.direct_stale_ticks
+     << " stale-twist ticks; passivity controller " << (s.passivity_controller ? "on" : "off (observer only)") << "\n";
+  for (std::size_t i = 0; i < kArms; ++i) {
+    const haptics::tdpa::ArmPortSummary& p = s.passivity[i];
+    os << "    arm " << i << " robot end: in " << p.in_J << " J, out " << p.out_J << " J, operator's in "
+       << p.peer_in_J << " J, dissipated " << p.dissipated_J << " J, min margin " << p.min_margin_J << " J\n";
+  }
   return os.str();
 }
 
@@ -522,16 +590,8 @@ bool TwoArmStation::start(std::string* error) {
   asio::post(io_, [sh] { twoarm_arm_poll(sh); });
 
   shared_->stop.store(false, std::memory_order_release);
-  shared_->rt_status = rt::RealtimeStatus{};
-  if (o_.control_thread.fifo) wake_latency_fd_ = rt::hold_cpu_wake_latency(&shared_->rt_status);
-  thread_ = std::thread([this] { run(); });
-  rt::apply_thread_realtime(thread_, o_.control_thread, &shared_->rt_status);
-  for (std::string& w :
-       rt::system_checks(shared_->rt_status.fifo, shared_->rt_status.pinned ? o_.control_thread.cpu : -1))
-    shared_->rt_status.warnings.push_back(std::move(w));
-  for (const std::string& w : shared_->rt_status.warnings) spdlog::warn("event=control_realtime warning=\"{}\"", w);
-  spdlog::info("event=control_thread kind=twoarm fifo={} cpu={}", shared_->rt_status.fifo,
-               shared_->rt_status.pinned ? shared_->rt_status.cpu : -1);
+  robot::start_control_thread(thread_, [this] { run(); }, o_.control_thread, &shared_->rt_status, &wake_latency_fd_,
+                       "twoarm");
   return true;
 }
 
@@ -568,11 +628,10 @@ TwoArmStationStatistics TwoArmStation::statistics() const {
   const Shared& sh = *shared_;
   TwoArmStationStatistics s;
   s.sim_steps = sh.sim_steps.load();
-  s.late_steps = sh.late_steps.load();
-  s.resyncs = sh.resyncs.load();
-  s.max_lateness_ns = sh.max_lateness_ns.load();
-  const uint64_t n = sh.lateness_n.load();
-  s.mean_lateness_ns = n ? static_cast<double>(sh.lateness_sum_ns.load()) / static_cast<double>(n) : 0.0;
+  s.late_steps = sh.pacing.late_steps.load();
+  s.resyncs = sh.pacing.resyncs.load();
+  s.max_lateness_ns = sh.pacing.max_lateness_ns.load();
+  s.mean_lateness_ns = sh.pacing.mean_lateness_ns();
   s.commands_received = sh.commands_received.load();
   s.commands_without_control = sh.commands_without_control.load();
   s.commands_stale = sh.commands_stale.load();
@@ -605,12 +664,16 @@ TwoArmStationStatistics TwoArmStation::statistics() const {
   s.safety = sh.safety.load();
   s.armed = sh.armed.load();
   s.following = sh.following.load();
-  s.control_timing = rt::summarize(sh.timing);
-  s.control_timing.period_target_us = static_cast<double>(timestep_ns()) * 1e-3;
-  s.control_timing.late_wake_threshold_us = static_cast<double>(o_.late_wake_threshold_ns) * 1e-3;
-  s.control_timing.fifo = sh.rt_status.fifo;
-  s.control_timing.wake_latency_held = sh.rt_status.wake_latency_held;
-  s.control_timing.cpu = sh.rt_status.pinned ? sh.rt_status.cpu : -1;
+  s.control_timing = robot::pacing_summary(sh.pacing, timestep_ns(), o_.late_wake_threshold_ns, sh.rt_status);
+  {
+    std::lock_guard<std::mutex> lk(sh.passivity_mu);
+    s.passivity = sh.passivity;
+    s.direct_commands = sh.direct_commands;
+    s.direct_stale_ticks = sh.direct_stale_ticks;
+    s.passivity_peer_old = sh.peer_old;
+    s.passivity_peer_refused = sh.peer_refused;
+  }
+  s.passivity_controller = !robot_ || robot_->pc_mode() == haptics::tdpa::PcMode::kControl;
   return s;
 }
 
@@ -623,9 +686,8 @@ void TwoArmStation::run() {
   const int64_t dt = robot.timestep_ns();
   const int64_t state_period = std::max<int64_t>(1, 1'000'000'000 / static_cast<int64_t>(o_.state_rate_hz));
 
-  int64_t anchor = steady_now_ns();
-  robot.set_time_origin_ns(anchor);
-  int64_t k = 0;  // steps since the anchor
+  robot::ControlPacer pacer(dt, o_.max_catch_up_ns, o_.late_wake_threshold_ns, steady_now_ns());
+  robot.set_time_origin_ns(pacer.anchor_ns());
   int64_t next_state_ns = robot.time_ns();
   uint64_t steps = 0;
   uint32_t depth_id = 0;
@@ -633,36 +695,26 @@ void TwoArmStation::run() {
   int session_mode = sh.session_mode.load();
   int exec_mode = wire::MODE_IDLE;
   bool was_in_control = false;
+  bool was_controlling = false;
 
-  rt::TickTiming tick;
-  tick.period_ns = dt;
-  tick.late_wake_threshold_ns = o_.late_wake_threshold_ns;
   if (o_.control_thread_hook) o_.control_thread_hook(true);
   while (!sh.stop.load(std::memory_order_acquire)) {
-    tick.what = "step";
-    if (o_.realtime) {
-      const int64_t deadline = anchor + (k + 1) * dt;
-      rt::sleep_until_ns(deadline);
-      tick.deadline_ns = deadline;
-      tick.wake_ns = steady_now_ns();
-      int64_t late = tick.wake_ns - deadline;
-      if (late > o_.max_catch_up_ns) {
-        anchor = steady_now_ns() - dt;
-        k = 0;
-        robot.set_time_origin_ns(anchor);
-        sh.resyncs.fetch_add(1, std::memory_order_relaxed);
-      }
-      if (late > dt) sh.late_steps.fetch_add(1, std::memory_order_relaxed);
-      if (late > sh.max_lateness_ns.load(std::memory_order_relaxed)) sh.max_lateness_ns.store(late);
-      late = std::max<int64_t>(late, 0);
-      sh.lateness_sum_ns.fetch_add(late, std::memory_order_relaxed);
-      sh.lateness_n.fetch_add(1, std::memory_order_relaxed);
-    }
+    pacer.set_what("step");
+    if (o_.realtime && pacer.wait(sh.pacing) > 0) robot.set_time_origin_ns(pacer.anchor_ns());
 
     // Link and control first: a command must see the current state.
     const bool link_up = server.link_up();
     const bool in_control = link_up && server.operator_in_control();
     robot.set_link(in_control, link_up);
+    // A new controlling session (not a link outage within one): both ends'
+    // energies start from zero.
+    if (const bool controlling = server.operator_in_control(); controlling != was_controlling) {
+      was_controlling = controlling;
+      if (controlling) {
+        robot.reset_passivity();
+        sh.control_epoch.fetch_add(1, std::memory_order_release);
+      }
+    }
     if (!in_control && was_in_control) {
       sh.session_mode.store(wire::MODE_UNSPECIFIED);  // losing control forgets the session mode
       session_mode = wire::MODE_UNSPECIFIED;
@@ -697,7 +749,7 @@ void TwoArmStation::run() {
     }
 
     robot.step();
-    ++k;
+    pacer.stepped();
     ++steps;
     sh.sim_steps.fetch_add(1, std::memory_order_relaxed);
 
@@ -715,18 +767,13 @@ void TwoArmStation::run() {
       sh.safety.store(robot.safety(), std::memory_order_relaxed);
       sh.armed.store(robot.armed(), std::memory_order_relaxed);
       sh.following.store(robot.following(), std::memory_order_relaxed);
-      tick.what = "state";
+      pacer.set_what("state");
     }
     if (depth_ && steps % static_cast<uint64_t>(depth_period_steps_) == 0) {
       depth_->submit(robot.sim().d(), now, depth_id++);
-      tick.what = "depth";
+      pacer.set_what("depth");
     }
-    if (o_.realtime) {
-      tick.done_ns = steady_now_ns();
-      rt::record_tick(sh.timing, tick);
-      tick.prev_wake_ns = tick.wake_ns;
-      ++tick.tick;
-    }
+    if (o_.realtime) pacer.record(sh.pacing);
   }
   if (o_.control_thread_hook) o_.control_thread_hook(false);
 }

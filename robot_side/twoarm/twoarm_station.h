@@ -85,7 +85,7 @@ struct TwoArmStationOptions {
 // (config::load_robot_config).
 TwoArmRobotOptions two_arm_robot_options(const config::RobotConfig& config);
 
-inline constexpr int kArmsRefusalReasons = 7;  // wire::ArmsRefusalReason 0..6
+inline constexpr int kArmsRefusalReasons = 8;  // wire::ArmsRefusalReason 0..7
 
 struct TwoArmStationStatistics {
   uint64_t sim_steps = 0;
@@ -121,6 +121,14 @@ struct TwoArmStationStatistics {
   uint32_t safety = 0;  // the newest snapshot's SafetyFlags
   bool armed = false, following = false;
   rt::TimingSummary control_timing;  // realtime pacing only
+  // The direct mode (robot end): each arm's TDPA port as of the newest
+  // snapshot, and what the direct commands did.
+  std::array<haptics::tdpa::ArmPortSummary, kArms> passivity{};
+  bool passivity_controller = true;
+  uint64_t direct_commands = 0;     // applied with a DirectTwist
+  uint64_t direct_stale_ticks = 0;  // direct ticks with a twist older than direct_twist_hold_ms (zeroed)
+  uint64_t passivity_peer_old = 0;      // operator energies older than the newest taken
+  uint64_t passivity_peer_refused = 0;  // refused on the control thread (receive_peer)
 };
 
 report::TwoArmStation to_report(const TwoArmStationStatistics& s);

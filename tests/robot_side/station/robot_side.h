@@ -15,27 +15,20 @@
 #include "config_robot.pb.h"
 #include "robot_side/server/robot_server.h"
 #include "robot_side/station/robot_station.h"
+#include "tests/robot_side/station/station_io.h"
 
 namespace hemm::test {
 
-struct RobotSide {
-  asio::io_context io;
-  std::optional<asio::executor_work_guard<asio::io_context::executor_type>> work;
+struct RobotSide : StationIo {
   std::unique_ptr<robot::RobotServer> server;
   std::unique_ptr<robot::RobotStation> station;
-  std::thread thread;
   config::RobotConfig cfg;
   std::string scene;
 
   // control_cpu: pin the station's control thread there (-1: not pinned).
   RobotSide(const config::RobotConfig& c, const net::Key& key, std::string scene_path, int control_cpu = -1)
       : cfg(c), scene(std::move(scene_path)) {
-    robot::RobotServerOptions o;
-    o.session_port = 0;
-    o.stream_port = 0;
-    o.psk = key;
-    o.link_timeout_ms = cfg.link().link_timeout_ms();
-    server = std::make_unique<robot::RobotServer>(io, o);
+    server = std::make_unique<robot::RobotServer>(io, loopback_server_options(cfg, key));
     robot::RobotStationOptions so;
     so.state_rate_hz = cfg.net().state_rate_hz();
     so.control_thread.cpu = control_cpu;
@@ -47,16 +40,11 @@ struct RobotSide {
     const auto load_err = station->load(cfg, scene);
     ASSERT_FALSE(load_err) << *load_err;
     ASSERT_TRUE(station->start(&err)) << err;
-    work.emplace(io.get_executor());
-    thread = std::thread([this] { io.run(); });
+    run();
   }
   ~RobotSide() {
     station->stop();
-    asio::post(io, [this] { server->stop("test over"); });
-    work.reset();
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
-    io.stop();
-    if (thread.joinable()) thread.join();
+    shutdown(*server);
   }
 };
 

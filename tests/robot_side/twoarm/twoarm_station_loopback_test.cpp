@@ -25,12 +25,14 @@
 #include "common/config/config.h"
 #include "common/mapping/depth_stream.h"
 #include "config_robot.pb.h"
+#include "report.pb.h"
 #include "operator/client/operator_client.h"
 #include "robot_side/server/robot_server.h"
 #include "robot_side/twoarm/arms_wire.h"
 #include "robot_side/twoarm/twoarm_station.h"
 #include "tests/common/net/udp_forwarder.h"
 #include "tests/operator/servo/alloc_counter.h"
+#include "tests/robot_side/station/station_io.h"
 #include "tests/robot_side/twoarm/workbench_scene.h"
 
 namespace ht = hemm::twoarm;
@@ -67,20 +69,12 @@ hemm::config::RobotConfig twoarm_test_config(bool depth = false) {
 }
 
 // The station: server + TwoArmStation on one network thread.
-struct TwoArmSide {
-  asio::io_context io;
-  std::optional<asio::executor_work_guard<asio::io_context::executor_type>> work;
+struct TwoArmSide : hemm::test::StationIo {
   std::unique_ptr<hemm::robot::RobotServer> server;
   std::unique_ptr<ht::TwoArmStation> station;
-  std::thread thread;
 
   explicit TwoArmSide(const hemm::config::RobotConfig& cfg, std::function<void(bool)> control_thread_hook = {}) {
-    hemm::robot::RobotServerOptions o;
-    o.session_port = 0;
-    o.stream_port = 0;
-    o.psk = twoarm_test_key();
-    o.link_timeout_ms = cfg.link().link_timeout_ms();
-    server = std::make_unique<hemm::robot::RobotServer>(io, o);
+    server = std::make_unique<hemm::robot::RobotServer>(io, hemm::test::loopback_server_options(cfg, twoarm_test_key()));
     ht::TwoArmStationOptions so;
     so.state_rate_hz = cfg.net().state_rate_hz();
     so.control_thread_hook = std::move(control_thread_hook);
@@ -90,16 +84,11 @@ struct TwoArmSide {
     const auto load_err = station->load(cfg, kWorkbenchScene);
     EXPECT_FALSE(load_err) << *load_err;
     EXPECT_TRUE(station->start(&err)) << err;
-    work.emplace(io.get_executor());
-    thread = std::thread([this] { io.run(); });
+    run();
   }
   ~TwoArmSide() {
     station->stop();
-    asio::post(io, [this] { server->stop("test over"); });
-    work.reset();
-    std::this_thread::sleep_for(std::chrono::milliseconds(50));
-    io.stop();
-    if (thread.joinable()) thread.join();
+    shutdown(*server);
   }
   ht::TwoArmTruthSim truth() const {
     ht::TwoArmTruthSim t;
@@ -761,6 +750,77 @@ TEST(TwoArmStationLoopback, ControlThreadDoesNotAllocate) {
   EXPECT_NE(hooked_thread.load(), std::this_thread::get_id());
   EXPECT_EQ(n, 0u);
   EXPECT_EQ(frees, 0u);
+}
+
+// The direct force-feedback mode over the link: a fake operator sends arm 0
+// a DirectTwist (4 cm/s along y for 1 s, then zero) with its PassivityPort
+// (a constant 5 J per axis); the true grasp frame moves about 4 cm, the other
+// arm stays; the ArmsStates carry arm 0's robot-end port and fed-back wrench;
+// the station's report has the energies, the output within the operator's
+// budget; and the control thread allocates nothing meanwhile.
+TEST(TwoArmStationLoopback, DirectTwistMovesTheArmAndEnergiesComeBack) {
+  TwoArmSide robot(twoarm_test_config(), [](bool on) { hemm::test::count_allocations_on_this_thread(on); });
+  FakeArmsOperator op(robot.server->session_port(), true);
+  const auto held = connected_hold(op);
+  ASSERT_TRUE(held);
+  const uint64_t a0 = hemm::test::counted_allocations();
+  const Eigen::Vector3d r0 = robot.grasp(0), l0 = robot.grasp(1);
+  const double speed = 0.04, budget_J = 5.0;
+  auto direct = [&](double v, bool deadman) {
+    hw::ArmsCommand c;
+    c.set_mode(hw::MODE_MANIPULATION);
+    c.set_deadman(deadman);
+    hw::DirectTwist* t = c.add_twist();
+    t->set_index(0);
+    t->mutable_v_a()->set_y(v);
+    t->mutable_omega_a();
+    hw::PassivityPort* p = c.add_passivity();
+    p->set_index(0);
+    for (int i = 0; i < 6; ++i) p->add_energy_in_j(budget_J);
+    return c;
+  };
+  const uint64_t n = robot.station->statistics().commands_accepted;
+  op.set_command(direct(0.0, false));
+  ASSERT_TRUE(twoarm_wait_until([&] { return robot.station->statistics().commands_accepted >= n + 3; }, 3.0));
+  op.set_make([direct, speed, t0 = int64_t{-1}](int64_t now) mutable -> std::optional<hw::ArmsCommand> {
+    if (t0 < 0) t0 = now;
+    return direct(now - t0 < 1'000'000'000 ? speed : 0.0, true);
+  });
+  twoarm_sleep_s(2.5);
+  const Eigen::Vector3d r1 = robot.grasp(0), l1 = robot.grasp(1);
+  const auto s1 = op.fresh_state();
+  const auto st = robot.station->statistics();
+  const uint64_t allocs = hemm::test::counted_allocations() - a0;
+  std::printf("direct: right G moved %.2f mm along y (told %.0f mm), %.2f mm off it; left moved %.2f mm; robot end "
+              "in %.4f J out %.4f J of the operator's %.1f J, dissipated %.4f J; %llu twist commands; control-thread "
+              "allocations %llu\n",
+              (r1 - r0).y() * 1e3, speed * 1e3, Eigen::Vector2d((r1 - r0).x(), (r1 - r0).z()).norm() * 1e3,
+              (l1 - l0).norm() * 1e3, st.passivity[0].in_J, st.passivity[0].out_J, st.passivity[0].peer_in_J,
+              st.passivity[0].dissipated_J, static_cast<unsigned long long>(st.direct_commands),
+              static_cast<unsigned long long>(allocs));
+  std::printf("%s", ht::to_summary(st).c_str());
+  // Wide: the twist's span is the operator's 1 s give or take the link's jitter.
+  EXPECT_NEAR((r1 - r0).y(), speed * 1.0, 0.01);
+  EXPECT_LT(Eigen::Vector2d((r1 - r0).x(), (r1 - r0).z()).norm(), 0.004);
+  EXPECT_LT((l1 - l0).norm(), 0.002);
+  ASSERT_TRUE(s1);
+  EXPECT_EQ(s1->safety(), 0u);
+  ASSERT_EQ(s1->passivity_size(), 1);
+  EXPECT_EQ(s1->passivity(0).index(), 0u);
+  EXPECT_EQ(s1->passivity(0).energy_in_j_size(), 6);
+  EXPECT_TRUE(s1->passivity(0).pc_on());
+  ASSERT_EQ(s1->direct_wrench_size(), 1);
+  EXPECT_EQ(s1->direct_wrench(0).wrench_a_size(), 6);
+  EXPECT_GT(st.direct_commands, 100u);
+  EXPECT_EQ(st.commands_refused, 0u);
+  EXPECT_DOUBLE_EQ(st.passivity[0].peer_in_J, 6 * budget_J);
+  EXPECT_GT(st.passivity[0].out_J, 0.0);  // the spring pulled the arm along: energy out at the robot
+  EXPECT_GE(st.passivity[0].min_margin_J, 0.0);
+  const hemm::report::TwoArmStation rep = ht::to_report(st);
+  ASSERT_EQ(rep.passivity_size(), 2);
+  EXPECT_DOUBLE_EQ(rep.passivity(0).energy_out_j(), st.passivity[0].out_J);
+  robot.station->stop();
+  EXPECT_EQ(hemm::test::counted_allocations() - a0, 0u);
 }
 
 // The head depth camera: DepthChunks arrive whole, stamped at acquisition,
