@@ -132,7 +132,7 @@ TaskScript box_script(const TaskScene& sc, const ScriptParams& p) {
 TaskScript peg_script(const TaskScene& sc, const ScriptParams& p) {
   TaskScript t{"peg", p, {}};
   const Side l = Side::kLeft;
-  const double open = 2.0 * sc.peg_radius_m + 0.035;
+  const double open = 2.0 * sc.peg_half_width_m + 0.035;
   const double top = sc.peg_centre.z() + sc.peg_length_m / 2.0;
   const Eigen::Vector3d grasp(sc.peg_centre.x(), sc.peg_centre.y(), top - 0.02);
   const double g_to_end = grasp.z() - (sc.peg_centre.z() - sc.peg_length_m / 2.0);  // G above the peg's end

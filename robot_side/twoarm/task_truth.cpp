@@ -76,7 +76,7 @@ TaskTruthModel make_task_truth_model(const WorkbenchSim& sim, Task task, const T
       }
       if (tm.goal_support_geoms.empty()) throw std::runtime_error("task truth: the fixture has no geoms");
       tm.goal = truth_vec(d->site_xpos + 3 * truth_id(m, mjOBJ_SITE, "fixture_hole"));
-      tm.object_half_height_m = m->geom_size[3 * truth_id(m, mjOBJ_GEOM, "peg_geom") + 1];
+      tm.object_half_height_m = m->geom_size[3 * truth_id(m, mjOBJ_GEOM, "peg_geom") + 2];  // a box: its half length along z
       break;
     }
     case Task::kBar: {
