@@ -75,9 +75,12 @@ inline std::string two_hand_box_scene() {
 // The scene a task runs in: the box with both hands in the moved layout.
 inline std::string feasibility_scene(ht::Task task) { return task == ht::Task::kBox ? two_hand_box_scene() : hemm::test::kWorkbenchScene; }
 
-inline hs::TaskScript feasibility_script(ht::Task task) {
-  const hs::TaskSceneResult scene = hs::load_task_scene(feasibility_scene(task));
+// hole_error: how far the operator's idea of the hole (its task: line) is
+// off the truth; the guarded insertion has to find it.
+inline hs::TaskScript feasibility_script(ht::Task task, const Eigen::Vector3d& hole_error = Eigen::Vector3d::Zero()) {
+  hs::TaskSceneResult scene = hs::load_task_scene(feasibility_scene(task));
   if (!scene.scene) throw std::runtime_error(scene.error);
+  scene.scene->hole_top += hole_error;
   switch (task) {
     case ht::Task::kBox: return hs::box_script(*scene.scene);
     case ht::Task::kPeg: return hs::peg_script(*scene.scene);
@@ -88,12 +91,13 @@ inline hs::TaskScript feasibility_script(ht::Task task) {
 
 // One run: the robot at 1 kHz, the script at 100 Hz, the state at 250 Hz,
 // each direction late by rtt/2 and losing `loss` of its messages.
-inline FeasibilityRun feasibility_run(ht::Task task, double rtt_s, double loss, uint64_t seed, double max_s) {
+inline FeasibilityRun feasibility_run(ht::Task task, double rtt_s, double loss, uint64_t seed, double max_s,
+                                      const Eigen::Vector3d& hole_error = Eigen::Vector3d::Zero()) {
   ht::TwoArmRobot robot(feasibility_scene(task), ht::TwoArmRobotOptions{});
   robot.set_link(true, true);
   const ht::TaskTruthModel tm = ht::make_task_truth_model(robot.sim(), task);
   ht::TaskTruthData data;
-  const hs::TaskScript script = feasibility_script(task);
+  const hs::TaskScript script = feasibility_script(task, hole_error);
   hs::ScriptState st;
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> u(0.0, 1.0);
