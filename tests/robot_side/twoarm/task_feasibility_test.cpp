@@ -37,13 +37,12 @@ TEST(TaskFeasibility, BarAt3sRoundTripLossy) { feasibility_expect(ht::Task::kBar
 
 // The hole 1 mm (x) from where the operator believes it (twice the
 // clearance a side): the peg should land on the rim, the wrist force tell it,
-// and the search circle find the hole. NOT YET: it lands on the rim and the
-// search does not get it in within 150 s (at 1 mm and at 2.5 mm; the hole has
-// no chamfer to centre it, docs/telemanipulation_tasks.md).
+// and the search circle find the hole. NOT YET: it enters 6 mm and jams (the
+// target 1 mm off the axis presses it on a wall); at 2.5 mm it does not get in either
+// (docs/telemanipulation_tasks.md).
 TEST(TaskFeasibility, DISABLED_PegFindsAHoleItBelievesOffByOneMillimetre) {
   const tf::FeasibilityRun r = tf::feasibility_run(ht::Task::kPeg, 0.0, 0.0, 1, 150.0, Eigen::Vector3d(0.001, 0.0, 0.0));
   tf::feasibility_print(ht::Task::kPeg, 0.0, 1, r);
   EXPECT_TRUE(r.script_done) << r.last_step << " " << r.detail;
   EXPECT_TRUE(r.verdict.success) << r.verdict.why;
-  EXPECT_GE(r.searches, 1);  // it did land on the rim first
 }
