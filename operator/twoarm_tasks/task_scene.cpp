@@ -25,7 +25,7 @@ const std::vector<SceneObject>& scene_objects() {
   static const std::vector<SceneObject> objects = {
       {"box", {{"centre", 3}, {"size", 3}}},
       {"shelf", {{"place", 3}}},
-      {"peg", {{"centre", 3}, {"radius", 1}, {"length", 1}}},
+      {"peg", {{"centre", 3}, {"half", 1}, {"length", 1}}},
       {"hole", {{"top", 3}, {"depth", 1}}},
       {"bar", {{"centre", 3}, {"radius", 1}, {"length", 1}}},
   };
@@ -89,7 +89,7 @@ TaskSceneResult parse_task_scene(const std::string& text, const std::string& fil
       if (values.count(c.name) == 0) return fail("'" + object + "' lacks '" + c.name + "'");
     }
     for (const auto& [k, v] : values) {
-      if ((k == "size" || k == "radius" || k == "length" || k == "depth") && !(v[0] > 0.0 && (v.size() < 3 || (v[1] > 0.0 && v[2] > 0.0))))
+      if ((k == "size" || k == "half" || k == "radius" || k == "length" || k == "depth") && !(v[0] > 0.0 && (v.size() < 3 || (v[1] > 0.0 && v[2] > 0.0))))
         return fail("'" + object + " " + k + "' must be positive");
     }
     seen[object] = std::move(values);
@@ -110,7 +110,7 @@ TaskSceneResult parse_task_scene(const std::string& text, const std::string& fil
   s.box_size = v3("box", "size");
   s.shelf_place = v3("shelf", "place");
   s.peg_centre = v3("peg", "centre");
-  s.peg_radius_m = v1("peg", "radius");
+  s.peg_half_width_m = v1("peg", "half");
   s.peg_length_m = v1("peg", "length");
   s.hole_top = v3("hole", "top");
   s.hole_depth_m = v1("hole", "depth");

@@ -5,7 +5,7 @@
 //
 //   task: box   centre X Y Z  size SX SY SZ
 //   task: shelf place X Y Z                  (the board's top centre)
-//   task: peg   centre X Y Z  radius R  length L
+//   task: peg   centre X Y Z  half H  length L     (square: H half its width, flats along x, y)
 //   task: hole  top X Y Z     depth D        (the hole's top centre, axis +z)
 //   task: bar   centre X Y Z  radius R  length L   (its axis along y)
 //
@@ -24,7 +24,7 @@ struct TaskScene {
   Eigen::Vector3d box_centre = Eigen::Vector3d::Zero(), box_size = Eigen::Vector3d::Zero();
   Eigen::Vector3d shelf_place = Eigen::Vector3d::Zero();
   Eigen::Vector3d peg_centre = Eigen::Vector3d::Zero();
-  double peg_radius_m = 0.0, peg_length_m = 0.0;
+  double peg_half_width_m = 0.0, peg_length_m = 0.0;
   Eigen::Vector3d hole_top = Eigen::Vector3d::Zero();
   double hole_depth_m = 0.0;
   Eigen::Vector3d bar_centre = Eigen::Vector3d::Zero();

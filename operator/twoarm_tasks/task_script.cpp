@@ -103,36 +103,76 @@ ScriptStep script_retreat(const std::string& name, Side s, const Eigen::Vector3d
   return back;
 }
 
+// A step moving both arms to their grasp frames at the same offsets from
+// one point c (both targets move together in A: the hands' relative pose is
+// kept while they hold one object).
+ScriptStep script_move_both(const std::string& name, const ScriptParams& p, const Eigen::Vector3d& c,
+                            const std::array<Eigen::Vector3d, kArms>& off, double speed = 0.0, double tol = 0.0) {
+  ScriptStep st;
+  st.name = name;
+  for (std::size_t a = 0; a < kArms; ++a) {
+    st.pose[a] = script_grasp(p, static_cast<Side>(a), c + off[a]);
+    st.wait_reach[a] = true;
+  }
+  st.speed_mps = speed;
+  st.tol_m = tol;
+  return st;
+}
+
 }  // namespace
 
-TaskScript box_script(const TaskScene& sc, const ScriptParams& p) {
+TaskScript box_script(const TaskScene& sc, const ScriptParams& params) {
+  // The left hand reaches across to the box's and the shelf's right-hand
+  // ends: from above it needs its grasp turned further (the inverse
+  // kinematics finds none at the peg's -0.7 rad over the shelf).
+  ScriptParams p = params;
+  p.tilt_rad[1] = std::min(p.tilt_rad[1], -1.0);
   TaskScript t{"box", p, {}};
-  const Side r = Side::kRight;
   const double open = std::min(0.218, sc.box_size.x() + 0.018);  // the gripper opens 0.22 at most
-  const Eigen::Vector3d grasp = sc.box_centre + Eigen::Vector3d(0, 0, sc.box_size.z() / 2.0 - 0.04);  // G 4 cm below the top
-  const double g_above_centre = grasp.z() - sc.box_centre.z();
-  // Carried with its bottom 9 cm over the board (it sags ~2 cm under 2 kg).
-  const double carry_z = sc.shelf_place.z() + sc.box_size.z() / 2.0 + 0.09 + g_above_centre;
-  script_take(t, r, "box", grasp, open);
-  t.steps.push_back(script_move("lift the box", r, script_grasp(p, r, Eigen::Vector3d(grasp.x(), grasp.y(), carry_z)), 0.0, p.carry_tol_m));
-  t.steps.push_back(script_move("carry it over the shelf", r,
-                                script_grasp(p, r, Eigen::Vector3d(sc.shelf_place.x(), sc.shelf_place.y(), carry_z)), 0.0, p.carry_tol_m));
-  // Set down: the target 5 mm into the board, so the board takes the load.
-  ScriptStep place = script_move(
-      "set it on the board", r,
-      script_grasp(p, r, sc.shelf_place + Eigen::Vector3d(0, 0, sc.box_size.z() / 2.0 + g_above_centre - 0.005)),
-      p.slow_speed_mps, 0.01);
-  place.wait_unloaded[0] = true;
+  // Each hand takes one end (along y), across the 0.20 m side, G 4 cm below the top.
+  const double g_above_centre = sc.box_size.z() / 2.0 - 0.04;
+  const double half_y = sc.box_size.y() / 2.0;
+  const std::array<Eigen::Vector3d, kArms> off{Eigen::Vector3d(0, -(half_y - p.box_end_inset_m[0]), g_above_centre),
+                                               Eigen::Vector3d(0, half_y - p.box_end_inset_m[1], g_above_centre)};
+  const Eigen::Vector3d above(0, 0, 0.10);
+  // Carried with its bottom 9 cm over the board (the arms sag under 2 kg).
+  const double carry_z = sc.shelf_place.z() + sc.box_size.z() / 2.0 + 0.09;
+  ScriptStep over = script_move_both("both over the box's ends", p, sc.box_centre + above, off);
+  over.grip = {GripperTarget{open, p.grip_force_N}, GripperTarget{open, p.grip_force_N}};
+  t.steps.push_back(over);
+  t.steps.push_back(script_move_both("both down to the ends", p, sc.box_centre, off, p.slow_speed_mps));
+  ScriptStep close;
+  close.name = "both close on the box";
+  close.grip = {GripperTarget{0.0, p.grip_force_N}, GripperTarget{0.0, p.grip_force_N}};
+  close.wait_grasped = {true, true};
+  t.steps.push_back(close);
+  t.steps.push_back(script_move_both("lift the box", p, Eigen::Vector3d(sc.box_centre.x(), sc.box_centre.y(), carry_z), off, 0.0, p.carry_tol_m));
+  t.steps.push_back(script_move_both("carry it over the shelf", p, Eigen::Vector3d(sc.shelf_place.x(), sc.shelf_place.y(), carry_z), off, 0.0,
+                                     p.carry_tol_m));
+  // Set down: the targets 5 mm into the board, until both wrists are unloaded (the board takes it).
+  // (Within the carrying tolerance: the left, reaching across, stops ~1.5 cm short under the load.)
+  ScriptStep place = script_move_both("set it on the board", p, sc.shelf_place + Eigen::Vector3d(0, 0, sc.box_size.z() / 2.0 - 0.005), off,
+                                      p.slow_speed_mps, p.carry_tol_m);
+  place.wait_unloaded = {true, true};
   t.steps.push_back(place);
-  t.steps.push_back(script_grip("let go of the box", r, {open, p.grip_force_N}, false));
-  t.steps.push_back(script_retreat("retreat", r, Eigen::Vector3d(0, 0, 0.12)));
+  ScriptStep release;
+  release.name = "both let go of the box";
+  release.grip = {GripperTarget{open, p.grip_force_N}, GripperTarget{open, p.grip_force_N}};
+  release.wait_opened = {true, true};
+  t.steps.push_back(release);
+  ScriptStep back;
+  back.name = "both retreat";
+  back.delta = {Eigen::Vector3d(0, 0, 0.12), Eigen::Vector3d(0, 0, 0.12)};
+  back.wait_reach = {true, true};
+  back.tol_m = p.carry_tol_m;  // the left, reaching across, stops ~1.3 cm short
+  t.steps.push_back(back);
   return t;
 }
 
 TaskScript peg_script(const TaskScene& sc, const ScriptParams& p) {
   TaskScript t{"peg", p, {}};
   const Side l = Side::kLeft;
-  const double open = 2.0 * sc.peg_radius_m + 0.035;
+  const double open = 2.0 * sc.peg_half_width_m + 0.035;
   const double top = sc.peg_centre.z() + sc.peg_length_m / 2.0;
   const Eigen::Vector3d grasp(sc.peg_centre.x(), sc.peg_centre.y(), top - 0.02);
   const double g_to_end = grasp.z() - (sc.peg_centre.z() - sc.peg_length_m / 2.0);  // G above the peg's end
@@ -268,7 +308,8 @@ ScriptOutput script_step(const TaskScript& sc, ScriptState& st, const wire::Arms
     if (confirmed && step.wait_opened[a]) {
       confirmed = !b[a].holding && b[a].opening_m >= st.targets.gripper[a].opening_m - p.open_tol_m;
     }
-    if (confirmed && step.wait_unloaded[a]) confirmed = b[a].force_A.norm() <= p.unloaded_N;
+    // The weight off the wrist (vertical: two hands on one box also squeeze it sideways).
+    if (confirmed && step.wait_unloaded[a]) confirmed = std::abs(b[a].force_A.z()) <= p.unloaded_N;
   }
   if (step.insert_arm >= 0) {
     // The guarded insertion: the target's height and, when stuck, a search

@@ -52,6 +52,9 @@ struct ScriptParams {
   double search_max_m = 0.015;    // the peg sits up to ~1 cm off G's axis in the tilted grasp
   double search_period_s = 1.5;
   double deadman_delay_s = 0.1;
+  // box: each hand's grasp frame this far in from its end of the box: the
+  // left reaches across to the shelf, so it takes its end nearer the edge.
+  std::array<double, kArms> box_end_inset_m{0.05, 0.005};
   // Each arm's grasps from above are turned by this about the fingers'
   // closing axis (which stays along x_A): straight down, the right and left
   // arms stop short at a wrist joint's limit (j6) from their rest postures.
@@ -85,8 +88,10 @@ struct TaskScript {
 };
 
 // The three plans from the scene (grasps from above, twoarm::downward_grasp).
-// box: the right gripper takes the box across its 0.20 m side, lifts it over
-//   the shelf's edge, sets it down on the board, lets go, retreats.
+// box: both grippers take the box, one at each end, across its 0.20 m side,
+//   lift it over the shelf's edge, carry it, set it down on the board, let
+//   go, retreat; both targets move together in A (the hands' relative pose
+//   is kept).
 // peg: the left gripper takes the peg 3 cm below its top, carries it over
 //   the hole, inserts it (guarded) to 5 mm above the bottom, lets go.
 // bar: the left gripper takes the bar at its middle and lifts it to the

@@ -76,7 +76,7 @@ TaskTruthModel make_task_truth_model(const WorkbenchSim& sim, Task task, const T
       }
       if (tm.goal_support_geoms.empty()) throw std::runtime_error("task truth: the fixture has no geoms");
       tm.goal = truth_vec(d->site_xpos + 3 * truth_id(m, mjOBJ_SITE, "fixture_hole"));
-      tm.object_half_height_m = m->geom_size[3 * truth_id(m, mjOBJ_GEOM, "peg_geom") + 1];
+      tm.object_half_height_m = m->geom_size[3 * truth_id(m, mjOBJ_GEOM, "peg_geom") + 2];  // a box: its half length along z
       break;
     }
     case Task::kBar: {
@@ -93,6 +93,7 @@ TaskTruthSample task_truth_sample(const TaskTruthModel& tm, const WorkbenchSim& 
   const mjData* d = sim.d();
   TaskTruthSample s;
   s.t_s = d->time;
+  std::array<std::array<bool, 2>, kArms> pad_seen{};
   for (int i = 0; i < d->ncon; ++i) {
     const mjContact& c = d->contact[i];
     if (c.efc_address < 0) continue;  // excluded: no force
@@ -117,7 +118,8 @@ TaskTruthSample task_truth_sample(const TaskTruthModel& tm, const WorkbenchSim& 
         const auto side = static_cast<std::size_t>(grip[1 - k]);
         s.finger_on_object[side] = true;
         const auto& fb = tm.finger_bodies[side];
-        if ((ob == fb[0] || ob == fb[1]) && f6[0] > tm.p.pad_touch_N) ++s.pads_on_object[side];
+        // A pad counts once, however many contact points it has (a flat on a flat gives several).
+        if ((ob == fb[0] || ob == fb[1]) && f6[0] > tm.p.pad_touch_N) pad_seen[side][ob == fb[0] ? 0 : 1] = true;
         continue;
       }
       s.object_env_force_N += f6[0];
@@ -133,7 +135,9 @@ TaskTruthSample task_truth_sample(const TaskTruthModel& tm, const WorkbenchSim& 
     }
   }
   for (std::size_t a = 0; a < kArms; ++a) {
-    s.squeeze_N += d->sensordata[tm.pad_sensor_adr[a][0]] + d->sensordata[tm.pad_sensor_adr[a][1]];
+    s.pads_on_object[a] = static_cast<int>(pad_seen[a][0]) + static_cast<int>(pad_seen[a][1]);
+    s.hand_squeeze_N[a] = d->sensordata[tm.pad_sensor_adr[a][0]] + d->sensordata[tm.pad_sensor_adr[a][1]];
+    s.squeeze_N += s.hand_squeeze_N[a];
   }
   const Eigen::Vector3d pos = truth_vec(d->xpos + 3 * tm.object_body);
   const mjtNum* R = d->xmat + 9 * tm.object_body;
@@ -188,7 +192,10 @@ void task_truth_tick(const TaskTruthModel& tm, const WorkbenchSim& sim, TaskTrut
   } else if (data.goal_since_s < 0.0) {
     data.goal_since_s = s.t_s;
   }
+  const bool unsupported = !s.on_start_support && !s.on_goal_support && !s.on_other && !s.on_floor;
   for (std::size_t a = 0; a < kArms; ++a) {
+    data.hand_squeeze_peak_N[a] = std::max(data.hand_squeeze_peak_N[a], s.hand_squeeze_N[a]);
+    if (unsupported && s.pads_on_object[a] == 2) data.carried[a] = true;
     if (!s.gripper_in_contact[a]) continue;
     const double f = s.gripper_force_A[a].norm();
     data.wrist_peak_N[a] = std::max(data.wrist_peak_N[a], f);
@@ -213,13 +220,18 @@ TaskVerdict task_truth_verdict(const TaskTruthModel& tm, const TaskTruthData& da
   }
   v.object_env_peak_N = data.object_env_peak_N;
   v.squeeze_peak_N = data.squeeze_peak_N;
+  v.hand_squeeze_peak_N = data.hand_squeeze_peak_N;
+  v.carried = data.carried;
+  const int hands = static_cast<int>(data.carried[0]) + static_cast<int>(data.carried[1]);
+  const bool hands_ok = tm.task != Task::kBox || hands >= tm.p.box_hands;
   const double wrist_max = tm.p.wrist_force_limit_N + tm.p.wrist_force_margin_N;
   v.forces_ok = data.wrist_peak_N[0] <= wrist_max && data.wrist_peak_N[1] <= wrist_max &&
                 data.object_env_peak_N <= tm.p.object_contact_limit_N;
-  v.success = v.goal && !v.dropped && v.forces_ok;
+  v.success = v.goal && !v.dropped && v.forces_ok && hands_ok;
   if (!v.goal) v.why += std::string("end condition not met (") + to_string(tm.task) + "); ";
   if (v.dropped) v.why += data.touched_floor ? "dropped (touched the floor); " : "dropped (unsupported after lift-off); ";
   if (!v.forces_ok) v.why += "contact forces beyond the limits; ";
+  if (!hands_ok) v.why += "carried by " + std::to_string(hands) + " hand(s), not " + std::to_string(tm.p.box_hands) + "; ";
   return v;
 }
 

@@ -59,6 +59,9 @@ struct TaskTruthParams {
   double wrist_force_limit_N = 40.0;  // the robot's (RobotConfig.twoarm force_limit_N)
   double wrist_force_margin_N = 4.0;
   double object_contact_limit_N = 80.0;
+  // box: it must have been carried by this many hands (issue 25 task a: both);
+  // a gripper carries it when both its pads press on it while it is off every support.
+  int box_hands = 2;
 };
 
 // The scene's names the judge needs, resolved once.
@@ -91,6 +94,7 @@ struct TaskTruthSample {
   std::array<bool, kArms> gripper_in_contact{};
   double object_env_force_N = 0.0;
   double squeeze_N = 0.0;
+  std::array<double, kArms> hand_squeeze_N{};  // each gripper's two pads
   bool goal = false;  // the task's end condition holds now
   // The measures the end condition is made of.
   double goal_xy_err_m = 0.0, goal_z_err_m = 0.0, tilt_rad = 0.0, depth_m = 0.0, axis_offset_m = 0.0;
@@ -106,6 +110,8 @@ struct TaskTruthData {
   std::array<long, kArms> wrist_contact_ticks{};
   double object_env_peak_N = 0.0;
   double squeeze_peak_N = 0.0;
+  std::array<double, kArms> hand_squeeze_peak_N{};
+  std::array<bool, kArms> carried{};  // both pads of that gripper on the object, off every support
   long ticks = 0;
   TaskTruthSample last;
 };
@@ -124,6 +130,8 @@ struct TaskVerdict {
   std::array<double, kArms> wrist_rms_N{};  // over that gripper's contact ticks
   double object_env_peak_N = 0.0;
   double squeeze_peak_N = 0.0;
+  std::array<double, kArms> hand_squeeze_peak_N{};
+  std::array<bool, kArms> carried{};
   TaskTruthSample end;
   std::string why;  // what failed, for a failing verdict
 };

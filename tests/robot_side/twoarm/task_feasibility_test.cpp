@@ -1,157 +1,21 @@
 // Are the three tasks feasible for the SIMULATED robot under the SIMULATED
-// human's scripts? Each script (operator/twoarm_tasks/task_script.h) drives
-// TwoArmRobot directly - no network, dead-man pressed - and the truth judge
-// (task_truth.h, MuJoCo truth only) says whether the task succeeded: at 0
-// delay, and over a SIMULATED delayed link in-process (commands late by
-// rtt/2, the believed state late by rtt/2, 5 % of each lost) at 300, 1000
-// and 3000 ms round trip, three loss seeds each. Simulated time only (no
-// wall clock): each run prints one row of the table in
-// docs/telemanipulation_tasks.md.
-#include "operator/twoarm_tasks/task_script.h"
-#include "robot_side/twoarm/task_truth.h"
-#include "robot_side/twoarm/twoarm_robot.h"
-#include "tests/robot_side/twoarm/workbench_scene.h"
-
-#include <cstdio>
-#include <algorithm>
-#include <cmath>
-#include <cstdlib>
-#include <deque>
-#include <random>
+// human's scripts (task_feasibility_run.h: no network, the truth judges)?
+// One run per task at 0 delay and one at 3000 ms round trip with 5 % loss
+// each way; the sweep over delays and seeds is the benchmark
+// twoarm_task_table (tests/bench/twoarm_task_table.cpp), which prints the
+// table of docs/telemanipulation_tasks.md.
+#include "tests/robot_side/twoarm/task_feasibility_run.h"
 
 #include <gtest/gtest.h>
 
+namespace tf = hemm::test::twoarm_feasibility;
 namespace ht = hemm::twoarm;
-namespace hs = hemm::twoarm_tasks;
-namespace hw = hemm::wire;
 
 namespace {
 
-using hemm::test::kWorkbenchScene;
-
-struct FeasibilityRun {
-  ht::TaskVerdict verdict;
-  bool script_done = false;
-  double script_done_s = -1.0;
-  std::size_t steps_done = 0;
-  std::string last_step;
-  int searches = 0;
-  uint64_t refusals = 0;
-  std::string detail;  // where the arms are against the step's targets, for a failing run
-};
-
-hs::TaskScript feasibility_script(ht::Task task) {
-  const hs::TaskSceneResult scene = hs::load_task_scene(kWorkbenchScene);
-  if (!scene.scene) throw std::runtime_error(scene.error);
-  switch (task) {
-    case ht::Task::kBox: return hs::box_script(*scene.scene);
-    case ht::Task::kPeg: return hs::peg_script(*scene.scene);
-    case ht::Task::kBar: return hs::bar_script(*scene.scene);
-  }
-  throw std::logic_error("task");
-}
-
-// One run: the robot at 1 kHz, the script at 100 Hz, the state at 250 Hz,
-// each direction late by rtt/2 and losing `loss` of its messages.
-FeasibilityRun feasibility_run(ht::Task task, double rtt_s, double loss, uint64_t seed, double max_s) {
-  ht::TwoArmRobot robot(kWorkbenchScene, ht::TwoArmRobotOptions{});
-  robot.set_link(true, true);
-  const ht::TaskTruthModel tm = ht::make_task_truth_model(robot.sim(), task);
-  ht::TaskTruthData data;
-  const hs::TaskScript script = feasibility_script(task);
-  hs::ScriptState st;
-  std::mt19937_64 rng(seed);
-  std::uniform_real_distribution<double> u(0.0, 1.0);
-  const auto one_way_ns = static_cast<int64_t>(std::llround(rtt_s * 0.5e9));
-  std::deque<std::pair<int64_t, hw::ArmsCommand>> to_robot;
-  std::deque<std::pair<int64_t, hw::ArmsState>> to_operator;
-  hw::ArmsState believed;
-  bool have_believed = false;
-  uint64_t seq = 0;
-  // HEMM_TASK_TRACE=1: each step's start, with the object and the grasp frame (truth).
-  const bool trace = std::getenv("HEMM_TASK_TRACE") != nullptr;
-  std::size_t traced_step = ~std::size_t{0};
-  const auto ticks = static_cast<long>(max_s * 1000.0);
-  for (long k = 0; k < ticks; ++k) {
-    const int64_t now = robot.time_ns();
-    // A constant delay is the path's least: the commands are as fresh as the
-    // link allows (the watchdog judges the age beyond it, net::judge_message_age).
-    while (!to_robot.empty() && to_robot.front().first <= now) {
-      robot.command(to_robot.front().second, ++seq, now);
-      to_robot.pop_front();
-    }
-    while (!to_operator.empty() && to_operator.front().first <= now) {
-      believed = std::move(to_operator.front().second);
-      have_believed = true;
-      to_operator.pop_front();
-    }
-    if (k % 10 == 0) {
-      const hs::ScriptOutput out = hs::script_step(script, st, have_believed ? &believed : nullptr, 1e-9 * static_cast<double>(now));
-      if (out.send && u(rng) >= loss) {
-        hw::ArmsCommand c;
-        ht::to_wire(out.targets, out.deadman, &c);
-        c.set_stamp_ns(now);
-        to_robot.emplace_back(now + one_way_ns, std::move(c));
-      }
-    }
-    if (trace && st.step != traced_step) {
-      traced_step = st.step;
-      const Eigen::Vector3d o = robot.sim().body_pose_A(ht::to_string(task)).translation();
-      const Eigen::Vector3d g = robot.sim().grasp_site_A(task == ht::Task::kBox ? ht::Side::kRight : ht::Side::kLeft).translation();
-      const Eigen::Matrix3d R = robot.sim().body_pose_A(ht::to_string(task)).linear();
-      std::printf("  %7.3f s: step %zu (%s); object %.4f %.4f %.4f tilted %.3f rad, G %.4f %.4f %.4f, searches %d\n", 1e-9 * static_cast<double>(now), st.step,
-                  st.step < script.steps.size() ? script.steps[st.step].name.c_str() : "done", o.x(), o.y(), o.z(), std::acos(std::clamp(R(2, 2), -1.0, 1.0)), g.x(), g.y(), g.z(), st.searches);
-    }
-    robot.step();
-    ht::task_truth_tick(tm, robot.sim(), data);
-    // Sampled after the tick, as the station streams it (before the first
-    // tick TwoArmRobot::state() has no grasp poses yet: identity).
-    if (k % 4 == 0 && u(rng) >= loss) {
-      hw::ArmsState s;
-      robot.state(&s);
-      to_operator.emplace_back(now + one_way_ns, std::move(s));
-    }
-    // Done: the human stops; the truth is judged 1 s later.
-    if (st.done && robot.time_ns() * 1e-9 > st.done_t + 1.0) break;
-  }
-  FeasibilityRun r;
-  r.verdict = ht::task_truth_verdict(tm, data);
-  r.script_done = st.done;
-  r.script_done_s = st.done_t;
-  r.steps_done = st.step;
-  r.last_step = st.step < script.steps.size() ? script.steps[st.step].name : "done";
-  r.searches = st.searches;
-  r.refusals = robot.counters().refusals;
-  char line[256];
-  for (std::size_t a = 0; a < 2; ++a) {
-    const Eigen::Vector3d g = robot.sim().grasp_site_A(static_cast<ht::Side>(a)).translation(), to = st.to[a].translation();
-    std::snprintf(line, sizeof line, "[arm %zu: G %.3f %.3f %.3f, step target %.3f %.3f %.3f, %.3f rad off] ", a, g.x(), g.y(), g.z(),
-                  to.x(), to.y(), to.z(), Eigen::AngleAxisd(robot.sim().grasp_site_A(static_cast<ht::Side>(a)).linear().transpose() * st.to[a].linear()).angle());
-    r.detail += line;
-    const ht::ArmReading rd = robot.sim().reading(static_cast<ht::Side>(a));
-    for (int i = 0; i < 7; ++i) {
-      std::snprintf(line, sizeof line, "%.2f ", rd.q(i));
-      r.detail += line;
-    }
-    const auto& o = robot.control_output().arm[a];
-    std::snprintf(line, sizeof line, " force-limited %d torque-limited %d |joint-limit torque| %.1f N m ", o.force_limited, o.torque_limited, o.tau_limits.norm());
-    r.detail += line;
-  }
-  r.detail += st.error + " last refusal: " + robot.counters().last_refusal_detail;
-  return r;
-}
-
-void feasibility_print(ht::Task task, double rtt_s, uint64_t seed, const FeasibilityRun& r) {
-  const ht::TaskVerdict& v = r.verdict;
-  std::printf("| %s | %4.0f | %llu | %s | %6.1f | %6.1f | %5.1f / %5.1f | %5.1f / %5.1f | %5.1f | %5.1f | %s%s\n", ht::to_string(task),
-              rtt_s * 1e3, static_cast<unsigned long long>(seed), v.success ? "yes" : "NO", v.completion_s, r.script_done_s,
-              v.wrist_peak_N[0], v.wrist_rms_N[0], v.wrist_peak_N[1], v.wrist_rms_N[1], v.squeeze_peak_N, v.object_env_peak_N,
-              r.last_step.c_str(), v.success ? "" : (" - " + v.why).c_str());
-}
-
 void feasibility_expect(ht::Task task, double rtt_s, double loss, uint64_t seed) {
-  const FeasibilityRun r = feasibility_run(task, rtt_s, loss, seed, std::getenv("HEMM_TASK_MAX_S") ? std::atof(std::getenv("HEMM_TASK_MAX_S")) : 150.0);
-  feasibility_print(task, rtt_s, seed, r);
+  const tf::FeasibilityRun r = tf::feasibility_run(task, rtt_s, loss, seed, std::getenv("HEMM_TASK_MAX_S") ? std::atof(std::getenv("HEMM_TASK_MAX_S")) : 150.0);
+  tf::feasibility_print(task, rtt_s, seed, r);
   EXPECT_TRUE(r.script_done) << ht::to_string(task) << " at " << rtt_s << " s: stopped at step " << r.steps_done << " ("
                              << r.last_step << ") " << r.detail << " refusals " << r.refusals;
   EXPECT_TRUE(r.verdict.success) << ht::to_string(task) << " at " << rtt_s << " s: " << r.verdict.why;
@@ -162,22 +26,23 @@ constexpr double kFeasibilityLoss = 0.05;
 
 }  // namespace
 
-TEST(TaskFeasibility, BoxAtZeroDelay) { feasibility_expect(ht::Task::kBox, 0.0, 0.0, 1); }
-// NOT FEASIBLE YET (docs/telemanipulation_tasks.md): in the tilted grasp the
-// peg shifts ~1 cm off the grasp frame's axis at lift-off, lands on the
-// hole's rim, and the search circle does not find the hole.
-TEST(TaskFeasibility, DISABLED_PegAtZeroDelay) { feasibility_expect(ht::Task::kPeg, 0.0, 0.0, 1); }
+// 0 delay, then 3000 ms round trip with 5 % loss each way (one seed: the
+// seeds barely differ, see the benchmark's table).
+TEST(TaskFeasibility, BoxWithBothHandsAtZeroDelay) { feasibility_expect(ht::Task::kBox, 0.0, 0.0, 1); }
+TEST(TaskFeasibility, PegAtZeroDelay) { feasibility_expect(ht::Task::kPeg, 0.0, 0.0, 1); }
 TEST(TaskFeasibility, BarAtZeroDelay) { feasibility_expect(ht::Task::kBar, 0.0, 0.0, 1); }
+TEST(TaskFeasibility, BoxWithBothHandsAt3sRoundTripLossy) { feasibility_expect(ht::Task::kBox, 3.0, kFeasibilityLoss, 1); }
+TEST(TaskFeasibility, PegAt3sRoundTripLossy) { feasibility_expect(ht::Task::kPeg, 3.0, kFeasibilityLoss, 1); }
+TEST(TaskFeasibility, BarAt3sRoundTripLossy) { feasibility_expect(ht::Task::kBar, 3.0, kFeasibilityLoss, 1); }
 
-TEST(TaskFeasibility, BoxOverADelayedLossyLink) {
-  for (double rtt : {0.3, 1.0, 3.0})
-    for (uint64_t seed : {1, 2, 3}) feasibility_expect(ht::Task::kBox, rtt, kFeasibilityLoss, seed);
-}
-TEST(TaskFeasibility, DISABLED_PegOverADelayedLossyLink) {
-  for (double rtt : {0.3, 1.0, 3.0})
-    for (uint64_t seed : {1, 2, 3}) feasibility_expect(ht::Task::kPeg, rtt, kFeasibilityLoss, seed);
-}
-TEST(TaskFeasibility, BarOverADelayedLossyLink) {
-  for (double rtt : {0.3, 1.0, 3.0})
-    for (uint64_t seed : {1, 2, 3}) feasibility_expect(ht::Task::kBar, rtt, kFeasibilityLoss, seed);
+// The hole 1 mm (x) from where the operator believes it (twice the
+// clearance a side): the peg should land on the rim, the wrist force tell it,
+// and the search circle find the hole. NOT YET: it enters 6 mm and jams (the
+// target 1 mm off the axis presses it on a wall); at 2.5 mm it does not get in either
+// (docs/telemanipulation_tasks.md).
+TEST(TaskFeasibility, DISABLED_PegFindsAHoleItBelievesOffByOneMillimetre) {
+  const tf::FeasibilityRun r = tf::feasibility_run(ht::Task::kPeg, 0.0, 0.0, 1, 150.0, Eigen::Vector3d(0.001, 0.0, 0.0));
+  tf::feasibility_print(ht::Task::kPeg, 0.0, 1, r);
+  EXPECT_TRUE(r.script_done) << r.last_step << " " << r.detail;
+  EXPECT_TRUE(r.verdict.success) << r.verdict.why;
 }

@@ -23,7 +23,7 @@ double scene_test_geom_size(const ht::WorkbenchSim& sim, const char* geom, int k
 const char* const kSceneTestGood =
     "task: box centre 0.58 -0.38 0.825 size 0.20 0.30 0.15\n"
     "task: shelf place 0.60 -0.72 0.95\n"
-    "task: peg centre 0.50 0.55 0.80 radius 0.0125 length 0.10\n"
+    "task: peg centre 0.50 0.55 0.80 half 0.0125 length 0.10\n"
     "task: hole top 0.55 0.30 0.80 depth 0.04\n"
     "task: bar centre 0.40 0.0 0.815 radius 0.015 length 0.50\n";
 
@@ -40,8 +40,9 @@ TEST(TaskScene, ShippedLinesAgreeWithTheSimulatedScene) {
   const Eigen::Vector3d board = sim.body_pose_A("shelf").translation() + Eigen::Vector3d(0, 0, 0.94);
   EXPECT_LT((s.shelf_place - (board + Eigen::Vector3d(0, 0, scene_test_geom_size(sim, "shelf_board", 2)))).norm(), kTol);
   EXPECT_LT((s.peg_centre - sim.body_pose_A("peg").translation()).norm(), kTol);
-  EXPECT_NEAR(s.peg_radius_m, scene_test_geom_size(sim, "peg_geom", 0), kTol);
-  EXPECT_NEAR(s.peg_length_m, 2.0 * scene_test_geom_size(sim, "peg_geom", 1), kTol);
+  EXPECT_NEAR(s.peg_half_width_m, scene_test_geom_size(sim, "peg_geom", 0), kTol);
+  EXPECT_NEAR(s.peg_half_width_m, scene_test_geom_size(sim, "peg_geom", 1), kTol);
+  EXPECT_NEAR(s.peg_length_m, 2.0 * scene_test_geom_size(sim, "peg_geom", 2), kTol);
   const int hole = mj_name2id(sim.m(), mjOBJ_SITE, "fixture_hole");
   ASSERT_GE(hole, 0);
   const mjtNum* h = sim.d()->site_xpos + 3 * hole;
@@ -69,7 +70,7 @@ TEST(TaskScene, BadLinesAreRefusedWithFileLineAndReason) {
       {"task: box centre 0.58 -0.38 0.825\n", "t.xml:1: 'box' lacks 'size'"},
       {"task: box centre 0.58 -0.38 0.825 size 0.2 0.3 0.15 mass 2\n", "t.xml:1: 'box' has no key 'mass'"},
       {"task: box centre 1 2 3 centre 1 2 3 size 1 1 1\n", "t.xml:1: 'box': 'centre' given twice"},
-      {"task: peg centre 0 0 0 radius -0.01 length 0.1\n", "t.xml:1: 'peg radius' must be positive"},
+      {"task: peg centre 0 0 0 half -0.01 length 0.1\n", "t.xml:1: 'peg half' must be positive"},
       {"task:\n", "t.xml:1: a task line names no object"},
       {"<!-- no task lines -->\n", "t.xml: no 'task: box' line"},
   };

@@ -42,16 +42,17 @@ hw::ArmsState script_test_state(const std::array<Eigen::Isometry3d, 2>& G, std::
   return s;
 }
 
-hs::TaskScript script_test_box() {
+// The peg's plan: its first steps move one arm (the left) alone.
+hs::TaskScript script_test_peg() {
   const hs::TaskSceneResult r = hs::load_task_scene(hemm::test::kWorkbenchScene);
   if (!r.scene) throw std::runtime_error(r.error);
-  return hs::box_script(*r.scene);
+  return hs::peg_script(*r.scene);
 }
 
 }  // namespace
 
 TEST(TaskScript, WaitsForTheBelievedStateAtAnyDelay) {
-  const hs::TaskScript sc = script_test_box();
+  const hs::TaskScript sc = script_test_peg();
   ASSERT_GE(sc.steps.size(), 3u);
   hs::ScriptState st;
   // Nothing believed yet: nothing sent.
@@ -62,35 +63,35 @@ TEST(TaskScript, WaitsForTheBelievedStateAtAnyDelay) {
   hs::ScriptOutput out = hs::script_step(sc, st, &at_rest, 1.0);
   ASSERT_TRUE(out.send);
   EXPECT_FALSE(out.deadman);  // released first: the re-arm wants a neutral command
-  EXPECT_LT((out.targets.T_A_G[0].translation() - rest_r.translation()).norm(), 1e-12);
+  EXPECT_LT((out.targets.T_A_G[1].translation() - rest_l.translation()).norm(), 1e-12);
   // The arm is believed at rest for a minute: the targets go to the first
   // step's pose at its speed, and the step never ends.
-  const Eigen::Vector3d goal = sc.steps[0].pose[0]->translation();
+  const Eigen::Vector3d goal = sc.steps[0].pose[1]->translation();
   for (double t = 1.1; t < 61.0; t += 0.01) out = hs::script_step(sc, st, &at_rest, t);
   EXPECT_TRUE(out.deadman);
   EXPECT_EQ(st.step, 0u);
-  EXPECT_LT((out.targets.T_A_G[0].translation() - goal).norm(), 1e-9);
-  // The left arm was not told to move.
-  EXPECT_LT((out.targets.T_A_G[1].translation() - rest_l.translation()).norm(), 1e-12);
+  EXPECT_LT((out.targets.T_A_G[1].translation() - goal).norm(), 1e-9);
+  // The right arm was not told to move.
+  EXPECT_LT((out.targets.T_A_G[0].translation() - rest_r.translation()).norm(), 1e-12);
   // Believed there (orientation as targeted): the step ends, the next begins.
-  const hw::ArmsState there = script_test_state({out.targets.T_A_G[0], rest_l});
+  const hw::ArmsState there = script_test_state({rest_r, out.targets.T_A_G[1]});
   out = hs::script_step(sc, st, &there, 61.0);
   EXPECT_EQ(st.step, 1u);
   // The closing step waits for the gripper to hold, however long.
-  const hw::ArmsState down = script_test_state({*sc.steps[1].pose[0], rest_l});
+  const hw::ArmsState down = script_test_state({rest_r, *sc.steps[1].pose[1]});
   for (double t = 61.01; t < 90.0; t += 0.01) out = hs::script_step(sc, st, &down, t);
   EXPECT_EQ(st.step, 2u);
-  EXPECT_EQ(out.targets.gripper[0].opening_m, 0.0);  // told to close
+  EXPECT_EQ(out.targets.gripper[1].opening_m, 0.0);  // told to close
   for (double t = 90.0; t < 120.0; t += 0.01) out = hs::script_step(sc, st, &down, t);
   EXPECT_EQ(st.step, 2u);
-  const hw::ArmsState holding = script_test_state({*sc.steps[1].pose[0], rest_l}, {true, false});
+  const hw::ArmsState holding = script_test_state({rest_r, *sc.steps[1].pose[1]}, {false, true});
   hs::script_step(sc, st, &holding, 120.0);
   EXPECT_EQ(st.step, 3u);
   EXPECT_TRUE(st.error.empty());
 }
 
 TEST(TaskScript, UnreadableBelievedStateMovesNothing) {
-  const hs::TaskScript sc = script_test_box();
+  const hs::TaskScript sc = script_test_peg();
   hs::ScriptState st;
   const Eigen::Isometry3d rest = Eigen::Translation3d(0.73, -0.25, 1.0) * Eigen::Isometry3d::Identity();
   hw::ArmsState bad = script_test_state({rest, rest});

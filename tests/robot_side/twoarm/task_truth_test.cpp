@@ -86,7 +86,14 @@ TEST(TaskTruth, BoxOnTheShelfOrNot) {
     truth_test_run(robot, tm, data, 0.3);
     const ht::TaskVerdict v = ht::task_truth_verdict(tm, data);
     EXPECT_TRUE(v.goal) << v.why;
-    EXPECT_TRUE(v.success) << v.why;
+    // Put there by hand, carried by no gripper: the task (both hands) is not done...
+    EXPECT_FALSE(v.success);
+    EXPECT_FALSE(v.carried[0] || v.carried[1]);
+    EXPECT_NE(v.why.find("carried by 0 hand(s), not 2"), std::string::npos) << v.why;
+    // ...and judged without the carry, it is.
+    ht::TaskTruthParams no_hands;
+    no_hands.box_hands = 0;
+    EXPECT_TRUE(ht::task_truth_verdict(ht::make_task_truth_model(robot.sim(), ht::Task::kBox, no_hands), data).success) << v.why;
     EXPECT_TRUE(v.end.on_goal_support);
     EXPECT_LT(v.end.goal_xy_err_m, 1e-3);
     EXPECT_LT(std::abs(v.end.goal_z_err_m), 2e-3);
@@ -170,6 +177,11 @@ TEST(TaskTruth, BarHeldByTheRightOnlyOrDropped) {
   EXPECT_TRUE(data.lifted);
   // Twice the grip force between the pads (MuJoCo's touch sensors).
   EXPECT_NEAR(v.end.squeeze_N, 2.0 * 30.0, 0.1 * 60.0);
+  // All of it the right hand's; the right carried it (both pads, off the stands), the left not.
+  EXPECT_NEAR(v.end.hand_squeeze_N[0], 2.0 * 30.0, 0.1 * 60.0);
+  EXPECT_EQ(v.end.hand_squeeze_N[1], 0.0);
+  EXPECT_TRUE(v.carried[0]);
+  EXPECT_FALSE(v.carried[1]);
   // The bar's weight (0.5 kg) on the gripper.
   EXPECT_NEAR(v.end.gripper_force_A[0].z(), -0.5 * 9.81, 0.5);
   // Let go: it falls to the bench, unsupported: dropped.
