@@ -71,6 +71,9 @@ int run_telemanip(const config::OperatorConfig& cfg, const OperatorArgs& a) {
   mp.voxmap_probe_roi.size = 1.2;
   mp.voxmap_probe_roi.margin = 0.3;
   std::unique_ptr<ModelThread> model;
+  // The robot's newest status (the link writes it): the SIMULATED humans
+  // press their dead-man when the robot is there and asks for it.
+  std::atomic<std::uint32_t> robot_safety{tele::kNoRobotState};
   try {
     task = std::make_unique<tele::TelemanipTask>(tp);
     model = std::make_unique<ModelThread>(channel, mp);
@@ -80,9 +83,9 @@ int run_telemanip(const config::OperatorConfig& cfg, const OperatorArgs& a) {
     const double travel = hb::handle_spec(setup.sim.plant.handles[0]).grip_travel;
     auto right = std::make_shared<const tele::MappedHumanScript>(
         rest[0], tp.mapping[0], demo && travel > 0 ? tele::demo_right_route(travel) : std::vector<tele::GRouteKey>{},
-        &task->anchors(0));
+        &task->anchors(0), 0.5, &robot_safety);
     auto left = std::make_shared<const tele::MappedHumanScript>(rest[1], tp.mapping[1], std::vector<tele::GRouteKey>{},
-                                                                &task->anchors(1));
+                                                                &task->anchors(1), 0.5, &robot_safety);
     device = std::make_unique<hb::SimulatedBimanualDevice>(
         setup.sim, std::array<std::shared_ptr<const hb::HumanScript>, hb::kArms>{right, left});
   } catch (const std::exception& e) {
@@ -97,6 +100,7 @@ int run_telemanip(const config::OperatorConfig& cfg, const OperatorArgs& a) {
   tele::TelemanipLink link(
       io, task->setpoints(), task->remote(), [&client](const wire::StreamMessage& m) { return client.streams().send(m); },
       &steady_now_ns, lp, [&client] { return client.link_up(); });
+  link.set_safety_out(&robot_safety);
   link.attach(client.streams());
   client.streams().on(wire::StreamMessage::kDepthChunk,
                       [&model](const net::DatagramHeader&, std::int64_t, const wire::StreamMessage& m) {

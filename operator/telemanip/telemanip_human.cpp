@@ -4,11 +4,19 @@
 #include <stdexcept>
 #include <string>
 
+#include "wire.pb.h"
+
 namespace hemm::op::telemanip {
 
 MappedHumanScript::MappedHumanScript(const device::bimanual::HumanTarget& rest, const ArmMappingParams& mapping,
-                                     std::vector<GRouteKey> keys, NewestMailbox<MappingAnchor>* anchors, double lead_s)
-    : rest_(rest), mapping_(mapping), keys_(std::move(keys)), anchors_(anchors), lead_s_(lead_s) {
+                                     std::vector<GRouteKey> keys, NewestMailbox<MappingAnchor>* anchors, double lead_s,
+                                     const std::atomic<std::uint32_t>* robot_safety)
+    : rest_(rest),
+      mapping_(mapping),
+      keys_(std::move(keys)),
+      anchors_(anchors),
+      lead_s_(lead_s),
+      robot_safety_(robot_safety) {
   if (std::string e = validate(mapping); !e.empty()) throw std::invalid_argument("human: mapping: " + e);
   if (anchors_ == nullptr) throw std::invalid_argument("human: no anchor mailbox");
   if (!(std::isfinite(lead_s) && lead_s >= 0.0)) throw std::invalid_argument("human: lead must be >= 0");
@@ -29,6 +37,27 @@ device::bimanual::HumanTarget MappedHumanScript::at(double t_s) const noexcept {
     t_engaged_ = t_s;
   }
   device::bimanual::HumanTarget g = rest_;
+  if (robot_safety_ != nullptr) {
+    const std::uint32_t safety = robot_safety_->load(std::memory_order_relaxed);
+    if (safety == kNoRobotState) {
+      t_seen_ = -1.0;  // nothing from the robot (yet, or a new session): wait
+    } else {
+      if (t_seen_ < 0.0) t_seen_ = t_s;
+      if (!pressed_) {
+        pressed_ = t_s - t_seen_ >= kReaction_s && t_s - t_released_ >= kReaction_s;
+        t_rearm_ = -1.0;
+      } else if ((safety & wire::SAFETY_REARM) != 0) {
+        if (t_rearm_ < 0.0) t_rearm_ = t_s;
+        if (t_s - t_rearm_ >= kReaction_s) {  // the robot waits for a neutral command: let go, press again
+          pressed_ = false;
+          t_released_ = t_s;
+        }
+      } else {
+        t_rearm_ = -1.0;
+      }
+    }
+    g.deadman = pressed_;
+  }
   if (!engaged_ || keys_.empty() || !anchor_.engaged) return g;
   // The route at t (piecewise linear, held after its end).
   const double t = t_s - t_engaged_ - lead_s_;

@@ -8,12 +8,22 @@
 // included: the route is what the human wants, not what happens.
 //
 // Before the mapping engages, and for a hand without a route, the human
-// holds its hand where it rests. at() is called on the device's hardware
+// holds its hand where it rests.
+//
+// The dead-man, when the human watches the robot (robot_safety given: the
+// newest ArmsState's flags, TelemanipLink::set_safety_out; kNoRobotState before any): released until the
+// robot has been reporting for a reaction time, then pressed; and, as the
+// robot asks after any stop (SAFETY_REARM: a neutral command, then a pressed
+// one), released for a reaction time and pressed again when the robot has
+// asked for it that long. A person at a station does the same from its
+// status display. Without robot_safety the rest's dead-man holds throughout. at() is called on the device's hardware
 // thread (threaded) or the servo thread (lock-step): allocation-free; it
 // takes the newest anchor from a mailbox the servo task fills (the one
 // consumer).
 #pragma once
 
+#include <atomic>
+#include <cstdint>
 #include <memory>
 #include <vector>
 
@@ -22,6 +32,9 @@
 #include "operator/telemanip/arm_mapping.h"
 
 namespace hemm::op::telemanip {
+
+// The robot's status before any ArmsState arrived (MappedHumanScript's robot_safety).
+inline constexpr std::uint32_t kNoRobotState = 0xFFFFFFFFu;
 
 // One key: at t_s after the engagement (plus the lead), G offset by dp_A
 // from where it was at the engagement, the grip lever at grip_m.
@@ -37,7 +50,9 @@ class MappedHumanScript final : public device::bimanual::HumanScript {
   // grasp). keys: strictly increasing finite times from 0 (may be empty).
   // Throws std::invalid_argument on bad keys or mapping parameters.
   MappedHumanScript(const device::bimanual::HumanTarget& rest, const ArmMappingParams& mapping,
-                    std::vector<GRouteKey> keys, NewestMailbox<MappingAnchor>* anchors, double lead_s = 0.5);
+                    std::vector<GRouteKey> keys, NewestMailbox<MappingAnchor>* anchors, double lead_s = 0.5,
+                    const std::atomic<std::uint32_t>* robot_safety = nullptr);
+  static constexpr double kReaction_s = 0.3;  // from seeing the robot's status to acting on it
   device::bimanual::HumanTarget at(double t_s) const noexcept override;
   double end_s() const noexcept;  // the route's end after the engagement (0: none)
 
@@ -47,10 +62,13 @@ class MappedHumanScript final : public device::bimanual::HumanScript {
   std::vector<GRouteKey> keys_;
   NewestMailbox<MappingAnchor>* anchors_;
   double lead_s_;
+  const std::atomic<std::uint32_t>* robot_safety_;
   // The consumer's side (the one thread that calls at()).
   mutable bool engaged_ = false;
   mutable double t_engaged_ = 0.0;
   mutable MappingAnchor anchor_;
+  mutable bool pressed_ = false;
+  mutable double t_seen_ = -1.0, t_released_ = -1e9, t_rearm_ = -1.0;
 };
 
 // The demo route of the right hand: G 10 cm towards the bench (A +x) over

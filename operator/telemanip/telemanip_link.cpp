@@ -238,6 +238,7 @@ void TelemanipLink::on_arms_state(std::uint64_t seq, std::int64_t recv_ns, const
   stats_.refusals = refusals_.summary;
   state_from_wire(s, seq, recv_ns, &remote_.back());
   remote_.publish();
+  if (safety_out_ != nullptr) safety_out_->store(s.safety(), std::memory_order_relaxed);
 }
 
 }  // namespace hemm::op::telemanip

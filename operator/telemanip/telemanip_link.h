@@ -23,6 +23,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <array>
+#include <atomic>
 #include <chrono>
 #include <cstdint>
 #include <functional>
@@ -158,6 +159,10 @@ class TelemanipLink {
   void on_arms_state(std::uint64_t seq, std::int64_t recv_ns, const wire::ArmsState& s);
   // Network thread only (or after stop).
   const TelemanipLinkStats& stats() const { return stats_; }
+  // Where to store each accepted ArmsState's safety flags (before start();
+  // may be null): the SIMULATED human (telemanip_human.h) watches the
+  // robot's status there as a person would at the station's display.
+  void set_safety_out(std::atomic<std::uint32_t>* out) { safety_out_ = out; }
 
  private:
   void arm_timer();
@@ -178,6 +183,7 @@ class TelemanipLink {
   std::uint64_t newest_seq_ = 0;    // of the newest state accepted
   std::uint64_t state_epoch_ = 0;   // its frame epoch
   ArmsRefusalMonitor refusals_;
+  std::atomic<std::uint32_t>* safety_out_ = nullptr;
   TelemanipLinkStats stats_;
 };
 

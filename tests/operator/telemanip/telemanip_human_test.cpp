@@ -9,9 +9,11 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <atomic>
 #include <numbers>
 
 #include "config_operator.pb.h"
+#include "wire.pb.h"
 #include "operator/bimanual/bimanual_config.h"
 #include "operator/device/bimanual/simulated_bimanual_device.h"
 #include "operator/telemanip/telemanip_config.h"
@@ -85,4 +87,38 @@ TEST(TelemanipHuman, DemoRouteDrivesTheRightArmThroughTheMappingAndWorksItsGripp
   EXPECT_LT(max_left_dev, 0.01);
   EXPECT_LT(min_opening, 0.02);              // the lever closed (0.0 at full travel)
   EXPECT_NEAR(opening_at_end, 0.12, 0.01);   // and opened again
+}
+
+// The human watching the robot's status: the dead-man released until the
+// robot has reported for a reaction time, then pressed; when the robot asks
+// to be re-armed (SAFETY_REARM) for a reaction time, released for one and
+// pressed again, so the robot sees a neutral command and then a pressed one.
+TEST(TelemanipHuman, PressesTheDeadManWhenTheRobotReportsAndAgainWhenItAsksToBeReArmed) {
+  hemm::NewestMailbox<tele::MappingAnchor> anchors;
+  std::atomic<std::uint32_t> safety{tele::kNoRobotState};
+  hb::HumanTarget rest;
+  rest.deadman = true;
+  const tele::MappedHumanScript human(rest, tele::ArmMappingParams{}, {}, &anchors, 0.5, &safety);
+  constexpr double r = tele::MappedHumanScript::kReaction_s;
+  double t = 0.0;
+  const auto run_until = [&](double t_end) {  // the dead-man over [t, t_end) at 1 kHz: pressed all along, or not
+    int pressed = 0, n = 0;
+    for (; t < t_end; t += 1e-3, ++n) pressed += human.at(t).deadman ? 1 : 0;
+    return n == 0 ? -1 : (pressed == n ? 1 : (pressed == 0 ? 0 : 2));
+  };
+  EXPECT_EQ(run_until(2.0), 0) << "no robot status: never pressed";
+  safety = 0;
+  EXPECT_EQ(run_until(2.0 + r - 0.01), 0) << "the reaction time";
+  EXPECT_EQ(run_until(2.0 + r + 0.01), 2);
+  EXPECT_EQ(run_until(5.0), 1) << "pressed while the robot follows";
+  safety = hemm::wire::SAFETY_REARM | hemm::wire::SAFETY_LINK_LOST;
+  EXPECT_EQ(run_until(5.0 + r - 0.01), 1) << "still pressed within the reaction time";
+  EXPECT_EQ(run_until(5.0 + r + 0.01), 2) << "let go";
+  EXPECT_EQ(run_until(5.0 + 2 * r - 0.01), 0) << "released for a reaction time: a neutral command";
+  EXPECT_EQ(run_until(5.0 + 2 * r + 0.02), 2) << "pressed again";
+  safety = 0;  // the robot armed
+  EXPECT_EQ(run_until(8.0), 1);
+  // Without the robot's status the rest's dead-man holds throughout.
+  const tele::MappedHumanScript blind(rest, tele::ArmMappingParams{}, {}, &anchors, 0.5, nullptr);
+  EXPECT_TRUE(blind.at(0.0).deadman);
 }
