@@ -11,18 +11,22 @@
 #              the operator feels with the robot's probe tool (6-DoF, VPS),
 #              held by a rigid scripted hand and by one arm of the SIMULATED
 #              bimanual device, each compared with the scene's true geometry
+#   telemanip  the SIMULATED bimanual device driving the SIMULATED two-arm
+#              robot through the link (hemm-robot kind "twoarm"): the demo
+#              route at 0 ms and through hemm-relay at 1000 ms round trip with
+#              5 % loss, forces from the live voxmap of the robot's head camera
 # Each writes into a fresh directory (default out/demo-PART-<UTC time>), with
 # the plots, the live views' pictures (an Xvfb of its own without a display)
 # and the logs, and lists its files at the end (also in DIR/FILES.txt).
 # Usage: deploy/demo_parts.sh PART BUILD_DIR [--out DIR]
 set -euo pipefail
 
-usage() { sed -n '2,17p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; }
+usage() { sed -n '2,21p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; }
 part="${1:-}"
 case "$part" in
-  bimanual|vps|explore3d) ;;
+  bimanual|vps|explore3d|telemanip) ;;
   -h|--help) usage; exit 0 ;;
-  *) usage >&2; echo "demo: unknown part '${part}' (bimanual, vps or explore3d)" >&2; exit 2 ;;
+  *) usage >&2; echo "demo: unknown part '${part}' (bimanual, vps, explore3d or telemanip)" >&2; exit 2 ;;
 esac
 build="${2:?usage: deploy/demo_parts.sh PART BUILD_DIR [--out DIR]}"
 shift 2
@@ -43,6 +47,7 @@ case "$part" in
   bimanual) need+=(hemm-bimanual-workspace) ;;
   vps) need+=(hemm-vps) ;;
   explore3d) need+=(hemm-robot hemm-relay hemm-truth) ;;
+  telemanip) need+=(hemm-robot hemm-relay) ;;
 esac
 for b in "${need[@]}"; do
   [[ -x "$bin/$b" ]] || { echo "demo $part: $bin/$b not found (build first: bash deploy/run.sh build)" >&2; exit 2; }
@@ -155,6 +160,44 @@ explore3d)
   note "sim-hand6/explore3d_wrench.png" "|F| and |torque| against time, live voxmap and true scene (rigid hand)"
   note "sim-hand6/explore3d_voxmap.png" "the live voxmap's surface voxels with the tool tip's path"
   note "sim-bimanual/explore3d_bimanual_wrench.png" "the same wrench plot with the tool on the SIMULATED bimanual device"
+  ;;
+telemanip)
+  # Ports P, P+1 (robot) and P+100, P+101 (relay), away from the other demos'.
+  base=47650
+  abin="$(cd "$bin" && pwd)"  # the stations run in the configs' folder (their relative paths)
+  for rtt in 0 1000; do
+    dir="$out/${rtt}ms"
+    mkdir -p "$dir"
+    step "telemanip: both hands drive the two-arm robot, ${rtt} ms round trip (about 25 s)"
+    (cd "$cfg" && "$abin/hemm-robot" --config robot_twoarm.pbtxt --session-port "$base" --stream-port $((base + 1)) \
+      --duration 30 --log-level warn --stats-json "$dir/robot.json" >"$dir/robot.txt" 2>"$dir/robot.log") &
+    robot=$!
+    pids+=("$robot")
+    port=$base stream=$((base + 1))
+    if ((rtt > 0)); then
+      "$bin/hemm-relay" --tcp-listen 127.0.0.1:$((base + 100)) --tcp-forward 127.0.0.1:"$base" \
+        --udp-listen 127.0.0.1:$((base + 101)) --udp-forward 127.0.0.1:$((base + 1)) \
+        --delay-ms $((rtt / 2)) --loss 0.05 --seed 13 >"$dir/relay.txt" 2>"$dir/relay.log" &
+      pids+=("$!")
+      for _ in $(seq 50); do grep -q "hemm-relay ready" "$dir/relay.txt" 2>/dev/null && break; sleep 0.1; done
+      grep -q "hemm-relay ready" "$dir/relay.txt" || fail "hemm-relay did not start ($dir/relay.log)"
+      port=$((base + 100)) stream=$((base + 101))
+    fi
+    sleep 2
+    kill -0 "$robot" 2>/dev/null || fail "hemm-robot did not start: $(tail -n 1 "$dir/robot.log")"
+    rc=0
+    (cd "$cfg" && "$abin/hemm-operator" --config operator_telemanip.pbtxt --key demo.key --session-port "$port" \
+      --stream-port "$stream" --duration 20 --log-level warn --stats-json "$dir/station.json" \
+      >"$dir/operator.txt" 2>"$dir/operator.log") || rc=$?
+    ((rc == 0)) || fail "hemm-operator (telemanip, $rtt ms) exited with $rc; see $dir/operator.log"
+    kill -INT "$robot" 2>/dev/null || true
+    wait "$robot" 2>/dev/null || true
+    head -n 3 "$dir/operator.txt" | sed 's/^/   /'
+    grep -E "commands|applied" "$dir/robot.txt" | head -n 2 | sed 's/^/   robot: /' || true
+    note "${rtt}ms/station.json" "the operator's telemanip report: commands, refusals seen, per-hand rendered force, servo timing"
+    note "${rtt}ms/robot.json" "the two-arm station's report: commands applied and refused, both controllers' compute, energies"
+    note "${rtt}ms/operator.txt" "the operator's summary as hemm-operator printed it"
+  done
   ;;
 esac
 

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # hemm: install what is missing (Debian 12), build, and run one of
 #   demo   build (release) and run the loopback demo (HEMM); `demo bimanual`,
-#          `demo vps`, `demo explore3d` run the other parts (`demo --help`)
+#          `demo vps`, `demo explore3d`, `demo telemanip` run the other parts (`demo --help`)
 #   test   build release + sanitizer (ASan/UBSan, clang, with libFuzzer
 #          targets) configurations and run every test in both
 #   bench  build release and run the benchmarks
@@ -20,10 +20,10 @@ case "$mode" in
       -h|--help)
         echo "bash deploy/run.sh demo [SECONDS]   the HEMM loopback demo (deploy/demo.sh; out/demo/)"
         echo "bash deploy/run.sh demo PART [--out DIR]   another part, a few minutes each (deploy/demo_parts.sh):"
-        sed -n '2,13p' "$(dirname "$0")/demo_parts.sh" | sed 's/^#/ /'
+        sed -n '2,17p' "$(dirname "$0")/demo_parts.sh" | sed 's/^#/ /'
         exit 0 ;;
-      ""|bimanual|vps|explore3d) ;;
-      *) [[ "$1" =~ ^[0-9]+$ ]] || { echo "error: demo '$1': a part (bimanual, vps, explore3d) or seconds per phase (see demo --help)" >&2; exit 2; } ;;
+      ""|bimanual|vps|explore3d|telemanip) ;;
+      *) [[ "$1" =~ ^[0-9]+$ ]] || { echo "error: demo '$1': a part (bimanual, vps, explore3d, telemanip) or seconds per phase (see demo --help)" >&2; exit 2; } ;;
     esac ;;
   test|bench|build) ;;
   -h|--help) usage; exit 0 ;;
@@ -200,7 +200,7 @@ case "$mode" in
     configure_release
     build "$builds/release"
     case "${1:-}" in
-      bimanual|vps|explore3d) exec "$root/deploy/demo_parts.sh" "$1" "$builds/release" "${@:2}" ;;
+      bimanual|vps|explore3d|telemanip) exec "$root/deploy/demo_parts.sh" "$1" "$builds/release" "${@:2}" ;;
     esac
     exec "$root/deploy/demo.sh" "$builds/release" "$@"
     ;;
