@@ -38,6 +38,7 @@
 #pragma once
 
 #include <array>
+#include <numbers>
 #include <string>
 #include <vector>
 
@@ -51,7 +52,7 @@ const char* to_string(Task t);
 struct TaskTruthParams {
   double goal_xy_tol_m = 0.03;       // box: from the shelf board's top centre
   double goal_z_tol_m = 0.01;        // box: from its resting height on the board
-  double max_tilt_rad = 5.0 * 3.14159265358979323846 / 180.0;
+  double max_tilt_rad = 5.0 * std::numbers::pi / 180.0;
   double min_insert_depth_m = 0.025;  // peg (the hole is 0.040 deep)
   double max_axis_offset_m = 0.002;   // peg
   double drop_window_s = 0.05;

@@ -5,6 +5,9 @@
 // keys out of the SIMULATED rigid hand's reach refused with the reason.
 #include <gtest/gtest.h>
 
+#include <iomanip>
+#include <numbers>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <tuple>
@@ -230,9 +233,12 @@ TEST(ExploreRoute, KeysOutOfTheHandsReachAreRefusedWithTheReason) {
 namespace {
 
 // Beside an explore6 route of the same name (the two kinds do not mix).
-const char* kGood3 = R"(<!--
-    explore-start: 2 1 1.5707963267948966
-    explore-region: 0 1 2 3 4 5
+// The start turned by exactly pi/2 (printed to the last digit, so the
+// mapping's closed forms below hold to 1e-12).
+std::string good3_header() {
+  std::ostringstream start;
+  start << std::setprecision(17) << "    explore-start: 2 1 " << std::numbers::pi / 2 << "\n";
+  return "<!--\n" + start.str() + R"(    explore-region: 0 1 2 3 4 5
     explore6: a 0 0.8 0.1 0.9 0 -
     explore6: a 1 0.8 0.1 0.8 0 top
     explore3: a 0   2.1 1.9 0.95 -
@@ -244,6 +250,8 @@ const char* kGood3 = R"(<!--
 -->
 <mujoco/>
 )";
+}
+const std::string kGood3 = good3_header();
 
 }  // namespace
 

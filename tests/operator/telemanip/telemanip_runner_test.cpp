@@ -16,11 +16,11 @@
 
 #include "config_operator.pb.h"
 #include "report.pb.h"
+#include "tests/common/config/report_json.h"
 #include "tests/integration/link/child_process.h"
 #include "tests/operator/telemanip/fake_twoarm_robot.h"
 #include "tests/temp_dir.h"
 
-#include <google/protobuf/util/json_util.h>
 
 TEST(TelemanipRunner, DemoRouteDrivesTheFakeRobotAndTheReportSaysSo) {
   hemm::test::FakeTwoArmRobot robot;
@@ -61,9 +61,8 @@ TEST(TelemanipRunner, DemoRouteDrivesTheFakeRobotAndTheReportSaysSo) {
     EXPECT_LT(robot.min_opening_0, 0.02);                            // the lever closed the gripper
     EXPECT_EQ(robot.refusals, 0u);
   }
-  hemm::report::Telemanip rep;
-  const std::string json = hemm::test::read_file(json_path);
-  ASSERT_TRUE(google::protobuf::util::JsonStringToMessage(json, &rep).ok()) << json;
+  const hemm::report::Telemanip rep =
+      hemm::test::read_report_json<hemm::report::Telemanip>(hemm::test::read_file(json_path));
   EXPECT_GT(rep.commands_sent(), 1500u);  // >= 100 Hz over the connected part
   EXPECT_GT(rep.deadman_pressed(), 1000u);
   EXPECT_GT(rep.states_in(), 1500u);
