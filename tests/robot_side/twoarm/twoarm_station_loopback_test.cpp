@@ -462,9 +462,19 @@ TEST(TwoArmStationLoopback, RefusedCommandsAreReportedAndChangeNothing) {
     k.edit(bad);
     const Eigen::Vector3d g0[2] = {robot.grasp(0), robot.grasp(1)};
     op.set_command(bad);
-    ASSERT_TRUE(twoarm_wait_until([&] { auto s = op.last_state(); return s && s->refusals() >= refusals + 5; }, 2.0));
-    const auto s = op.fresh_state();
-    ASSERT_TRUE(s);
+    // The network thread validates in arrival order; under the sanitizers an
+    // out-of-reach IK search takes tens of ms, so the previous case's
+    // commands may still be refused when this one starts: wait for this
+    // case's own refusal to be the last one reported.
+    std::optional<hw::ArmsState> s;
+    ASSERT_TRUE(twoarm_wait_until(
+        [&] {
+          s = op.last_state();
+          return s && s->refusals() >= refusals + 5 && s->last_refusal() == k.reason && s->last_refused_index() == k.index;
+        },
+        4.0))
+        << (s ? s->refusals() : 0) << " refusals, last " << (s ? s->last_refusal() : 0) << " index "
+        << (s ? s->last_refused_index() : 0);
     EXPECT_EQ(s->last_refusal(), k.reason);
     EXPECT_EQ(s->last_refused_index(), k.index);
     EXPECT_GT(s->last_refused_seq(), s->last_command_seq());
@@ -479,8 +489,17 @@ TEST(TwoArmStationLoopback, RefusedCommandsAreReportedAndChangeNothing) {
       EXPECT_NE(detail.find("unknown"), std::string::npos) << detail;
     }
     op.set_command(good);
-    twoarm_sleep_s(0.1);
+    // Drained: a good command applied after the last refused one.
+    ASSERT_TRUE(twoarm_wait_until(
+        [&] {
+          auto t = op.last_state();
+          return t && t->last_command_seq() > t->last_refused_seq();
+        },
+        4.0));
   }
+  const auto last = op.fresh_state();
+  ASSERT_TRUE(last);
+  refusals = last->refusals();
   const auto st = robot.station->statistics();
   std::printf("refused %llu; validation per command median %.1f us, p99 %.1f us, max %.1f us (network thread)\n",
               static_cast<unsigned long long>(st.commands_refused), st.validate.median_us, st.validate.p99_us,
