@@ -8,6 +8,8 @@
 
 #include <gtest/gtest.h>
 
+#include "tests/sanitizer_build.h"
+
 namespace tf = hemm::test::twoarm_feasibility;
 namespace ht = hemm::twoarm;
 
@@ -31,9 +33,17 @@ constexpr double kFeasibilityLoss = 0.05;
 TEST(TaskFeasibility, BoxWithBothHandsAtZeroDelay) { feasibility_expect(ht::Task::kBox, 0.0, 0.0, 1); }
 TEST(TaskFeasibility, PegAtZeroDelay) { feasibility_expect(ht::Task::kPeg, 0.0, 0.0, 1); }
 TEST(TaskFeasibility, BarAtZeroDelay) { feasibility_expect(ht::Task::kBar, 0.0, 0.0, 1); }
-TEST(TaskFeasibility, BoxWithBothHandsAt3sRoundTripLossy) { feasibility_expect(ht::Task::kBox, 3.0, kFeasibilityLoss, 1); }
+// Under the sanitizers the peg's run alone takes the delayed, lossy link (the
+// same harness code as the other two; tests/sanitizer_build.h).
+TEST(TaskFeasibility, BoxWithBothHandsAt3sRoundTripLossy) {
+  if (hemm::test::kSanitizerBuild) GTEST_SKIP() << "release pass only (the peg's run covers the delayed link here)";
+  feasibility_expect(ht::Task::kBox, 3.0, kFeasibilityLoss, 1);
+}
 TEST(TaskFeasibility, PegAt3sRoundTripLossy) { feasibility_expect(ht::Task::kPeg, 3.0, kFeasibilityLoss, 1); }
-TEST(TaskFeasibility, BarAt3sRoundTripLossy) { feasibility_expect(ht::Task::kBar, 3.0, kFeasibilityLoss, 1); }
+TEST(TaskFeasibility, BarAt3sRoundTripLossy) {
+  if (hemm::test::kSanitizerBuild) GTEST_SKIP() << "release pass only (the peg's run covers the delayed link here)";
+  feasibility_expect(ht::Task::kBar, 3.0, kFeasibilityLoss, 1);
+}
 
 // The hole 1 mm (x) from where the operator believes it (twice the
 // clearance a side): the peg should land on the rim, the wrist force tell it,
