@@ -19,6 +19,7 @@
 #include "common/net/framing.h"
 #include "common/net/handshake.h"
 #include "tests/integration/link/child_process.h"
+#include "tests/sanitizer_build.h"
 
 namespace hemm::test {
 namespace {
@@ -106,17 +107,20 @@ TEST(LinkLoopbackTest, HandshakeSucceedsAndPingPongMeasuresTheLink) {
   EXPECT_EQ(num(oj, "sessions_opened"), 1);
   EXPECT_EQ(num(rj, "sessions_opened"), 1);
   // ~2.5 s of 20 Hz pings; allow for a loaded machine.
-  EXPECT_GT(num(oj, "pongs_received"), 10);
-  EXPECT_GT(num(rj, "pongs_received"), 10);
+  EXPECT_GT(num(oj, "pongs_received"), 10) << oj;
+  EXPECT_GT(num(rj, "pongs_received"), 10) << rj;
   EXPECT_EQ(num(oj, "clock_valid"), 1);
-  // Same host, same steady clock: the offset is ~0 and the RTT small.
-  EXPECT_LT(std::abs(num(oj, "clock_offset_ms")), 5.0);
-  EXPECT_LT(num(oj, "rtt_median_ms"), 50.0);
+  // Same host, same steady clock: the offset is ~0 and the RTT small; wall-clock
+  // bounds, so the release pass's only (tests/sanitizer_build.h), as everywhere.
+  if (!kSanitizerBuild) {
+    EXPECT_LT(std::abs(num(oj, "clock_offset_ms")), 5.0) << oj;
+    EXPECT_LT(num(oj, "rtt_median_ms"), 50.0) << oj;
+  }
   EXPECT_GE(num(oj, "rtt_min_ms"), 0.0);
   for (const char* k : {"rejected_bad_tag", "rejected_replay", "rejected_unknown_session", "rejected_bad_size",
                         "rejected_bad_version", "duplicated", "link_lost_events"}) {
-    EXPECT_EQ(num(rj, k), 0) << k;
-    EXPECT_EQ(num(oj, k), 0) << k;
+    EXPECT_EQ(num(rj, k), 0) << k << " " << rj;
+    EXPECT_EQ(num(oj, k), 0) << k << " " << oj;
   }
   EXPECT_NE(r.err().find("event=session_open"), std::string::npos);
   EXPECT_NE(r.err().find("event=peer_bye"), std::string::npos) << "operator should say Bye at the end";
