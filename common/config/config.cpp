@@ -185,6 +185,10 @@ void check_twoarm(const RobotConfig& c, std::vector<FieldIssue>& out) {
     out.push_back({"twoarm.avoidance_activation_m", "must be within (0, 0.3]"});
   if (!(t.max_target_jump_m() > 0 && t.max_target_jump_m() <= 2))
     out.push_back({"twoarm.max_target_jump_m", "must be within (0, 2]"});
+  // The direct mode's twist is held this long from its send time; past the
+  // watchdog's time it would carry the arm on through a silence.
+  if (!(t.direct_twist_hold_ms() > 0 && t.direct_twist_hold_ms() <= c.safety().watchdog_ms()))
+    out.push_back({"twoarm.direct_twist_hold_ms", "must be within (0, safety.watchdog_ms]"});
 }
 
 }  // namespace

@@ -42,6 +42,9 @@ TEST(TwoArmConfig, BadValuesAreRefusedByField) {
       {"twoarm { joint_limit_margin_rad: 1 }", "twoarm.joint_limit_margin_rad: "},
       {"twoarm { avoidance_activation_m: 0 }", "twoarm.avoidance_activation_m: "},
       {"twoarm { max_target_jump_m: 3 }", "twoarm.max_target_jump_m: "},
+      {"twoarm { direct_twist_hold_ms: 0 }", "twoarm.direct_twist_hold_ms: "},
+      {"twoarm { direct_twist_hold_ms: nan }", "twoarm.direct_twist_hold_ms: "},
+      {"twoarm { direct_twist_hold_ms: 400 }", "twoarm.direct_twist_hold_ms: "},
   };
   for (const auto& [text, field] : cases) {
     SCOPED_TRACE(text);
