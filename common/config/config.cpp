@@ -185,6 +185,8 @@ void check_twoarm(const RobotConfig& c, std::vector<FieldIssue>& out) {
     out.push_back({"twoarm.avoidance_activation_m", "must be within (0, 0.3]"});
   if (!(t.max_target_jump_m() > 0 && t.max_target_jump_m() <= 2))
     out.push_back({"twoarm.max_target_jump_m", "must be within (0, 2]"});
+  if (t.task() != "" && t.task() != "box" && t.task() != "peg" && t.task() != "bar")
+    out.push_back({"twoarm.task", "must be box, peg, bar or empty (no task judged)"});
 }
 
 }  // namespace

@@ -42,6 +42,7 @@ TEST(TwoArmConfig, BadValuesAreRefusedByField) {
       {"twoarm { joint_limit_margin_rad: 1 }", "twoarm.joint_limit_margin_rad: "},
       {"twoarm { avoidance_activation_m: 0 }", "twoarm.avoidance_activation_m: "},
       {"twoarm { max_target_jump_m: 3 }", "twoarm.max_target_jump_m: "},
+      {"twoarm { task: \"ball\" }", "twoarm.task: "},
   };
   for (const auto& [text, field] : cases) {
     SCOPED_TRACE(text);
