@@ -75,10 +75,37 @@ struct RawArgs {
   std::string shape_log_dir;  // overrides probe_3d.shape_log_dir
   std::string hand3_route, hand3_script;  // probe_3d.hand3_route / hand3_script
   bool print_hand3_route = false;
+  std::string task, task_scene;  // telemanip.task / task_scene
 #ifdef HEMM_WITH_VIEW
   view::ViewOptionStrings view_strs;
 #endif
 };
+
+// The two-arm tasks' SIMULATED humans (telemanip; issue 25 part 6).
+void add_task_options(CLI::App* app, RawArgs* raw) {
+  app->add_option("--task", raw->task,
+                  "telemanip: the SIMULATED humans do this two-arm task through the link from the believed remote "
+                  "state (box, peg or bar; overrides telemanip.task); the run ends telemanip.task_settle_s after the "
+                  "script is done (or at --duration)");
+  app->add_option("--task-scene", raw->task_scene,
+                  "telemanip: the scene whose task: lines give the task's objects (overrides telemanip.task_scene; "
+                  "deploy/scenes/workbench.xml, or workbench_box.xml for the box)");
+}
+
+// --task / --task-scene into the config (the scene relative to the working
+// directory): false (said on stderr) when the config is not a telemanip one.
+bool apply_task_args(const RawArgs& raw, config::OperatorConfig* cfg) {
+  if (raw.task.empty() && raw.task_scene.empty()) return true;
+  if (!cfg->telemanip().enabled()) {
+    std::cerr << "hemm-operator: --task / --task-scene need a telemanip config (telemanip { enabled: true }, "
+                 "deploy/configs/operator_telemanip.pbtxt)\n";
+    return false;
+  }
+  if (!raw.task.empty()) cfg->mutable_telemanip()->set_task(raw.task);
+  if (!raw.task_scene.empty())
+    cfg->mutable_telemanip()->set_task_scene(std::filesystem::absolute(raw.task_scene).lexically_normal().string());
+  return true;  // the values are checked with the rest of the telemanip block (task_human.h check_task_config)
+}
 
 void add_options(CLI::App* app, OperatorArgs* a, RawArgs* raw) {
   app->add_option("--config", a->config_path,
@@ -421,6 +448,7 @@ int run(int argc, char** argv) {
   OperatorArgs a;
   RawArgs raw;
   add_options(&app, &a, &raw);
+  add_task_options(&app, &raw);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -446,6 +474,7 @@ int run(int argc, char** argv) {
   config::OperatorConfig cfg;
   if (!load_config(&a, &cfg)) return net::kExitUsage;
   apply_hand6_args(raw, &cfg);
+  if (!apply_task_args(raw, &cfg)) return net::kExitUsage;
   if (raw.print_hand6_route) return print_hand6_route(cfg, a);
   apply_hand3_args(raw, &cfg);
   if (raw.print_hand3_route && cfg.probe_3d().hand3_script().empty()) {

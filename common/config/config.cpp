@@ -189,6 +189,8 @@ void check_twoarm(const RobotConfig& c, std::vector<FieldIssue>& out) {
   // watchdog's time it would carry the arm on through a silence.
   if (!(t.direct_twist_hold_ms() > 0 && t.direct_twist_hold_ms() <= c.safety().watchdog_ms()))
     out.push_back({"twoarm.direct_twist_hold_ms", "must be within (0, safety.watchdog_ms]"});
+  if (t.task() != "" && t.task() != "box" && t.task() != "peg" && t.task() != "bar")
+    out.push_back({"twoarm.task", "must be box, peg, bar or empty (no task judged)"});
 }
 
 }  // namespace

@@ -4,7 +4,10 @@
 // each gripper's pointshell against the live voxmap built from the robot's
 // head-camera DepthChunks (model-mediated), and the link streams ArmsCommand
 // and takes ArmsState. The SIMULATED humans follow telemanip.human_script
-// through the mapping (telemanip_human.h). At exit: the telemanip report
+// through the mapping (telemanip_human.h), or with telemanip.task (--task)
+// the task script of the two-arm station's box, peg or bar task on the
+// believed remote state (task_human.h); the run then ends task_settle_s
+// after the script is done. At exit: the telemanip report
 // (commands, refusals, per-hand rendered wrench, servo timing, the link) on
 // stdout and in --stats-json. This thread is the network thread.
 #include <spdlog/spdlog.h>
@@ -29,6 +32,7 @@
 #include "operator/telemanip/telemanip_link.h"
 #include "operator/telemanip/telemanip_report.h"
 #include "operator/telemanip/telemanip_task.h"
+#include "operator/telemanip/task_human.h"
 
 namespace hemm::op::runner {
 
@@ -60,6 +64,12 @@ int run_telemanip(const config::OperatorConfig& cfg, const OperatorArgs& a) {
       net::load_station_key("hemm-operator", a.key_path, a.config_path, cfg.link().key_file(), robot_address);
   if (!key) return net::kExitKey;
 
+  std::string task_scene;
+  if (std::string e = tele::check_task_config(cfg.telemanip(), a.config_path, &task_scene); !e.empty()) {
+    std::cerr << "hemm-operator: bad config: " << e << "\n";
+    return net::kExitUsage;
+  }
+  std::unique_ptr<tele::TaskHumanBrain> brain;  // the task's SIMULATED human, if any
   std::unique_ptr<tele::TelemanipTask> task;
   std::unique_ptr<hb::SimulatedBimanualDevice> device;
   servo::ModelChannel channel;
@@ -78,6 +88,11 @@ int run_telemanip(const config::OperatorConfig& cfg, const OperatorArgs& a) {
     task = std::make_unique<tele::TelemanipTask>(tp);
     model = std::make_unique<ModelThread>(channel, mp);
     task->set_roi_out(&model->probe_positions());
+    if (!cfg.telemanip().task().empty()) {
+      brain = std::make_unique<tele::TaskHumanBrain>(tele::task_plan(cfg.telemanip().task(), task_scene), tp.mapping);
+      device = std::make_unique<hb::SimulatedBimanualDevice>(
+          setup.sim, tele::task_hands(setup.sim, tp.mapping, {&task->anchors(0), &task->anchors(1)}, *brain, &robot_safety));
+    }
     const auto rest = hb::BimanualSimulation(setup.sim).resting_targets();
     const bool demo = cfg.telemanip().human_script() == "demo";
     const double travel = hb::handle_spec(setup.sim.plant.handles[0]).grip_travel;
@@ -86,8 +101,9 @@ int run_telemanip(const config::OperatorConfig& cfg, const OperatorArgs& a) {
         &task->anchors(0), 0.5, &robot_safety);
     auto left = std::make_shared<const tele::MappedHumanScript>(rest[1], tp.mapping[1], std::vector<tele::GRouteKey>{},
                                                                 &task->anchors(1), 0.5, &robot_safety);
-    device = std::make_unique<hb::SimulatedBimanualDevice>(
-        setup.sim, std::array<std::shared_ptr<const hb::HumanScript>, hb::kArms>{right, left});
+    if (!device)
+      device = std::make_unique<hb::SimulatedBimanualDevice>(
+          setup.sim, std::array<std::shared_ptr<const hb::HumanScript>, hb::kArms>{right, left});
   } catch (const std::exception& e) {
     std::cerr << "hemm-operator: " << e.what() << "\n";
     spdlog::error("event=station_failed error=\"{}\"", e.what());
@@ -102,6 +118,7 @@ int run_telemanip(const config::OperatorConfig& cfg, const OperatorArgs& a) {
       &steady_now_ns, lp, [&client] { return client.link_up(); });
   link.set_safety_out(&robot_safety);
   link.attach(client.streams());
+  if (brain) tele::attach_task_believed(client.streams(), link, *brain);
   client.streams().on(wire::StreamMessage::kDepthChunk,
                       [&model](const net::DatagramHeader&, std::int64_t, const wire::StreamMessage& m) {
                         model->submit_depth_chunk(std::make_shared<const wire::DepthChunk>(m.depth_chunk()));
@@ -111,6 +128,7 @@ int run_telemanip(const config::OperatorConfig& cfg, const OperatorArgs& a) {
   asio::signal_set signals(io, SIGINT, SIGTERM);
   asio::steady_timer duration(io);
   asio::steady_timer clock_timer(io);
+  asio::steady_timer task_timer(io);
   const auto shutdown = [&](const std::string& why) {
     if (stopping) return;
     stopping = true;
@@ -119,6 +137,7 @@ int run_telemanip(const config::OperatorConfig& cfg, const OperatorArgs& a) {
     signals.cancel();
     duration.cancel();
     clock_timer.cancel();
+    task_timer.cancel();
     client.stop(why);
   };
   // The depth chunks' robot stamps on our clock: the link's estimate, to the model thread.
@@ -155,6 +174,24 @@ int run_telemanip(const config::OperatorConfig& cfg, const OperatorArgs& a) {
     if (!ec) shutdown(sig == SIGINT ? "SIGINT" : "SIGTERM");
   });
   clock_tick();
+  // The task script done: the run ends task_settle_s later (the robot's judge
+  // sees the object come to rest).
+  std::function<void()> task_tick = [&] {
+    task_timer.expires_after(std::chrono::milliseconds(100));
+    task_timer.async_wait([&](const asio::error_code& ec) {
+      if (ec || stopping) return;
+      if (!brain->done()) return task_tick();
+      spdlog::info("event=task_script_done task={} settle_s={}", cfg.telemanip().task(), cfg.telemanip().task_settle_s());
+      task_timer.expires_after(std::chrono::milliseconds(static_cast<int64_t>(cfg.telemanip().task_settle_s() * 1000)));
+      task_timer.async_wait([&](const asio::error_code& ec2) {
+        if (!ec2) shutdown("task script done");
+      });
+    });
+  };
+  if (brain) {
+    brain->start();
+    task_tick();
+  }
   if (a.duration_s > 0) {
     duration.expires_after(std::chrono::milliseconds(static_cast<int64_t>(a.duration_s * 1000)));
     duration.async_wait([&](const asio::error_code& ec) {
@@ -162,12 +199,20 @@ int run_telemanip(const config::OperatorConfig& cfg, const OperatorArgs& a) {
     });
   }
   io.run();
+  if (brain) brain->stop();
   loop.stop();
   model->stop();
 
   const servo::TimingSummary timing = loop.summary();
   report::Telemanip r = tele::make_telemanip_report(link.stats(), *task, task->latest_remote(), &timing);
   *r.mutable_link() = net::to_report(client.statistics());
+  if (brain) {
+    const tele::TaskProgress p = brain->progress();
+    tele::fill_task_report(p, r.mutable_task());
+    std::cout << "telemanip: task " << p.task << " (SIMULATED human): " << (p.done ? "script done" : "script NOT done")
+              << " after " << p.done_s << " s, step " << p.steps_done << " of " << p.steps << " (" << p.last_step
+              << "), searches " << p.searches << (p.error.empty() ? "" : ", error: " + p.error) << "\n";
+  }
   std::cout << "telemanip: commands " << r.commands_sent() << " (dead-man pressed " << r.deadman_pressed()
             << "), states " << r.states_in() << " (rejected " << r.states_rejected() << "), refusals "
             << r.refusals().refused() << " (last " << r.refusals().last_reason() << ")\n";

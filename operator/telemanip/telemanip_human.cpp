@@ -28,6 +28,27 @@ MappedHumanScript::MappedHumanScript(const device::bimanual::HumanTarget& rest, 
   }
 }
 
+bool DeadmanHabit::step(std::uint32_t safety, double t_s) noexcept {
+  if (safety == kNoRobotState) {
+    t_seen = -1.0;  // nothing from the robot (yet, or a new session): wait
+    return pressed;
+  }
+  if (t_seen < 0.0) t_seen = t_s;
+  if (!pressed) {
+    pressed = t_s - t_seen >= kReaction_s && t_s - t_released >= kReaction_s;
+    t_rearm = -1.0;
+  } else if ((safety & wire::SAFETY_REARM) != 0) {
+    if (t_rearm < 0.0) t_rearm = t_s;
+    if (t_s - t_rearm >= kReaction_s) {  // the robot waits for a neutral command: let go, press again
+      pressed = false;
+      t_released = t_s;
+    }
+  } else {
+    t_rearm = -1.0;
+  }
+  return pressed;
+}
+
 double MappedHumanScript::end_s() const noexcept { return keys_.empty() ? 0.0 : lead_s_ + keys_.back().t_s; }
 
 device::bimanual::HumanTarget MappedHumanScript::at(double t_s) const noexcept {
@@ -37,27 +58,7 @@ device::bimanual::HumanTarget MappedHumanScript::at(double t_s) const noexcept {
     t_engaged_ = t_s;
   }
   device::bimanual::HumanTarget g = rest_;
-  if (robot_safety_ != nullptr) {
-    const std::uint32_t safety = robot_safety_->load(std::memory_order_relaxed);
-    if (safety == kNoRobotState) {
-      t_seen_ = -1.0;  // nothing from the robot (yet, or a new session): wait
-    } else {
-      if (t_seen_ < 0.0) t_seen_ = t_s;
-      if (!pressed_) {
-        pressed_ = t_s - t_seen_ >= kReaction_s && t_s - t_released_ >= kReaction_s;
-        t_rearm_ = -1.0;
-      } else if ((safety & wire::SAFETY_REARM) != 0) {
-        if (t_rearm_ < 0.0) t_rearm_ = t_s;
-        if (t_s - t_rearm_ >= kReaction_s) {  // the robot waits for a neutral command: let go, press again
-          pressed_ = false;
-          t_released_ = t_s;
-        }
-      } else {
-        t_rearm_ = -1.0;
-      }
-    }
-    g.deadman = pressed_;
-  }
+  if (robot_safety_ != nullptr) g.deadman = deadman_.step(robot_safety_->load(std::memory_order_relaxed), t_s);
   if (!engaged_ || keys_.empty() || !anchor_.engaged) return g;
   // The route at t (piecewise linear, held after its end).
   const double t = t_s - t_engaged_ - lead_s_;

@@ -44,6 +44,19 @@ struct GRouteKey {
   double grip_m = 0.0;
 };
 
+// The SIMULATED human's dead-man habit while watching the robot's status
+// (above): released until the robot has been reporting for a reaction time,
+// then pressed; released for a reaction time when the robot has asked to be
+// re-armed (SAFETY_REARM) for that long, then pressed again. One thread
+// (the one that calls at()) owns it; allocation-free.
+struct DeadmanHabit {
+  static constexpr double kReaction_s = 0.3;  // from seeing the robot's status to acting on it
+  bool pressed = false;
+  double t_seen = -1.0, t_released = -1e9, t_rearm = -1.0;
+  // safety: the newest ArmsState's flags (kNoRobotState before any).
+  bool step(std::uint32_t safety, double t_s) noexcept;
+};
+
 class MappedHumanScript final : public device::bimanual::HumanScript {
  public:
   // rest: what the human does at rest (its pose, the dead-man held, the
@@ -52,7 +65,7 @@ class MappedHumanScript final : public device::bimanual::HumanScript {
   MappedHumanScript(const device::bimanual::HumanTarget& rest, const ArmMappingParams& mapping,
                     std::vector<GRouteKey> keys, NewestMailbox<MappingAnchor>* anchors, double lead_s = 0.5,
                     const std::atomic<std::uint32_t>* robot_safety = nullptr);
-  static constexpr double kReaction_s = 0.3;  // from seeing the robot's status to acting on it
+  static constexpr double kReaction_s = DeadmanHabit::kReaction_s;
   device::bimanual::HumanTarget at(double t_s) const noexcept override;
   double end_s() const noexcept;  // the route's end after the engagement (0: none)
 
@@ -67,8 +80,7 @@ class MappedHumanScript final : public device::bimanual::HumanScript {
   mutable bool engaged_ = false;
   mutable double t_engaged_ = 0.0;
   mutable MappingAnchor anchor_;
-  mutable bool pressed_ = false;
-  mutable double t_seen_ = -1.0, t_released_ = -1e9, t_rearm_ = -1.0;
+  mutable DeadmanHabit deadman_;
 };
 
 // The demo route of the right hand: G 10 cm towards the bench (A +x) over

@@ -1,5 +1,6 @@
 #include "operator/telemanip/telemanip_task.h"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -28,6 +29,12 @@ HandReading teletask_hand(const device::DeviceSample& in, int k, const ArmMappin
   h.deadman = g < in.end_effectors && gate.has_deadman && gate.deadman;
   h.has_grip = e.handle.has_grip;
   h.grip_position_m = e.handle.grip_position;
+  if (!h.has_grip && e.handle.has_joystick) {
+    // The joystick handle has no lever: its mini-joystick's forward axis
+    // (0..1, back is open) stands in for one, so that arm's gripper is commanded too.
+    h.has_grip = true;
+    h.grip_position_m = std::clamp(e.handle.joystick.y(), 0.0, 1.0) * mp.grip_travel_m;
+  }
   return h;
 }
 

@@ -94,6 +94,11 @@ struct TwoArmStation::Shared {
   mutable std::mutex truth_mu;               // the readers' side only: the control thread never takes it
   mutable TwoArmTruthSim truth_latest;       // guarded by truth_mu
   mutable bool have_truth = false;           // guarded by truth_mu
+  // SIMULATION ONLY: the task judge's accumulated data (control thread -> statistics()).
+  mutable NewestMailbox<TaskTruthData> task_data;
+  mutable std::mutex task_mu;        // the readers' side only
+  mutable TaskTruthData task_latest;  // guarded by task_mu
+  mutable bool have_task = false;     // guarded by task_mu
 
   // Network thread only.
   TwoArmSnapshot latest;
@@ -406,6 +411,32 @@ report::TwoArmStation to_report(const TwoArmStationStatistics& s) {
   r.set_direct_stale_ticks(s.direct_stale_ticks);
   r.set_passivity_peer_old(s.passivity_peer_old);
   r.set_passivity_peer_refused(s.passivity_peer_refused);
+  if (s.task_judged) {
+    const TaskVerdict& v = s.task_verdict;
+    report::TwoArmTaskVerdict* t = r.mutable_task();
+    t->set_task(to_string(s.task));
+    t->set_success(v.success);
+    t->set_why(v.why);
+    t->set_goal(v.goal);
+    t->set_dropped(v.dropped);
+    t->set_forces_ok(v.forces_ok);
+    t->set_completion_s(v.completion_s);
+    for (std::size_t a = 0; a < kArms; ++a) {
+      t->add_wrist_peak_n(v.wrist_peak_N[a]);
+      t->add_wrist_rms_n(v.wrist_rms_N[a]);
+      t->add_hand_squeeze_peak_n(v.hand_squeeze_peak_N[a]);
+      t->add_carried(v.carried[a]);
+    }
+    t->set_object_env_peak_n(v.object_env_peak_N);
+    t->set_squeeze_peak_n(v.squeeze_peak_N);
+    t->set_goal_xy_err_m(v.end.goal_xy_err_m);
+    t->set_goal_z_err_m(v.end.goal_z_err_m);
+    t->set_depth_m(v.end.depth_m);
+    t->set_axis_offset_m(v.end.axis_offset_m);
+    t->set_tilt_rad(v.end.tilt_rad);
+    t->set_ticks(s.task_ticks);
+    t->set_lift_time_s(s.task_lift_time_s);
+  }
   return r;
 }
 
@@ -455,6 +486,13 @@ std::string to_summary(const TwoArmStationStatistics& s) {
     os << "    arm " << i << " robot end: in " << p.in_J << " J, out " << p.out_J << " J, operator's in "
        << p.peer_in_J << " J, dissipated " << p.dissipated_J << " J, min margin " << p.min_margin_J << " J\n";
   }
+  if (s.task_judged) {
+    const TaskVerdict& v = s.task_verdict;
+    os << "  task " << to_string(s.task) << " (SIMULATION ONLY, MuJoCo truth): " << (v.success ? "success" : "FAILED")
+       << (v.success ? "" : " - " + v.why) << "; completion " << v.completion_s << " s, wrist peak right / left "
+       << v.wrist_peak_N[0] << " / " << v.wrist_peak_N[1] << " N, RMS " << v.wrist_rms_N[0] << " / " << v.wrist_rms_N[1]
+       << " N, squeeze peak " << v.squeeze_peak_N << " N, object contact peak " << v.object_env_peak_N << " N\n";
+  }
   return os.str();
 }
 
@@ -501,7 +539,26 @@ std::optional<std::string> TwoArmStation::load(const config::RobotConfig& config
     period = std::max(1, static_cast<int>(std::lround(steps)));
     depth = std::make_unique<DepthWorker>(m, p, cam, config.sim().seed());
   }
+  std::unique_ptr<const TaskTruthModel> judge;
+  if (const std::string& task = config.twoarm().task(); !task.empty()) {
+    Task t = Task::kBox;
+    if (task == "peg") {
+      t = Task::kPeg;
+    } else if (task == "bar") {
+      t = Task::kBar;
+    } else if (task != "box") {
+      return "twoarm.task '" + task + "': box, peg, bar or empty";
+    }
+    TaskTruthParams tp;
+    tp.wrist_force_limit_N = config.twoarm().force_limit_n();
+    try {
+      judge = std::make_unique<const TaskTruthModel>(make_task_truth_model(robot->sim(), t, tp));
+    } catch (const std::exception& e) {
+      return std::string(e.what());
+    }
+  }
   robot_ = std::move(robot);
+  task_model_ = std::move(judge);
   depth_ = std::move(depth);
   depth_on_ = depth_ != nullptr;
   depth_period_steps_ = period;
@@ -674,6 +731,20 @@ TwoArmStationStatistics TwoArmStation::statistics() const {
     s.passivity_peer_refused = sh.peer_refused;
   }
   s.passivity_controller = !robot_ || robot_->pc_mode() == haptics::tdpa::PcMode::kControl;
+  if (task_model_) {
+    std::lock_guard<std::mutex> lk(sh.task_mu);
+    if (const TaskTruthData* d = sh.task_data.take()) {
+      sh.task_latest = *d;
+      sh.have_task = true;
+    }
+    if (sh.have_task) {
+      s.task_judged = true;
+      s.task = task_model_->task;
+      s.task_verdict = task_truth_verdict(*task_model_, sh.task_latest);
+      s.task_ticks = sh.task_latest.ticks;
+      s.task_lift_time_s = sh.task_latest.lift_time_s;
+    }
+  }
   return s;
 }
 
@@ -696,6 +767,8 @@ void TwoArmStation::run() {
   int exec_mode = wire::MODE_IDLE;
   bool was_in_control = false;
   bool was_controlling = false;
+  const TaskTruthModel* judge = task_model_.get();
+  TaskTruthData judged;  // SIMULATION ONLY: accumulated here, copied out at each state publication
 
   if (o_.control_thread_hook) o_.control_thread_hook(true);
   while (!sh.stop.load(std::memory_order_acquire)) {
@@ -749,6 +822,7 @@ void TwoArmStation::run() {
     }
 
     robot.step();
+    if (judge != nullptr) task_truth_tick(*judge, robot.sim(), judged);
     pacer.stepped();
     ++steps;
     sh.sim_steps.fetch_add(1, std::memory_order_relaxed);
@@ -764,6 +838,10 @@ void TwoArmStation::run() {
       truth.stamp_ns = now;
       truth.T_A_G = {robot.sim().grasp_site_A(Side::kRight), robot.sim().grasp_site_A(Side::kLeft)};
       sh.truth.publish();
+      if (judge != nullptr) {
+        sh.task_data.back() = judged;
+        sh.task_data.publish();
+      }
       sh.safety.store(robot.safety(), std::memory_order_relaxed);
       sh.armed.store(robot.armed(), std::memory_order_relaxed);
       sh.following.store(robot.following(), std::memory_order_relaxed);
@@ -774,6 +852,10 @@ void TwoArmStation::run() {
       pacer.set_what("depth");
     }
     if (o_.realtime) pacer.record(sh.pacing);
+  }
+  if (judge != nullptr) {  // the verdict covers every tick
+    sh.task_data.back() = judged;
+    sh.task_data.publish();
   }
   if (o_.control_thread_hook) o_.control_thread_hook(false);
 }

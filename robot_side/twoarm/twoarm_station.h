@@ -57,6 +57,7 @@
 #include "common/realtime/realtime_setup.h"
 #include "common/realtime/timing_stats.h"
 #include "robot_side/server/robot_server.h"
+#include "robot_side/twoarm/task_truth.h"
 #include "robot_side/twoarm/twoarm_robot.h"
 
 namespace hemm::report {
@@ -129,6 +130,13 @@ struct TwoArmStationStatistics {
   uint64_t direct_stale_ticks = 0;  // direct ticks with a twist older than direct_twist_hold_ms (zeroed)
   uint64_t passivity_peer_old = 0;      // operator energies older than the newest taken
   uint64_t passivity_peer_refused = 0;  // refused on the control thread (receive_peer)
+  // SIMULATION ONLY: the task judged from MuJoCo truth (config twoarm.task),
+  // as of the newest state publication (and the control loop's end).
+  bool task_judged = false;
+  Task task = Task::kBox;
+  TaskVerdict task_verdict;
+  long task_ticks = 0;
+  double task_lift_time_s = -1.0;
 };
 
 report::TwoArmStation to_report(const TwoArmStationStatistics& s);
@@ -181,6 +189,7 @@ class TwoArmStation {
   robot::RobotServer& server_;
   TwoArmStationOptions o_;
   std::unique_ptr<TwoArmRobot> robot_;
+  std::unique_ptr<const TaskTruthModel> task_model_;  // SIMULATION ONLY: the judge, if a task is set
   bool depth_on_ = false;
   int depth_period_steps_ = 0;
   std::shared_ptr<Shared> shared_;

@@ -13,6 +13,7 @@
 #include <cstdio>
 #include <fstream>
 #include <string>
+#include <vector>
 
 #include "config_operator.pb.h"
 #include "report.pb.h"
@@ -85,4 +86,36 @@ TEST(TelemanipRunner, DemoRouteDrivesTheFakeRobotAndTheReportSaysSo) {
     EXPECT_LT(std::hypot(h.last_force_d().x(), h.last_force_d().y()), 0.5 * h.last_force_d().z());
   }
   EXPECT_GT(rep.timing().ticks(), 10000u);
+}
+
+// --task / --task-scene: bad values are refused with the reason and exit 2
+// before any connection is tried (no robot listens here).
+TEST(TelemanipRunner, TaskArgumentsAreRefusedWithAReason) {
+  const std::string dir = hemm::test::make_temp_dir("telemanip-runner-task-args");
+  const std::string bin = std::string(HEMM_BINARY_DIR) + "/bin/hemm-operator";
+  const std::string cfg = std::string(HEMM_SOURCE_DIR) + "/deploy/configs/";
+  const std::string scene = std::string(HEMM_SOURCE_DIR) + "/deploy/scenes/workbench.xml";
+  const struct {
+    std::vector<std::string> args;
+    const char* says;
+  } cases[] = {
+      {{"--task", "ball", "--task-scene", scene}, "must be box, peg or bar"},
+      {{"--task", "peg"}, "needs telemanip.task_scene"},
+      {{"--task-scene", scene}, "needs telemanip.task"},
+      {{"--task", "peg", "--task-scene", dir + "/no_such_scene.xml"}, "no_such_scene.xml"},
+  };
+  for (const auto& c : cases) {
+    std::vector<std::string> argv = {bin, "--config", cfg + "operator_telemanip.pbtxt", "--key", cfg + "demo.key",
+                                     "--session-port", "1", "--log-level", "warn"};
+    argv.insert(argv.end(), c.args.begin(), c.args.end());
+    const hemm::test::ProcessResult r = hemm::test::run_to_completion(argv, dir, std::chrono::seconds(20));
+    EXPECT_EQ(r.rc, 2) << c.says << ": " << r.err;
+    EXPECT_NE(r.err.find(c.says), std::string::npos) << r.err;
+  }
+  // A config that is not a telemanip one.
+  const hemm::test::ProcessResult r = hemm::test::run_to_completion(
+      {bin, "--config", cfg + "operator.pbtxt", "--key", cfg + "demo.key", "--task", "peg", "--task-scene", scene}, dir,
+      std::chrono::seconds(20));
+  EXPECT_EQ(r.rc, 2) << r.err;
+  EXPECT_NE(r.err.find("need a telemanip config"), std::string::npos) << r.err;
 }

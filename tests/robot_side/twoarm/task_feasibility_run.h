@@ -12,8 +12,6 @@
 #include <cstdio>
 #include <cstdlib>
 #include <deque>
-#include <fstream>
-#include <iterator>
 #include <random>
 #include <stdexcept>
 #include <string>
@@ -23,7 +21,6 @@
 #include "robot_side/twoarm/task_truth.h"
 #include "robot_side/twoarm/twoarm_robot.h"
 #include "tests/robot_side/twoarm/workbench_scene.h"
-#include "tests/temp_dir.h"
 
 namespace hemm::test::twoarm_feasibility {
 
@@ -43,34 +40,11 @@ struct FeasibilityRun {
   std::string detail;  // where the arms are against the step's targets, for a failing run
 };
 
-// The shipped workbench with the box and the shelf moved within both arms'
-// reach (the box with both hands, issue 25 task a): in the shipped layout
-// the left arm finds no grasp over the box's or the shelf's ends (the
-// inverse kinematics refuses them; docs/telemanipulation_tasks.md). Written
-// once under a fresh temporary directory; the bodies and their task: lines
-// move together. Throws if the shipped scene no longer has these lines.
-inline std::string two_hand_box_scene() {
-  static const std::string path = [] {
-    std::ifstream in(hemm::test::kWorkbenchScene);
-    std::string xml((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-    const std::pair<const char*, const char*> moves[] = {
-        {"task: box   centre 0.58 -0.38 0.825", "task: box   centre 0.64 -0.02 0.825"},
-        {"task: shelf place 0.60 -0.72 0.95", "task: shelf place 0.57 -0.415 0.95"},
-        {"<body name=\"shelf\" pos=\"0.60 -0.72 0\">", "<body name=\"shelf\" pos=\"0.57 -0.415 0\">"},
-        {"<body name=\"box\" pos=\"0.58 -0.38 0.825\">", "<body name=\"box\" pos=\"0.64 -0.02 0.825\">"}};
-    for (const auto& [from, to] : moves) {
-      const std::size_t at = xml.find(from);
-      if (at == std::string::npos) throw std::runtime_error(std::string("workbench.xml: no '") + from + "' to move");
-      xml.replace(at, std::string(from).size(), to);
-    }
-    const std::string out = hemm::test::make_temp_dir("hemm-twoarm-box2") + "/workbench_box2.xml";
-    std::ofstream f(out);
-    f << xml;
-    if (!f) throw std::runtime_error(out + ": cannot be written");
-    return out;
-  }();
-  return path;
-}
+// The box with both hands (issue 25 task a) runs in the shipped
+// deploy/scenes/workbench_box.xml: workbench.xml with the box and the shelf
+// moved within both arms' reach (in workbench.xml's layout the left arm finds
+// no grasp over the box's or the shelf's ends; docs/telemanipulation_tasks.md).
+inline std::string two_hand_box_scene() { return hemm::test::workbench_box_scene(); }
 
 // The scene a task runs in: the box with both hands in the moved layout.
 inline std::string feasibility_scene(ht::Task task) { return task == ht::Task::kBox ? two_hand_box_scene() : hemm::test::kWorkbenchScene; }

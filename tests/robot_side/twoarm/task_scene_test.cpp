@@ -7,6 +7,10 @@
 #include "tests/robot_side/twoarm/workbench_scene.h"
 
 #include <gtest/gtest.h>
+
+#include <fstream>
+#include <iterator>
+#include <string>
 #include <mujoco/mujoco.h>
 
 namespace hs = hemm::twoarm_tasks;
@@ -29,11 +33,14 @@ const char* const kSceneTestGood =
 
 }  // namespace
 
-TEST(TaskScene, ShippedLinesAgreeWithTheSimulatedScene) {
-  const hs::TaskSceneResult r = hs::load_task_scene(hemm::test::kWorkbenchScene);
+namespace {
+
+void scene_test_lines_agree(const std::string& path) {
+  SCOPED_TRACE(path);
+  const hs::TaskSceneResult r = hs::load_task_scene(path);
   ASSERT_TRUE(r.scene) << r.error;
   const hs::TaskScene& s = *r.scene;
-  ht::WorkbenchSim sim(hemm::test::kWorkbenchScene);
+  ht::WorkbenchSim sim(path);
   constexpr double kTol = 1e-9;
   EXPECT_LT((s.box_centre - sim.body_pose_A("box").translation()).norm(), kTol);
   for (int k = 0; k < 3; ++k) EXPECT_NEAR(s.box_size(k), 2.0 * scene_test_geom_size(sim, "box_geom", k), kTol);
@@ -53,6 +60,36 @@ TEST(TaskScene, ShippedLinesAgreeWithTheSimulatedScene) {
   EXPECT_LT((s.bar_centre - sim.body_pose_A("bar").translation()).norm(), kTol);
   EXPECT_NEAR(s.bar_radius_m, scene_test_geom_size(sim, "bar_geom", 0), kTol);
   EXPECT_NEAR(s.bar_length_m, 2.0 * scene_test_geom_size(sim, "bar_geom", 1), kTol);
+}
+
+std::string scene_test_read(const std::string& path) {
+  std::ifstream in(path);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+}  // namespace
+
+TEST(TaskScene, ShippedLinesAgreeWithTheSimulatedScene) { scene_test_lines_agree(hemm::test::kWorkbenchScene); }
+TEST(TaskScene, BoxSceneLinesAgreeWithTheSimulatedScene) { scene_test_lines_agree(hemm::test::workbench_box_scene()); }
+
+// workbench_box.xml is workbench.xml with the box and the shelf moved (bodies
+// and task: lines together) and a header comment: nothing else differs.
+TEST(TaskScene, BoxSceneDiffersOnlyInTheBoxAndShelfPositions) {
+  std::string xml = scene_test_read(hemm::test::kWorkbenchScene);
+  const std::string box = scene_test_read(hemm::test::workbench_box_scene());
+  const std::pair<const char*, const char*> moves[] = {
+      {"task: box   centre 0.58 -0.38 0.825", "task: box   centre 0.64 -0.02 0.825"},
+      {"task: shelf place 0.60 -0.72 0.95", "task: shelf place 0.57 -0.415 0.95"},
+      {"<body name=\"shelf\" pos=\"0.60 -0.72 0\">", "<body name=\"shelf\" pos=\"0.57 -0.415 0\">"},
+      {"<body name=\"box\" pos=\"0.58 -0.38 0.825\">", "<body name=\"box\" pos=\"0.64 -0.02 0.825\">"}};
+  for (const auto& [from, to] : moves) {
+    const std::size_t at = xml.find(from);
+    ASSERT_NE(at, std::string::npos) << from;
+    xml.replace(at, std::string(from).size(), to);
+  }
+  const std::size_t body = box.find("-->\n");  // the end of its own header comment
+  ASSERT_NE(body, std::string::npos);
+  EXPECT_EQ(box.substr(body + 4), xml);
 }
 
 TEST(TaskScene, BadLinesAreRefusedWithFileLineAndReason) {

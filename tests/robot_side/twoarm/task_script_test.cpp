@@ -5,6 +5,7 @@
 // takes; a believed state it cannot read moves nothing.
 #include "common/mapping/depth_stream.h"
 #include "operator/twoarm_tasks/task_script.h"
+#include "tests/robot_side/twoarm/believed_state.h"
 #include "tests/robot_side/twoarm/workbench_scene.h"
 
 #include <limits>
@@ -15,32 +16,6 @@ namespace hs = hemm::twoarm_tasks;
 namespace hw = hemm::wire;
 
 namespace {
-
-// A believed state: both grasp frames where given, at rest, unloaded.
-hw::ArmsState script_test_state(const std::array<Eigen::Isometry3d, 2>& G, std::array<bool, 2> holding = {false, false}) {
-  hw::ArmsState s;
-  for (uint32_t a = 0; a < 2; ++a) {
-    hw::ArmState* arm = s.add_arm();
-    arm->set_index(a);
-    for (int j = 0; j < 7; ++j) {
-      arm->add_q(0.0);
-      arm->add_qd(0.0);
-      arm->add_tau(0.0);
-    }
-    hemm::mapping::pose3_to_wire(G[a], arm->mutable_t_a_g());
-    arm->mutable_v_a();
-    arm->mutable_omega_a();
-    arm->mutable_force_a();
-    arm->mutable_torque_a();
-    hw::GripperState* g = s.add_gripper();
-    g->set_index(a);
-    g->set_opening_m(holding[a] ? 0.2 : 0.0);
-    g->set_holding(holding[a]);
-    g->set_target_opening_m(0.0);
-    g->set_target_force_n(10.0);
-  }
-  return s;
-}
 
 // The peg's plan: its first steps move one arm (the left) alone.
 hs::TaskScript script_test_peg() {
@@ -59,7 +34,7 @@ TEST(TaskScript, WaitsForTheBelievedStateAtAnyDelay) {
   EXPECT_FALSE(hs::script_step(sc, st, nullptr, 0.0).send);
   const Eigen::Isometry3d rest_r = Eigen::Translation3d(0.73, -0.25, 1.0) * Eigen::Isometry3d::Identity();
   const Eigen::Isometry3d rest_l = Eigen::Translation3d(0.73, 0.25, 1.0) * Eigen::Isometry3d::Identity();
-  const hw::ArmsState at_rest = script_test_state({rest_r, rest_l});
+  const hw::ArmsState at_rest = hemm::test::believed_arms_state({rest_r, rest_l});
   hs::ScriptOutput out = hs::script_step(sc, st, &at_rest, 1.0);
   ASSERT_TRUE(out.send);
   EXPECT_FALSE(out.deadman);  // released first: the re-arm wants a neutral command
@@ -74,17 +49,17 @@ TEST(TaskScript, WaitsForTheBelievedStateAtAnyDelay) {
   // The right arm was not told to move.
   EXPECT_LT((out.targets.T_A_G[0].translation() - rest_r.translation()).norm(), 1e-12);
   // Believed there (orientation as targeted): the step ends, the next begins.
-  const hw::ArmsState there = script_test_state({rest_r, out.targets.T_A_G[1]});
+  const hw::ArmsState there = hemm::test::believed_arms_state({rest_r, out.targets.T_A_G[1]});
   out = hs::script_step(sc, st, &there, 61.0);
   EXPECT_EQ(st.step, 1u);
   // The closing step waits for the gripper to hold, however long.
-  const hw::ArmsState down = script_test_state({rest_r, *sc.steps[1].pose[1]});
+  const hw::ArmsState down = hemm::test::believed_arms_state({rest_r, *sc.steps[1].pose[1]});
   for (double t = 61.01; t < 90.0; t += 0.01) out = hs::script_step(sc, st, &down, t);
   EXPECT_EQ(st.step, 2u);
   EXPECT_EQ(out.targets.gripper[1].opening_m, 0.0);  // told to close
   for (double t = 90.0; t < 120.0; t += 0.01) out = hs::script_step(sc, st, &down, t);
   EXPECT_EQ(st.step, 2u);
-  const hw::ArmsState holding = script_test_state({rest_r, *sc.steps[1].pose[1]}, {false, true});
+  const hw::ArmsState holding = hemm::test::believed_arms_state({rest_r, *sc.steps[1].pose[1]}, {false, true});
   hs::script_step(sc, st, &holding, 120.0);
   EXPECT_EQ(st.step, 3u);
   EXPECT_TRUE(st.error.empty());
@@ -94,16 +69,16 @@ TEST(TaskScript, UnreadableBelievedStateMovesNothing) {
   const hs::TaskScript sc = script_test_peg();
   hs::ScriptState st;
   const Eigen::Isometry3d rest = Eigen::Translation3d(0.73, -0.25, 1.0) * Eigen::Isometry3d::Identity();
-  hw::ArmsState bad = script_test_state({rest, rest});
+  hw::ArmsState bad = hemm::test::believed_arms_state({rest, rest});
   bad.mutable_arm(0)->mutable_t_a_g()->mutable_position()->set_x(std::numeric_limits<double>::quiet_NaN());
   // Never a good one: nothing sent, a reason kept.
   EXPECT_FALSE(hs::script_step(sc, st, &bad, 0.0).send);
   EXPECT_FALSE(st.error.empty());
   // Started on a good one, then a bad one at the step's target: no step ends.
-  const hw::ArmsState good = script_test_state({rest, rest});
+  const hw::ArmsState good = hemm::test::believed_arms_state({rest, rest});
   hs::ScriptOutput out;
   for (double t = 1.0; t < 20.0; t += 0.01) out = hs::script_step(sc, st, &good, t);
-  hw::ArmsState bad_there = script_test_state({out.targets.T_A_G[0], rest});
+  hw::ArmsState bad_there = hemm::test::believed_arms_state({out.targets.T_A_G[0], rest});
   bad_there.mutable_arm(1)->set_q(3, std::numeric_limits<double>::infinity());
   out = hs::script_step(sc, st, &bad_there, 20.0);
   EXPECT_EQ(st.step, 0u);

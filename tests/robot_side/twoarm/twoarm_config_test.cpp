@@ -45,6 +45,7 @@ TEST(TwoArmConfig, BadValuesAreRefusedByField) {
       {"twoarm { direct_twist_hold_ms: 0 }", "twoarm.direct_twist_hold_ms: "},
       {"twoarm { direct_twist_hold_ms: nan }", "twoarm.direct_twist_hold_ms: "},
       {"twoarm { direct_twist_hold_ms: 400 }", "twoarm.direct_twist_hold_ms: "},
+      {"twoarm { task: \"ball\" }", "twoarm.task: "},
   };
   for (const auto& [text, field] : cases) {
     SCOPED_TRACE(text);

@@ -732,10 +732,15 @@ TEST(TwoArmStationLoopback, CommandsOfAnotherSessionModeAreDropped) {
 // allocator (tests/operator/servo/alloc_counter.cpp) on that thread only,
 // while it follows circles, holds through an e-stop, sees refused commands
 // go by and hands frames to the head camera's worker.
+// With a task judged (the bar: SIMULATION ONLY, MuJoCo truth each tick) the
+// control thread allocates nothing either, and the statistics and the report
+// carry the judge's verdict over every tick.
 TEST(TwoArmStationLoopback, ControlThreadDoesNotAllocate) {
   std::atomic<int> hook_calls{0};
   std::atomic<std::thread::id> hooked_thread{};
-  TwoArmSide robot(twoarm_test_config(true), [&](bool on) {
+  hemm::config::RobotConfig cfg = twoarm_test_config(true);
+  cfg.mutable_twoarm()->set_task("bar");
+  TwoArmSide robot(cfg, [&](bool on) {
     ++hook_calls;
     hooked_thread = std::this_thread::get_id();
     hemm::test::count_allocations_on_this_thread(on);
@@ -769,6 +774,22 @@ TEST(TwoArmStationLoopback, ControlThreadDoesNotAllocate) {
   EXPECT_NE(hooked_thread.load(), std::this_thread::get_id());
   EXPECT_EQ(n, 0u);
   EXPECT_EQ(frees, 0u);
+  // The judge saw every tick; the bar was never taken: no success, and why.
+  ASSERT_TRUE(st.task_judged);
+  EXPECT_EQ(st.task, ht::Task::kBar);
+  EXPECT_EQ(static_cast<uint64_t>(st.task_ticks), st.sim_steps);
+  EXPECT_FALSE(st.task_verdict.success);
+  EXPECT_FALSE(st.task_verdict.dropped);
+  EXPECT_NE(st.task_verdict.why.find("end condition not met (bar)"), std::string::npos) << st.task_verdict.why;
+  EXPECT_LT(st.task_lift_time_s, 0.0);
+  const hemm::report::TwoArmStation rep = ht::to_report(st);
+  ASSERT_TRUE(rep.has_task());
+  EXPECT_EQ(rep.task().task(), "bar");
+  EXPECT_FALSE(rep.task().success());
+  EXPECT_EQ(rep.task().why(), st.task_verdict.why);
+  ASSERT_EQ(rep.task().wrist_peak_n_size(), 2);
+  EXPECT_EQ(rep.task().ticks(), st.task_ticks);
+  EXPECT_LT(rep.task().completion_s(), 0.0);
 }
 
 // The direct force-feedback mode over the link: a fake operator sends arm 0
@@ -965,5 +986,16 @@ TEST(TwoArmStationLoad, BadConfigOrSceneIsRefused) {
     const auto e = st.load(twoarm_test_config(), kWorkbenchScene);
     ASSERT_TRUE(e);
     EXPECT_NE(e->find("state rate"), std::string::npos) << *e;
+  }
+  {
+    // A task the judge does not know.
+    ht::TwoArmStation st(io, server, {});
+    hemm::config::RobotConfig c = twoarm_test_config();
+    c.mutable_twoarm()->set_task("ball");
+    const auto e = st.load(c, kWorkbenchScene);
+    ASSERT_TRUE(e);
+    EXPECT_NE(e->find("twoarm.task 'ball'"), std::string::npos) << *e;
+    std::string why;
+    EXPECT_FALSE(st.start(&why));
   }
 }

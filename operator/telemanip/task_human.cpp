@@ -1,0 +1,189 @@
+#include "operator/telemanip/task_human.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <stdexcept>
+
+#include "common/config/config.h"
+#include "common/net/stream_link.h"
+#include "config_operator.pb.h"
+#include "operator/device/bimanual/handles.h"
+#include "operator/device/bimanual/simulation.h"
+#include "operator/telemanip/telemanip_link.h"
+#include "report.pb.h"
+
+namespace hemm::op::telemanip {
+
+double lever_for_gripper(const ArmMappingParams& p, const twoarm::GripperTarget& g) noexcept {
+  const double span = p.opening_open_m - p.opening_closed_m;
+  if (!(std::abs(span) > 1e-9) || !std::isfinite(g.opening_m)) return 0.0;
+  return std::clamp((p.opening_open_m - g.opening_m) / span, 0.0, 1.0);
+}
+
+TaskHumanBrain::TaskHumanBrain(twoarm_tasks::TaskScript script, const std::array<ArmMappingParams, 2>& mapping)
+    : script_(std::move(script)), mapping_(mapping) {
+  for (const ArmMappingParams& m : mapping_)
+    if (std::string e = validate(m); !e.empty()) throw std::invalid_argument("task human: mapping: " + e);
+  if (script_.steps.empty()) throw std::invalid_argument("task human: the plan has no steps");
+  progress_.task = script_.task;
+  progress_.steps = script_.steps.size();
+  progress_.last_step = script_.steps.front().name;
+}
+
+TaskHumanBrain::~TaskHumanBrain() { stop(); }
+
+void TaskHumanBrain::tick(double t_s) {
+  const wire::ArmsState* b = believed_.take();
+  if (b == nullptr) b = believed_.latest();
+  const twoarm_tasks::ScriptOutput out = twoarm_tasks::script_step(script_, st_, b, t_s);
+  ++ticks_;
+  if (out.send) {
+    for (std::size_t k = 0; k < 2; ++k) {
+      TaskHandWish& w = wishes_[k].back();
+      w.active = true;
+      w.T_A_G = out.targets.T_A_G[k];
+      w.lever = lever_for_gripper(mapping_[k], out.targets.gripper[k]);
+      w.deadman = out.deadman;
+      wishes_[k].publish();
+    }
+  }
+  if (st_.done) done_.store(true, std::memory_order_release);
+  std::lock_guard<std::mutex> lk(mu_);
+  progress_.started = st_.started;
+  progress_.done = st_.done;
+  progress_.done_s = st_.done ? st_.done_t - st_.start_t : -1.0;
+  progress_.steps_done = st_.step;
+  progress_.last_step = st_.step < script_.steps.size() ? script_.steps[st_.step].name : "done";
+  progress_.searches = st_.searches;
+  progress_.error = st_.error;
+  progress_.ticks = ticks_;
+}
+
+void TaskHumanBrain::start(double rate_hz) {
+  if (thread_.joinable()) return;
+  if (!(rate_hz >= 1.0 && rate_hz <= 1000.0)) throw std::invalid_argument("task human: rate must be in [1, 1000] Hz");
+  stop_.store(false);
+  thread_ = std::thread([this, rate_hz] {
+    using clock = std::chrono::steady_clock;
+    const auto period = std::chrono::duration_cast<clock::duration>(std::chrono::duration<double>(1.0 / rate_hz));
+    const auto t0 = clock::now();
+    auto next = t0;
+    while (!stop_.load(std::memory_order_acquire)) {
+      tick(std::chrono::duration<double>(clock::now() - t0).count());
+      next += period;
+      const auto now = clock::now();
+      if (next < now) next = now;  // behind: no burst
+      std::this_thread::sleep_until(next);
+    }
+  });
+}
+
+void TaskHumanBrain::stop() {
+  stop_.store(true, std::memory_order_release);
+  if (thread_.joinable()) thread_.join();
+}
+
+TaskProgress TaskHumanBrain::progress() const {
+  std::lock_guard<std::mutex> lk(mu_);
+  return progress_;
+}
+
+TaskHumanHand::TaskHumanHand(const device::bimanual::HumanTarget& rest, const ArmMappingParams& mapping,
+                             NewestMailbox<TaskHandWish>* wishes, NewestMailbox<MappingAnchor>* anchors,
+                             double lever_travel_m, const std::atomic<std::uint32_t>* robot_safety)
+    : rest_(rest),
+      mapping_(mapping),
+      wishes_(wishes),
+      anchors_(anchors),
+      lever_travel_m_(lever_travel_m),
+      robot_safety_(robot_safety) {
+  if (std::string e = validate(mapping); !e.empty()) throw std::invalid_argument("task human: mapping: " + e);
+  if (wishes_ == nullptr || anchors_ == nullptr) throw std::invalid_argument("task human: no mailbox");
+  if (!(std::isfinite(lever_travel_m) && lever_travel_m >= 0.0))
+    throw std::invalid_argument("task human: lever travel must be >= 0");
+}
+
+device::bimanual::HumanTarget TaskHumanHand::at(double t_s) const noexcept {
+  if (const MappingAnchor* a = anchors_->take()) anchor_ = *a;
+  if (const TaskHandWish* w = wishes_->take()) wish_ = *w;
+  device::bimanual::HumanTarget g = rest_;
+  const bool habit =
+      robot_safety_ == nullptr || deadman_.step(robot_safety_->load(std::memory_order_relaxed), t_s);
+  g.deadman = habit && wish_.active && wish_.deadman;
+  if (lever_travel_m_ > 0.0) {
+    g.finger_position = wish_.lever * lever_travel_m_;
+  } else {
+    g.joystick = Eigen::Vector2d(0.0, wish_.lever);
+  }
+  if (!wish_.active || !anchor_.engaged) return g;
+  // Where the hand must be for the mapping to ask the plan's G (from the anchor).
+  const Eigen::Isometry3d hand_D = hand_pose_D(mapping_, anchor_.state, wish_.T_A_G);
+  g.position_D = hand_D.translation();
+  g.orientation_D = Eigen::Quaterniond(hand_D.linear());
+  return g;
+}
+
+std::string check_task_config(const config::TelemanipConfig& c, const std::string& config_path,
+                              std::string* scene_path) {
+  scene_path->clear();
+  const std::string& t = c.task();
+  if (t.empty()) {
+    if (!c.task_scene().empty()) return "telemanip.task_scene (--task-scene) needs telemanip.task (--task)";
+    return {};
+  }
+  if (t != "box" && t != "peg" && t != "bar") return "telemanip.task (--task) '" + t + "': must be box, peg or bar";
+  if (c.task_scene().empty())
+    return "telemanip.task (--task) " + t + " needs telemanip.task_scene (--task-scene): the scene whose task: lines "
+           "give the objects (deploy/scenes/workbench.xml; workbench_box.xml for the box)";
+  if (!(std::isfinite(c.task_settle_s()) && c.task_settle_s() >= 0.0 && c.task_settle_s() <= 60.0))
+    return "telemanip.task_settle_s: must be within [0, 60] s";
+  *scene_path = config::resolve_relative_to(config_path, c.task_scene());
+  return {};
+}
+
+twoarm_tasks::TaskScript task_plan(const std::string& task, const std::string& scene_path) {
+  const twoarm_tasks::TaskSceneResult r = twoarm_tasks::load_task_scene(scene_path);
+  if (!r.scene) throw std::invalid_argument("task scene: " + r.error);
+  if (task == "box") return twoarm_tasks::box_script(*r.scene);
+  if (task == "peg") return twoarm_tasks::peg_script(*r.scene);
+  if (task == "bar") return twoarm_tasks::bar_script(*r.scene);
+  throw std::invalid_argument("task '" + task + "': must be box, peg or bar");
+}
+
+std::array<std::shared_ptr<const device::bimanual::HumanScript>, 2> task_hands(
+    const device::bimanual::SimulationConfig& sim, const std::array<ArmMappingParams, 2>& mapping,
+    const std::array<NewestMailbox<MappingAnchor>*, 2>& anchors, TaskHumanBrain& brain,
+    const std::atomic<std::uint32_t>* robot_safety) {
+  const auto rest = device::bimanual::BimanualSimulation(sim).resting_targets();
+  std::array<std::shared_ptr<const device::bimanual::HumanScript>, 2> hands;
+  for (std::size_t k = 0; k < hands.size(); ++k) {
+    const double travel = device::bimanual::handle_spec(sim.plant.handles[k]).grip_travel;
+    hands[k] = std::make_shared<const TaskHumanHand>(rest[k], mapping[k], &brain.wishes(static_cast<int>(k)), anchors[k],
+                                                     travel, robot_safety);
+  }
+  return hands;
+}
+
+void attach_task_believed(net::StreamLink& streams, TelemanipLink& link, TaskHumanBrain& brain) {
+  streams.on(wire::StreamMessage::kArmsState,
+             [&link, &brain](const net::DatagramHeader& h, std::int64_t recv_ns, const wire::StreamMessage& m) {
+               const std::uint64_t before = link.stats().states_in;
+               link.on_arms_state(h.seq, recv_ns, m.arms_state());
+               if (link.stats().states_in != before) brain.believed().publish(m.arms_state());
+             });
+}
+
+void fill_task_report(const TaskProgress& p, report::TelemanipTaskProgress* out) {
+  out->set_task(p.task);
+  out->set_done(p.done);
+  out->set_done_s(p.done_s);
+  out->set_steps_done(static_cast<std::uint32_t>(p.steps_done));
+  out->set_steps(static_cast<std::uint32_t>(p.steps));
+  out->set_last_step(p.last_step);
+  out->set_searches(p.searches);
+  out->set_error(p.error);
+  out->set_brain_ticks(p.ticks);
+}
+
+}  // namespace hemm::op::telemanip

@@ -1,0 +1,164 @@
+// The SIMULATED human doing one of the two-arm station's tasks (issue 25,
+// part 6) THROUGH THE LINK: its plan is the task script
+// (operator/twoarm_tasks/task_script.h), stepped at ~100 Hz on its own
+// thread (the human's "brain": it may allocate) with the *believed*
+// ArmsState - the newest the link accepted, late by the delay - and its
+// hands carry the plan out on the bimanual device through the task's own
+// mapping: each arm's target T_A_G becomes where that hand must be in D
+// (arm_mapping.h hand_pose_D, with the indexing anchor the servo task
+// publishes), the gripper target a lever position (the mapping's lever ->
+// gripper map inverted by the opening; a joystick handle's forward axis
+// stands in for a lever), and the dead-man is MappedHumanScript's habit
+// (DeadmanHabit: it watches the robot's status) and-ed with the script's
+// own (released for its first 0.1 s). The human pulls the handle there with
+// its arm's spring (device/bimanual/human.h), so the remote arm follows the
+// hand's real motion, the rendered wrench included.
+//
+// Threads: the network thread publishes believed states into
+// believed(); the brain thread (start(), or tick() from a test) steps the
+// script and publishes each hand's wish into that hand's mailbox; each
+// TaskHumanHand::at() (the device's hardware or servo thread: one consumer
+// per mailbox) takes the newest wish and anchor, allocation-free.
+#pragma once
+
+#include <array>
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+
+#include "common/concurrency/newest_mailbox.h"
+#include "operator/device/bimanual/human.h"
+#include "operator/telemanip/arm_mapping.h"
+#include "operator/telemanip/telemanip_human.h"
+#include "operator/twoarm_tasks/task_script.h"
+#include "wire.pb.h"
+
+namespace hemm::config {
+class TelemanipConfig;
+}
+namespace hemm::report {
+class TelemanipTaskProgress;
+}
+namespace hemm::net {
+class StreamLink;
+}
+namespace hemm::device::bimanual {
+struct SimulationConfig;
+}
+
+namespace hemm::op::telemanip {
+
+// What the brain wants of one hand now.
+struct TaskHandWish {
+  bool active = false;  // the script has targets (a first believed state came)
+  Eigen::Isometry3d T_A_G = Eigen::Isometry3d::Identity();  // where that arm's G should go
+  double lever = 0.0;   // lever position as a fraction of its travel (0 open)
+  bool deadman = false; // the script's dead-man
+};
+
+// The lever fraction whose opening (grip_to_gripper) is the target's
+// opening, clamped to [0, 1] (a person closes until it holds: the force is
+// what the lever gives there).
+double lever_for_gripper(const ArmMappingParams& p, const twoarm::GripperTarget& g) noexcept;
+
+struct TaskProgress {
+  std::string task;
+  bool started = false, done = false;
+  double done_s = -1.0;  // from the script's start
+  std::size_t steps_done = 0, steps = 0;
+  std::string last_step;
+  int searches = 0;
+  std::string error;
+  std::uint64_t ticks = 0;
+};
+
+class TaskHumanBrain {
+ public:
+  // Throws std::invalid_argument on bad mapping parameters or an empty plan.
+  TaskHumanBrain(twoarm_tasks::TaskScript script, const std::array<ArmMappingParams, 2>& mapping);
+  ~TaskHumanBrain();  // stop()
+  TaskHumanBrain(const TaskHumanBrain&) = delete;
+  TaskHumanBrain& operator=(const TaskHumanBrain&) = delete;
+
+  // The network thread's side: each accepted ArmsState (the one producer).
+  NewestMailbox<wire::ArmsState>& believed() noexcept { return believed_; }
+  // Hand k's wishes (its TaskHumanHand is the one consumer).
+  NewestMailbox<TaskHandWish>& wishes(int k) noexcept { return wishes_[static_cast<std::size_t>(k)]; }
+
+  // One step of the plan at t_s (seconds, any monotonic clock): the brain
+  // thread's, or a test's (then do not start()).
+  void tick(double t_s);
+  // The brain thread: tick() every 1/rate_hz on the steady clock.
+  void start(double rate_hz = 100.0);
+  void stop();
+  bool done() const noexcept { return done_.load(std::memory_order_acquire); }
+  TaskProgress progress() const;  // any thread
+
+ private:
+  twoarm_tasks::TaskScript script_;
+  std::array<ArmMappingParams, 2> mapping_;
+  NewestMailbox<wire::ArmsState> believed_;
+  std::array<NewestMailbox<TaskHandWish>, 2> wishes_;
+  // The brain thread's.
+  twoarm_tasks::ScriptState st_;
+  std::uint64_t ticks_ = 0;
+  std::atomic<bool> done_{false}, stop_{false};
+  mutable std::mutex mu_;
+  TaskProgress progress_;  // guarded by mu_
+  std::thread thread_;
+};
+
+// One hand of the SIMULATED task human (the device's HumanScript).
+class TaskHumanHand final : public device::bimanual::HumanScript {
+ public:
+  // rest: the hand at rest (pose, grasp). lever_travel_m > 0: the handle's
+  // grip lever travel; 0: the lever is the joystick's forward axis.
+  // robot_safety: the robot's newest status (TelemanipLink::set_safety_out),
+  // or null (the script's dead-man alone). Throws std::invalid_argument on
+  // bad mapping parameters or null mailboxes.
+  TaskHumanHand(const device::bimanual::HumanTarget& rest, const ArmMappingParams& mapping,
+                NewestMailbox<TaskHandWish>* wishes, NewestMailbox<MappingAnchor>* anchors, double lever_travel_m,
+                const std::atomic<std::uint32_t>* robot_safety);
+  device::bimanual::HumanTarget at(double t_s) const noexcept override;
+
+ private:
+  device::bimanual::HumanTarget rest_;
+  ArmMappingParams mapping_;
+  NewestMailbox<TaskHandWish>* wishes_;
+  NewestMailbox<MappingAnchor>* anchors_;
+  double lever_travel_m_;
+  const std::atomic<std::uint32_t>* robot_safety_;
+  // The consumer's side (the one thread that calls at()).
+  mutable TaskHandWish wish_;
+  mutable MappingAnchor anchor_;
+  mutable DeadmanHabit deadman_;
+};
+
+// The task settings (telemanip.task, task_scene, task_settle_s): empty when
+// usable; task "" is no task. scene_path: task_scene resolved against the
+// config's directory (config_path; "" if no task).
+std::string check_task_config(const config::TelemanipConfig& c, const std::string& config_path,
+                              std::string* scene_path);
+// The plan of a task from its scene file: throws std::invalid_argument with
+// file:line: reason (task_scene.h) or an unknown task.
+twoarm_tasks::TaskScript task_plan(const std::string& task, const std::string& scene_path);
+
+class TelemanipLink;
+
+// The runner's pieces (telemanip_runner.cpp). Both hands of the task human
+// for the SIMULATED device `sim` (rest poses; a grip-force handle's lever
+// travel, else its joystick stands in for the lever), each on its arm's
+// mapping and the servo task's anchors.
+std::array<std::shared_ptr<const device::bimanual::HumanScript>, 2> task_hands(
+    const device::bimanual::SimulationConfig& sim, const std::array<ArmMappingParams, 2>& mapping,
+    const std::array<NewestMailbox<MappingAnchor>*, 2>& anchors, TaskHumanBrain& brain,
+    const std::atomic<std::uint32_t>* robot_safety);
+// Replaces the link's ArmsState handler (TelemanipLink::attach first) by one
+// that also hands each state the link accepted to the brain (network thread).
+void attach_task_believed(net::StreamLink& streams, TelemanipLink& link, TaskHumanBrain& brain);
+void fill_task_report(const TaskProgress& p, report::TelemanipTaskProgress* out);
+
+}  // namespace hemm::op::telemanip

@@ -1,0 +1,127 @@
+// The SIMULATED task human (operator/telemanip/task_human.h) on a fake
+// believed state, without a device or a link: the hand's D pose, mapped by
+// the task's own mapping from the anchor the servo task would publish, is
+// the script's target for that arm; the lever is the gripper target's
+// opening inverted through the mapping; the dead-man is the script's; and
+// the task settings are refused with a clear reason.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+
+#include "config_operator.pb.h"
+#include "operator/telemanip/task_human.h"
+#include "tests/robot_side/twoarm/believed_state.h"
+#include "tests/robot_side/twoarm/workbench_scene.h"
+
+namespace tele = hemm::op::telemanip;
+namespace hs = hemm::twoarm_tasks;
+
+namespace {
+
+tele::ArmMappingParams task_human_test_mapping() {
+  tele::ArmMappingParams m;
+  m.R_A_D = Eigen::AngleAxisd(30.0 * std::numbers::pi / 180.0, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  m.translation_scale = 1.5;
+  m.opening_open_m = 0.22;
+  m.opening_closed_m = 0.0;
+  m.force_open_n = 5.0;
+  m.force_closed_n = 30.0;
+  return m;
+}
+
+}  // namespace
+
+TEST(TaskHuman, HandPoseMapsBackToTheScriptsTargetThroughTheMapping) {
+  const tele::ArmMappingParams m = task_human_test_mapping();
+  const hs::TaskScript plan = tele::task_plan("peg", hemm::test::kWorkbenchScene);
+  tele::TaskHumanBrain brain(plan, {m, m});
+  hs::ScriptState twin;  // the same script on the same inputs: what the brain must want
+  const Eigen::Isometry3d rest_r = Eigen::Translation3d(0.73, -0.25, 1.0) * Eigen::Isometry3d::Identity();
+  const Eigen::Isometry3d rest_l =
+      Eigen::Translation3d(0.73, 0.25, 1.0) * Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitX());
+  const hemm::wire::ArmsState believed = hemm::test::believed_arms_state({rest_r, rest_l});
+
+  hemm::NewestMailbox<tele::MappingAnchor> anchors;
+  hemm::device::bimanual::HumanTarget rest;
+  rest.position_D = Eigen::Vector3d(0.35, 0.2, 0.1);
+  rest.orientation_D = Eigen::Quaterniond(Eigen::AngleAxisd(0.2, Eigen::Vector3d::UnitY()));
+  const tele::TaskHumanHand left(rest, m, &brain.wishes(1), &anchors, 0.0, nullptr);  // lever: the joystick
+
+  // Nothing believed: no wish, the hand rests released.
+  brain.tick(0.0);
+  hemm::device::bimanual::HumanTarget g = left.at(0.0);
+  EXPECT_FALSE(g.deadman);
+  EXPECT_LT((g.position_D - rest.position_D).norm(), 1e-12);
+
+  brain.believed().publish(believed);
+  brain.tick(0.05);
+  hs::ScriptOutput out = hs::script_step(plan, twin, &believed, 0.05);
+  g = left.at(0.05);
+  EXPECT_FALSE(g.deadman);  // the script releases first (the re-arm wants a neutral command)
+
+  // The servo task anchors at the press: the hand where it rests, the arm's commanded pose where G was.
+  tele::MappingAnchor anchor;
+  anchor.engaged = true;
+  anchor.state.initialized = anchor.state.engaged = true;
+  anchor.state.T_A_anchor = rest_l;
+  anchor.state.T_D_anchor = hemm::device::bimanual::pose_D(rest);
+  anchors.publish(anchor);
+  // Two seconds of the first step (the left arm over the peg, at the script's speed).
+  for (double t = 0.06; t < 2.0; t += 0.01) {
+    brain.tick(t);
+    out = hs::script_step(plan, twin, &believed, t);
+  }
+  g = left.at(2.0);
+  EXPECT_TRUE(g.deadman);
+  const Eigen::Isometry3d want = out.targets.T_A_G[1];
+  EXPECT_GT((want.translation() - rest_l.translation()).norm(), 0.05);  // the target has moved on
+  const Eigen::Isometry3d asked = tele::mapped_pose_A(m, anchor.state, hemm::device::bimanual::pose_D(g));
+  EXPECT_LT((asked.translation() - want.translation()).norm(), 1e-9);
+  EXPECT_LT(Eigen::AngleAxisd(asked.linear().transpose() * want.linear()).angle(), 1e-6);
+  // The lever (the joystick's forward axis) gives the target's opening through the mapping.
+  double opening = 0.0, force = 0.0;
+  tele::grip_to_gripper(m, g.joystick.y() * m.grip_travel_m, &opening, &force);
+  EXPECT_NEAR(opening, out.targets.gripper[1].opening_m, 1e-9);
+  EXPECT_GT(g.joystick.y(), 0.0);
+  EXPECT_LT(g.joystick.y(), 1.0);
+  // The right hand's arm was not told to move: its wish is where its G is.
+  const tele::TaskHandWish* right = brain.wishes(0).take();
+  ASSERT_NE(right, nullptr);
+  EXPECT_LT((right->T_A_G.translation() - rest_r.translation()).norm(), 1e-12);
+  const tele::TaskProgress p = brain.progress();
+  EXPECT_TRUE(p.started);
+  EXPECT_FALSE(p.done);
+  EXPECT_EQ(p.steps_done, 0u);
+  EXPECT_EQ(p.steps, plan.steps.size());
+}
+
+TEST(TaskHuman, LeverInvertsTheMappingsOpening) {
+  const tele::ArmMappingParams m = task_human_test_mapping();
+  EXPECT_DOUBLE_EQ(tele::lever_for_gripper(m, {0.22, 5.0}), 0.0);
+  EXPECT_DOUBLE_EQ(tele::lever_for_gripper(m, {0.0, 30.0}), 1.0);
+  EXPECT_NEAR(tele::lever_for_gripper(m, {0.055, 30.0}), 0.75, 1e-12);
+  EXPECT_DOUBLE_EQ(tele::lever_for_gripper(m, {0.5, 30.0}), 0.0);  // wider than the lever opens: open
+  EXPECT_DOUBLE_EQ(tele::lever_for_gripper(m, {std::nan(""), 30.0}), 0.0);
+}
+
+TEST(TaskHuman, TaskSettingsAreRefusedWithAReason) {
+  hemm::config::TelemanipConfig c;
+  std::string scene = "unchanged";
+  EXPECT_EQ(tele::check_task_config(c, "/cfg/op.pbtxt", &scene), "");  // no task
+  EXPECT_EQ(scene, "");
+  c.set_task("ball");
+  EXPECT_NE(tele::check_task_config(c, "/cfg/op.pbtxt", &scene).find("must be box, peg or bar"), std::string::npos);
+  c.set_task("peg");
+  EXPECT_NE(tele::check_task_config(c, "/cfg/op.pbtxt", &scene).find("needs telemanip.task_scene"), std::string::npos);
+  c.set_task_scene("../scenes/workbench.xml");
+  c.set_task_settle_s(-1.0);
+  EXPECT_NE(tele::check_task_config(c, "/cfg/op.pbtxt", &scene).find("task_settle_s"), std::string::npos);
+  c.set_task_settle_s(1.0);
+  EXPECT_EQ(tele::check_task_config(c, "/cfg/op.pbtxt", &scene), "");
+  EXPECT_EQ(scene, "/scenes/workbench.xml");
+  c.clear_task();
+  EXPECT_NE(tele::check_task_config(c, "/cfg/op.pbtxt", &scene).find("needs telemanip.task"), std::string::npos);
+  EXPECT_THROW(tele::task_plan("peg", "/nonexistent/workbench.xml"), std::invalid_argument);
+  EXPECT_THROW(tele::task_plan("ball", hemm::test::kWorkbenchScene), std::invalid_argument);
+}
