@@ -49,6 +49,11 @@ void telemanip_mode_report(const config::OperatorConfig& cfg, const tele::Telema
   const double loss = seen > 0 ? static_cast<double>(st.rx.lost) / seen : 0.0;
   tele::set_suggested_mode(r, task.params().mode, rtt_s, loss, haptics::tdpa::thresholds_from(cfg.passivity()));
   std::cout << tele::direct_summary(*r);
+  if (task.params().mode == tele::FeedbackMode::kDirect)
+    for (int k = 0; k < tele::kTeleArms; ++k)
+      std::cout << "telemanip: direct hand " << k << ": the hand's G went up to "
+                << task.direct_hand(k).stats.max_commanded_travel_m << " m from its start, the remote G up to "
+                << task.direct_hand(k).stats.max_remote_travel_m << " m\n";
 }
 
 }  // namespace

@@ -73,6 +73,12 @@ struct DirectHandStats {
   double shown_sum_n = 0.0;           // |shown force|, over contact ticks
   double wrist_sum_n = 0.0;           // |wrist force|, over contact ticks
   double peak_shown_n = 0.0;          // |shown force| (A), over all ticks
+  // How far the mapping's commanded G and the remote's reported G went from
+  // where the direct mode started (TelemanipTask fills these: did the arm
+  // move as the hand did).
+  bool started = false;
+  Eigen::Vector3d commanded_start_A = Eigen::Vector3d::Zero(), remote_start_A = Eigen::Vector3d::Zero();
+  double max_commanded_travel_m = 0.0, max_remote_travel_m = 0.0;
 };
 
 struct DirectHandState {

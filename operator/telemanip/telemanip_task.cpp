@@ -1,5 +1,6 @@
 #include "operator/telemanip/telemanip_task.h"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -199,6 +200,17 @@ void TelemanipTask::tick(const device::DeviceSample& in, const servo::ModelSnaps
                        &out.command.ee[ki]);
       a.twist_A = d.sent_A;
       a.side = d.side;
+      if (remote != nullptr && remote->valid) {
+        DirectHandStats& st = d.stats;
+        const Eigen::Vector3d pc = c.T_A_G.translation(), pr = remote->arm[ki].p_A;
+        if (!st.started) {
+          st.started = true;
+          st.commanded_start_A = pc;
+          st.remote_start_A = pr;
+        }
+        st.max_commanded_travel_m = std::max(st.max_commanded_travel_m, (pc - st.commanded_start_A).norm());
+        st.max_remote_travel_m = std::max(st.max_remote_travel_m, (pr - st.remote_start_A).norm());
+      }
     }
     if (p_.render && ms.initialized) {
       // The shell at the opening the remote gripper has (measured), else the commanded one.
