@@ -17,10 +17,12 @@
 #include <csignal>
 #include <functional>
 #include <iostream>
+#include <limits>
 #include <memory>
 
 #include "common/clock/steady_clock.h"
 #include "common/config/config.h"
+#include "common/haptics/passivity/tdpa_wire.h"
 #include "common/net/link_stats.h"
 #include "operator/bimanual/bimanual_config.h"
 #include "operator/client/operator_client.h"
@@ -39,6 +41,27 @@ namespace hemm::op::runner {
 namespace hb = hemm::device::bimanual;
 namespace tele = hemm::op::telemanip;
 
+namespace {
+
+// The feedback mode's part of the report (issue 25 part 5): the mode the
+// link's measured round trip and loss suggest, and the direct hands' lines.
+void telemanip_mode_report(const config::OperatorConfig& cfg, const tele::TelemanipTask& task,
+                           const net::LinkStatistics& st, report::Telemanip* r) {
+  const double rtt_s = st.clock.valid ? 1e-9 * static_cast<double>(st.clock.rtt_median_ns)
+                                      : std::numeric_limits<double>::quiet_NaN();
+  const double seen = static_cast<double>(st.rx.delivered + st.rx.lost);
+  const double loss = seen > 0 ? static_cast<double>(st.rx.lost) / seen : 0.0;
+  tele::set_suggested_mode(r, task.params().mode, rtt_s, loss, haptics::tdpa::thresholds_from(cfg.passivity()));
+  std::cout << tele::direct_summary(*r);
+  if (task.params().mode == tele::FeedbackMode::kDirect)
+    for (int k = 0; k < tele::kTeleArms; ++k)
+      std::cout << "telemanip: direct hand " << k << ": the hand's G went up to "
+                << task.direct_hand(k).stats.max_commanded_travel_m << " m from its start, the remote G up to "
+                << task.direct_hand(k).stats.max_remote_travel_m << " m\n";
+}
+
+}  // namespace
+
 int run_telemanip(const config::OperatorConfig& cfg, const OperatorArgs& a) {
   if (cfg.device().type() != "sim-bimanual") {
     std::cerr << "hemm-operator: bad config: telemanip needs device.type \"sim-bimanual\"\n";
@@ -54,7 +77,8 @@ int run_telemanip(const config::OperatorConfig& cfg, const OperatorArgs& a) {
   setup.sim.plant.control_period_s = period_s;
   tele::TelemanipTaskParams tp;
   tele::TelemanipLinkParams lp;
-  if (std::string e = tele::telemanip_params(cfg.telemanip(), period_s, hb::bimanual_limits(setup.sim), &tp, &lp);
+  if (std::string e = tele::telemanip_params(cfg.telemanip(), period_s, hb::bimanual_limits(setup.sim), &tp, &lp,
+                                             &cfg.passivity());
       !e.empty()) {
     std::cerr << "hemm-operator: bad config: " << e << "\n";
     return net::kExitUsage;
@@ -213,6 +237,7 @@ int run_telemanip(const config::OperatorConfig& cfg, const OperatorArgs& a) {
               << " after " << p.done_s << " s, step " << p.steps_done << " of " << p.steps << " (" << p.last_step
               << "), searches " << p.searches << (p.error.empty() ? "" : ", error: " + p.error) << "\n";
   }
+  telemanip_mode_report(cfg, *task, client.statistics(), &r);
   std::cout << "telemanip: commands " << r.commands_sent() << " (dead-man pressed " << r.deadman_pressed()
             << "), states " << r.states_in() << " (rejected " << r.states_rejected() << "), refusals "
             << r.refusals().refused() << " (last " << r.refusals().last_reason() << ")\n";

@@ -1,12 +1,27 @@
 #include "operator/telemanip/telemanip_config.h"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
+#include "common/haptics/passivity/tdpa_wire.h"
+
 namespace hemm::op::telemanip {
 
+bool parse_feedback_mode(const std::string& s, FeedbackMode* out) {
+  if (s == "model") {
+    *out = FeedbackMode::kModel;
+  } else if (s == "direct") {
+    *out = FeedbackMode::kDirect;
+  } else {
+    return false;
+  }
+  return true;
+}
+
 std::string telemanip_params(const config::TelemanipConfig& c, double period_s, const device::DeviceLimits& limits,
-                             TelemanipTaskParams* task, TelemanipLinkParams* link) {
+                             TelemanipTaskParams* task, TelemanipLinkParams* link,
+                             const config::OperatorPassivityConfig* passivity) {
   if (!(std::isfinite(c.yaw_a_d_deg()) && std::abs(c.yaw_a_d_deg()) <= 360.0))
     return "telemanip.yaw_a_d_deg: must be finite, within +-360";
   if (!(c.translation_scale() > 0.0 && c.translation_scale() <= 10.0))
@@ -39,13 +54,33 @@ std::string telemanip_params(const config::TelemanipConfig& c, double period_s, 
     if (std::string e = validate(m); !e.empty()) return std::string("telemanip.") + names[k] + ": " + e;
     t.limits[static_cast<std::size_t>(k)] = limits.ee[static_cast<std::size_t>(k)];
   }
-  t.render = c.render();
+  if (!parse_feedback_mode(c.mode(), &t.mode)) return "telemanip.mode: \"model\" or \"direct\"";
+  if (!(std::isfinite(c.direct_fade_s()) && c.direct_fade_s() > 0.0 && c.direct_fade_s() <= 2.0))
+    return "telemanip.direct_fade_s: must be in (0, 2]";
+  const config::OperatorPassivityConfig pc_default;
+  const tdpa::PcMode pc = tdpa::pc_mode_from(passivity != nullptr ? *passivity : pc_default);
+  for (int k = 0; k < kTeleArms; ++k) {
+    DirectHandParams& d = t.direct[static_cast<std::size_t>(k)];
+    const ArmMappingParams& m = t.mapping[static_cast<std::size_t>(k)];
+    d.R_A_D = m.R_A_D;
+    d.translation_scale = m.translation_scale;
+    d.max_speed_mps = c.max_speed_mps();
+    d.max_rate_radps = c.max_rate_radps();
+    d.fade_s = c.direct_fade_s();
+    d.peak_force_n = std::max(0.0, limits.ee[static_cast<std::size_t>(k)].peak_force);
+    d.renders_torque = limits.ee[static_cast<std::size_t>(k)].renders_torque;
+    d.peak_torque_nm = std::max(0.0, limits.ee[static_cast<std::size_t>(k)].peak_torque);
+    d.pc_mode = pc;
+  }
+  // The direct mode feels the robot's wrench, not the model: no VPS, no live voxmap.
+  t.render = t.mode == FeedbackMode::kModel && c.render();
   t.contact_stiffness = c.contact_stiffness();
   t.tick_budget_ns = c.tick_budget_ns();
   t.period_s = period_s;
   if (std::string e = validate(t); !e.empty()) return "telemanip: " + e;
   TelemanipLinkParams l;
   l.rate_hz = c.command_rate_hz();
+  l.pc_mode = pc;
   if (!(l.rate_hz >= 100.0 && l.rate_hz <= 1000.0)) return "telemanip.command_rate_hz: must be in [100, 1000]";
   if (c.human_script() != "demo" && c.human_script() != "idle") return "telemanip.human_script: demo or idle";
   *task = t;

@@ -13,7 +13,12 @@ namespace hemm::op::telemanip {
 
 // Fills *task and *link from `c` for a servo period and the device's limits;
 // "telemanip.FIELD: why" (and nothing changed) when a field is out of range.
+// `passivity` (OperatorConfig.passivity, checked by validate_operator_config;
+// null: its defaults) gives the direct mode's controller.
 std::string telemanip_params(const config::TelemanipConfig& c, double period_s, const device::DeviceLimits& limits,
-                             TelemanipTaskParams* task, TelemanipLinkParams* link);
+                             TelemanipTaskParams* task, TelemanipLinkParams* link,
+                             const config::OperatorPassivityConfig* passivity = nullptr);
+// "model" or "direct"; false for anything else.
+bool parse_feedback_mode(const std::string& s, FeedbackMode* out);
 
 }  // namespace hemm::op::telemanip

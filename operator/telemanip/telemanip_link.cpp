@@ -2,8 +2,10 @@
 
 #include <spdlog/spdlog.h>
 
+#include <cmath>
 #include <stdexcept>
 
+#include "common/haptics/passivity/tdpa_wire.h"
 #include "common/mapping/depth_stream.h"
 #include "common/net/stream_link.h"
 #include "robot_side/twoarm/arms_wire.h"
@@ -13,6 +15,11 @@ namespace hemm::op::telemanip {
 namespace {
 
 Eigen::Vector3d telelink_vec(const proto::Vec3& v) { return {v.x(), v.y(), v.z()}; }
+void telelink_vec_out(const Eigen::Vector3d& v, proto::Vec3* out) {
+  out->set_x(v.x());
+  out->set_y(v.y());
+  out->set_z(v.z());
+}
 
 // Both arms and both grippers, each index once (the robot's side says 0
 // right, 1 left; a state naming others is not the two-arm robot's).
@@ -43,6 +50,7 @@ const char* short_name(wire::ArmsRefusalReason r) {
     case wire::ARMS_REFUSAL_BAD_POSE: return "bad_pose";
     case wire::ARMS_REFUSAL_OUT_OF_REACH: return "out_of_reach";
     case wire::ARMS_REFUSAL_GRIPPER_RANGE: return "gripper_range";
+    case wire::ARMS_REFUSAL_PASSIVITY: return "passivity";
     default: break;
   }
   return "?";
@@ -81,7 +89,8 @@ std::optional<ArmsRefusalEvent> observe_arms_refusals(ArmsRefusalMonitor& m, con
   return e;
 }
 
-void setpoint_to_command(const TelemanipSetpoint& sp, bool deadman, std::int64_t stamp_ns, wire::ArmsCommand* out) {
+void setpoint_to_command(const TelemanipSetpoint& sp, bool deadman, std::int64_t stamp_ns, wire::ArmsCommand* out,
+                         tdpa::PcMode pc_mode) {
   out->Clear();
   out->set_stamp_ns(stamp_ns);
   out->set_mode(wire::MODE_MANIPULATION);
@@ -89,19 +98,65 @@ void setpoint_to_command(const TelemanipSetpoint& sp, bool deadman, std::int64_t
   for (std::uint32_t i = 0; i < kTeleArms; ++i) {
     const ArmSetpoint& a = sp.arm[i];
     if (!a.active) continue;
-    wire::ArmTarget* t = out->add_arm();
-    t->set_index(i);
-    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-    T.linear() = a.q_A.normalized().toRotationMatrix();
-    T.translation() = a.p_A;
-    mapping::pose3_to_wire(T, t->mutable_t_a_g());
+    if (a.direct) {
+      // Released (or a stale setpoint): zero, the robot holds where it is.
+      const tdpa::ArmTwist tw = deadman ? a.twist_A : tdpa::ArmTwist{};
+      wire::DirectTwist* t = out->add_twist();
+      t->set_index(i);
+      telelink_vec_out(tw.v, t->mutable_v_a());
+      telelink_vec_out(tw.omega, t->mutable_omega_a());
+      tdpa::fill(out->add_passivity(), i, a.side, pc_mode);
+    }
     if (a.has_gripper) {
       wire::GripperTarget* g = out->add_gripper();
       g->set_index(i);
       g->set_opening_m(a.opening_m);
       g->set_force_n(a.force_n);
     }
+    if (a.direct) continue;
+    wire::ArmTarget* t = out->add_arm();
+    t->set_index(i);
+    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
+    T.linear() = a.q_A.normalized().toRotationMatrix();
+    T.translation() = a.p_A;
+    mapping::pose3_to_wire(T, t->mutable_t_a_g());
   }
+}
+
+void direct_from_wire(const wire::ArmsState& s, std::uint64_t seq, RemoteArmsState* out, std::uint64_t* bad_ports,
+                      std::uint64_t* bad_wrenches, std::string* error) {
+  for (RemoteArm& a : out->arm) a.direct = DirectPeer{};
+  for (const wire::PassivityPort& p : s.passivity()) {
+    tdpa::Vec6 e;
+    std::string why;
+    if (p.index() >= kTeleArms || out->arm[p.index()].direct.has_port) {
+      why = "passivity port of arm " + std::to_string(p.index()) + " unknown or named twice";
+    } else if (tdpa::read_energy_in(p, &e, &why)) {
+      DirectPeer& d = out->arm[p.index()].direct;
+      d.has_port = true;
+      d.seq = seq;
+      d.energy_in_J = e;
+      continue;
+    }
+    ++*bad_ports;
+    if (error != nullptr) *error = why;
+  }
+  for (const wire::DirectWrench& w : s.direct_wrench()) {
+    bool ok = w.index() < kTeleArms && !out->arm[w.index()].direct.has_wrench && w.wrench_a_size() == 6;
+    tdpa::Vec6 v = tdpa::Vec6::Zero();
+    for (int j = 0; ok && j < 6; ++j) {
+      v[j] = w.wrench_a(j);
+      ok = std::isfinite(v[j]);
+    }
+    if (!ok) {
+      ++*bad_wrenches;
+      if (error != nullptr) *error = "direct wrench of arm " + std::to_string(w.index()) + ": not 6 finite values, unknown or twice";
+      continue;
+    }
+    out->arm[w.index()].direct.has_wrench = true;
+    out->arm[w.index()].direct.wrench_A = v;
+  }
+  for (RemoteArm& a : out->arm) a.direct.wrist_force_A = a.force_A;
 }
 
 void state_from_wire(const wire::ArmsState& s, std::uint64_t seq, std::int64_t recv_ns, RemoteArmsState* out) {
@@ -109,6 +164,7 @@ void state_from_wire(const wire::ArmsState& s, std::uint64_t seq, std::int64_t r
   out->stamp_ns = s.stamp_ns();
   out->recv_ns = recv_ns;
   out->seq = seq;
+  out->frame_epoch = s.frame_epoch();
   out->safety = s.safety();
   out->last_command_seq = s.last_command_seq();
   for (const wire::ArmState& a : s.arm()) {
@@ -198,9 +254,10 @@ void TelemanipLink::send_once() {
   const bool stale = now - latest_.t_ns > p_.stale_after_ns;
   if (pressed && stale) ++stats_.stale;
   const bool deadman = pressed && !stale;
-  setpoint_to_command(latest_, deadman, now, msg_.mutable_arms_command());
+  setpoint_to_command(latest_, deadman, now, msg_.mutable_arms_command(), p_.pc_mode);
   if (send_(msg_)) {
     ++stats_.commands_sent;
+    if (msg_.arms_command().twist_size() > 0) ++stats_.direct_commands;
     if (deadman) ++stats_.deadman_pressed;
   } else {
     ++stats_.send_failures;
@@ -237,6 +294,13 @@ void TelemanipLink::on_arms_state(std::uint64_t seq, std::int64_t recv_ns, const
   }
   stats_.refusals = refusals_.summary;
   state_from_wire(s, seq, recv_ns, &remote_.back());
+  const std::uint64_t bad_before = stats_.ports_rejected + stats_.wrenches_rejected;
+  err.clear();
+  direct_from_wire(s, seq, &remote_.back(), &stats_.ports_rejected, &stats_.wrenches_rejected, &err);
+  if (const std::uint64_t dropped = stats_.ports_rejected + stats_.wrenches_rejected; dropped > bad_before &&
+      (bad_before == 0 || dropped / 1000 != bad_before / 1000))
+    spdlog::warn("event=arms_state_passivity_dropped ports={} wrenches={} reason=\"{}\"", stats_.ports_rejected,
+                 stats_.wrenches_rejected, err);
   remote_.publish();
   if (safety_out_ != nullptr) safety_out_->store(s.safety(), std::memory_order_relaxed);
 }

@@ -31,6 +31,7 @@
 #include <string>
 
 #include "common/concurrency/newest_mailbox.h"
+#include "operator/telemanip/direct_hand.h"
 #include "wire.pb.h"
 
 namespace hemm::net {
@@ -50,6 +51,11 @@ struct ArmSetpoint {
   bool has_gripper = false;
   double opening_m = 0.0;
   double force_n = 0.0;
+  // The direct mode (direct_hand.h): the hand's twist in A is sent in place
+  // of the pose, with this end's passivity port (a copy of the servo's).
+  bool direct = false;
+  tdpa::ArmTwist twist_A;
+  tdpa::ArmSide side;
 };
 struct TelemanipSetpoint {
   std::int64_t t_ns = 0;  // the servo tick's time (steady clock)
@@ -65,6 +71,7 @@ struct RemoteArm {
   Eigen::Vector3d force_A = Eigen::Vector3d::Zero();  // the environment's on the gripper, at G
   Eigen::Vector3d torque_A = Eigen::Vector3d::Zero();
   bool force_limited = false;
+  DirectPeer direct;  // the direct mode's port and wrench (has_port / has_wrench: the state carried them)
 };
 struct RemoteGripper {
   double opening_m = 0.0;
@@ -76,6 +83,7 @@ struct RemoteArmsState {
   std::int64_t stamp_ns = 0;  // robot clock
   std::int64_t recv_ns = 0;   // operator clock at arrival
   std::uint64_t seq = 0;      // datagram sequence
+  std::uint64_t frame_epoch = 0;
   std::uint32_t safety = 0;
   std::uint64_t last_command_seq = 0;
   std::array<RemoteArm, kTeleArms> arm{};
@@ -86,7 +94,7 @@ struct RemoteArmsState {
 struct ArmsRefusalSummary {
   std::uint64_t refused = 0;  // sum of the count's increases
   std::uint64_t events = 0;   // states that showed an increase
-  std::array<std::uint64_t, 7> by_reason{};  // events by ArmsRefusalReason (0..6)
+  std::array<std::uint64_t, 8> by_reason{};  // events by ArmsRefusalReason (0..7)
   wire::ArmsRefusalReason last_reason = wire::ARMS_REFUSAL_UNSPECIFIED;
   std::uint64_t last_seq = 0;
   std::uint32_t last_index = 0;
@@ -105,7 +113,7 @@ struct ArmsRefusalEvent {
   std::uint64_t total = 0;
 };
 // "nonfinite", "unknown_arm", "unknown_gripper", "bad_pose", "out_of_reach",
-// "gripper_range" ("none" for unspecified, "?" otherwise).
+// "gripper_range", "passivity" ("none" for unspecified, "?" otherwise).
 const char* short_name(wire::ArmsRefusalReason r);
 // Pure: one state's refusal fields. A count above the one seen in the same
 // frame epoch (a new epoch starts from 0) is a new refusal, returned; a lower
@@ -115,14 +123,26 @@ std::optional<ArmsRefusalEvent> observe_arms_refusals(ArmsRefusalMonitor& m, con
                                                       std::string* error);
 
 // The command for a setpoint (pure). Arms not active are not named (the
-// robot keeps their targets); mode MANIPULATION.
-void setpoint_to_command(const TelemanipSetpoint& sp, bool deadman, std::int64_t stamp_ns, wire::ArmsCommand* out);
-// A checked state as the servo reads it (pure; expects check_arms_state ok).
+// robot keeps their targets); mode MANIPULATION. An arm in the direct mode is
+// named with its twist (zero unless `deadman`) and its port, never a pose
+// (a pose would end the robot's direct mode and pull the arm to the mapping's
+// pose); pc_mode is this end's, for the port's pc_on.
+void setpoint_to_command(const TelemanipSetpoint& sp, bool deadman, std::int64_t stamp_ns, wire::ArmsCommand* out,
+                         tdpa::PcMode pc_mode = tdpa::PcMode::kControl);
+// The direct mode's fields of a state, per arm: a port (read_energy_in) or a
+// DirectWrench (6 finite values) that is bad or of an unknown arm is dropped
+// and counted in *bad_ports / *bad_wrenches, `error` (may be null) saying the
+// last why; the rest fill out->arm[i].direct. Pure.
+void direct_from_wire(const wire::ArmsState& s, std::uint64_t seq, RemoteArmsState* out, std::uint64_t* bad_ports,
+                      std::uint64_t* bad_wrenches, std::string* error);
+// A checked state as the servo reads it (pure; expects check_arms_state ok;
+// direct_from_wire then fills the direct fields, after it: it takes force_A).
 void state_from_wire(const wire::ArmsState& s, std::uint64_t seq, std::int64_t recv_ns, RemoteArmsState* out);
 
 struct TelemanipLinkParams {
   double rate_hz = 200.0;                     // [100, 1000]
   std::int64_t stale_after_ns = 100'000'000;  // an older setpoint: dead-man released
+  tdpa::PcMode pc_mode = tdpa::PcMode::kControl;  // the operator end's (the ports' pc_on)
 };
 
 struct TelemanipLinkStats {
@@ -135,6 +155,9 @@ struct TelemanipLinkStats {
   std::uint64_t states_in = 0;        // accepted ArmsStates
   std::uint64_t states_rejected = 0;  // malformed
   std::uint64_t states_reordered = 0; // older than one accepted
+  std::uint64_t ports_rejected = 0;   // direct mode: bad PassivityPorts dropped
+  std::uint64_t wrenches_rejected = 0;  // direct mode: bad DirectWrenches dropped
+  std::uint64_t direct_commands = 0;  // commands that named a twist
   ArmsRefusalSummary refusals;
 };
 

@@ -43,6 +43,11 @@ HandReading teletask_hand(const device::DeviceSample& in, int k, const ArmMappin
 std::string validate(const TelemanipTaskParams& p) {
   for (const ArmMappingParams& m : p.mapping)
     if (std::string e = validate(m); !e.empty()) return "mapping: " + e;
+  if (p.mode == FeedbackMode::kDirect) {
+    if (p.render) return "the direct mode renders no model (render must be off)";
+    for (const DirectHandParams& d : p.direct)
+      if (std::string e = validate(d); !e.empty()) return "direct: " + e;
+  }
   if (std::string e = validate(p.gripper); !e.empty()) return e;
   if (!(std::isfinite(p.contact_stiffness) && p.contact_stiffness > 0 && p.contact_stiffness <= 1e10))
     return "contact stiffness must be in (0, 1e10] N/m^3";
@@ -159,8 +164,8 @@ void TelemanipTask::render_hand(int k, const vps::Voxmap* vm, std::uint64_t buil
 void TelemanipTask::tick(const device::DeviceSample& in, const servo::ModelSnapshot& model,
                          servo::TickOutput& out) noexcept {
   ++ticks_;
-  const RemoteArmsState* remote = remote_.take();
-  if (remote == nullptr) remote = remote_.latest();
+  const RemoteArmsState* fresh = remote_.take();  // new this tick (null: none)
+  const RemoteArmsState* remote = fresh != nullptr ? fresh : remote_.latest();
   const vps::Voxmap* vm = override_vm_;
   std::uint64_t build = override_build_;
   if (vm == nullptr && p_.render && model.version != 0) {
@@ -173,6 +178,17 @@ void TelemanipTask::tick(const device::DeviceSample& in, const servo::ModelSnaps
   sp.t_ns = in.t_ns;
   sp.tick = ticks_;
   std::int64_t work = 0;
+  const bool direct = p_.mode == FeedbackMode::kDirect;
+  // A robot that restarted (another frame epoch) counts its energies from
+  // zero again: so do both ends (docs/telemanipulation_passivity.md).
+  if (direct && remote != nullptr && remote->valid && (!direct_epoch_seen_ || remote->frame_epoch != direct_epoch_)) {
+    if (direct_epoch_seen_) {
+      for (DirectHandState& d : direct_) tdpa::reset<6>(d.side);
+      ++direct_resets_;
+    }
+    direct_epoch_seen_ = true;
+    direct_epoch_ = remote->frame_epoch;
+  }
   for (int k = 0; k < kTeleArms; ++k) {
     const std::size_t ki = static_cast<std::size_t>(k);
     ArmMappingState& ms = map_[ki];
@@ -181,6 +197,27 @@ void TelemanipTask::tick(const device::DeviceSample& in, const servo::ModelSnaps
     map_arm_step(p_.mapping[ki], teletask_hand(in, k, p_.mapping[ki]), &ms, &cmd_[ki]);
     const ArmCommandOut& c = cmd_[ki];
     if (c.pressed) ++stats_[ki].engaged_ticks;
+    ArmSetpoint& a = sp.arm[ki];
+    a.direct = direct && ms.initialized;
+    if (a.direct) {
+      DirectHandState& d = direct_[ki];
+      direct_hand_tick(p_.direct[ki], in.ee[ki], c.pressed, fresh != nullptr && fresh->valid ? &fresh->arm[ki].direct : nullptr,
+                       remote != nullptr && remote->valid ? &remote->arm[ki].direct : nullptr, p_.period_s, &d,
+                       &out.command.ee[ki]);
+      a.twist_A = d.sent_A;
+      a.side = d.side;
+      if (remote != nullptr && remote->valid) {
+        DirectHandStats& st = d.stats;
+        const Eigen::Vector3d pc = c.T_A_G.translation(), pr = remote->arm[ki].p_A;
+        if (!st.started) {
+          st.started = true;
+          st.commanded_start_A = pc;
+          st.remote_start_A = pr;
+        }
+        st.max_commanded_travel_m = std::max(st.max_commanded_travel_m, (pc - st.commanded_start_A).norm());
+        st.max_remote_travel_m = std::max(st.max_remote_travel_m, (pr - st.remote_start_A).norm());
+      }
+    }
     if (p_.render && ms.initialized) {
       // The shell at the opening the remote gripper has (measured), else the commanded one.
       const double opening = remote != nullptr && remote->valid ? remote->gripper[ki].opening_m
@@ -189,7 +226,6 @@ void TelemanipTask::tick(const device::DeviceSample& in, const servo::ModelSnaps
       render_hand(k, vm, build, opening, out.deadline_ns, out.command.ee[ki]);
       work += stats_[ki].last_work;
     }
-    ArmSetpoint& a = sp.arm[ki];
     a.active = ms.initialized;
     a.pressed = c.pressed;
     a.p_A = c.T_A_G.translation();

@@ -16,6 +16,12 @@
 //     released, nothing is displayed and the tool follows the command;
 //  4. both arms' setpoints go into the mailbox the link sends from.
 //
+// In the direct mode (params.mode; issue 25 part 5) step 3 is the direct
+// force-feedback hand instead (direct_hand.h): the robot's wrench through the
+// operator end's passivity controller, no VPS; the setpoint carries the
+// hand's twist and the port in place of the pose. The gripper and the
+// dead-man work as in the model-mediated mode.
+//
 // Real time: tick() allocates nothing, locks nothing, logs nothing; each
 // hand's VPS work is bounded (vps::TickWorkBudget: tick_budget_ns per hand,
 // capped in units by `budget`), calibrated at construction on a box voxmap
@@ -40,6 +46,8 @@
 namespace hemm::op::telemanip {
 
 struct TelemanipTaskParams {
+  FeedbackMode mode = FeedbackMode::kModel;
+  std::array<DirectHandParams, kTeleArms> direct{};  // the direct mode's, per hand
   std::array<ArmMappingParams, kTeleArms> mapping{};
   bool render = true;  // model-mediated forces (false: commands only)
   GripperGeometry gripper;
@@ -97,6 +105,9 @@ class TelemanipTask final : public servo::ServoTask {
   const ArmMappingState& mapping(int k) const noexcept { return map_[static_cast<std::size_t>(k)]; }
   const ArmCommandOut& command(int k) const noexcept { return cmd_[static_cast<std::size_t>(k)]; }
   const HandRenderStats& render_stats(int k) const noexcept { return stats_[static_cast<std::size_t>(k)]; }
+  // The direct mode's hand (its passivity port, what it showed and sent).
+  const DirectHandState& direct_hand(int k) const noexcept { return direct_[static_cast<std::size_t>(k)]; }
+  std::uint64_t direct_resets() const noexcept { return direct_resets_; }
   const vps::TickWorkBudget& budget(int k) const noexcept { return budget_[static_cast<std::size_t>(k)]; }
   const vps::WorkRateCalibration& calibration() const noexcept { return calibration_; }
   std::uint64_t ticks() const noexcept { return ticks_; }
@@ -121,6 +132,10 @@ class TelemanipTask final : public servo::ServoTask {
   std::array<ArmMappingState, kTeleArms> map_{};
   std::array<ArmCommandOut, kTeleArms> cmd_{};
   std::array<HandRenderStats, kTeleArms> stats_{};
+  std::array<DirectHandState, kTeleArms> direct_{};
+  std::uint64_t direct_epoch_ = 0;  // the robot's frame epoch the ports count in
+  bool direct_epoch_seen_ = false;
+  std::uint64_t direct_resets_ = 0;
   NewestMailbox<TelemanipSetpoint> setpoints_;
   NewestMailbox<RemoteArmsState> remote_;
   std::array<NewestMailbox<MappingAnchor>, kTeleArms> anchors_;

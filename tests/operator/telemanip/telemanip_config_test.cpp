@@ -49,6 +49,11 @@ TEST(TelemanipConfig, BadFieldsAreNamedAndChangeNothing) {
       {"telemanip.left", [](hemm::config::TelemanipConfig* c) { c->mutable_left()->set_opening_open_m(0.5); }},
       {"telemanip.right", [](hemm::config::TelemanipConfig* c) { c->mutable_right()->set_force_closed_n(150.0); }},
       {"telemanip.human_script", [](hemm::config::TelemanipConfig* c) { c->set_human_script("dance"); }},
+      {"telemanip.mode", [](hemm::config::TelemanipConfig* c) { c->set_mode("Direct"); }},
+      {"telemanip.direct_fade_s", [](hemm::config::TelemanipConfig* c) {
+         c->set_mode("direct");
+         c->set_direct_fade_s(0.0);
+       }},
   };
   for (const Case& k : cases) {
     hemm::config::TelemanipConfig c;
@@ -68,4 +73,41 @@ TEST(TelemanipConfig, BadFieldsAreNamedAndChangeNothing) {
   tele::TelemanipTaskParams tp;
   tele::TelemanipLinkParams lp;
   EXPECT_NE(tele::telemanip_params(c, 1e-3, hemm::device::rigid_hand_limits(1), &tp, &lp), "");
+}
+
+// The direct mode: no model rendered, each hand's direct parameters from the
+// mapping and the device, the passivity block's controller at both the hand
+// and the link (the ports' pc_on).
+TEST(TelemanipConfig, DirectModeTakesTheMappingTheDeviceAndThePassivityBlock) {
+  hemm::config::TelemanipConfig c;
+  c.set_enabled(true);
+  c.set_mode("direct");
+  c.set_yaw_a_d_deg(180.0);
+  c.set_translation_scale(2.0);
+  c.set_direct_fade_s(0.5);
+  hemm::config::OperatorPassivityConfig pc;
+  pc.set_controller(false);
+  const hemm::device::DeviceLimits l = config_test_limits();
+  tele::TelemanipTaskParams tp;
+  tele::TelemanipLinkParams lp;
+  ASSERT_EQ(tele::telemanip_params(c, 1e-3, l, &tp, &lp, &pc), "");
+  EXPECT_EQ(tp.mode, tele::FeedbackMode::kDirect);
+  EXPECT_FALSE(tp.render);
+  for (int k = 0; k < 2; ++k) {
+    const tele::DirectHandParams& d = tp.direct[static_cast<std::size_t>(k)];
+    EXPECT_TRUE(d.R_A_D.isApprox(tp.mapping[static_cast<std::size_t>(k)].R_A_D, 1e-15));
+    EXPECT_NEAR(d.R_A_D(0, 0), -1.0, 1e-12);
+    EXPECT_DOUBLE_EQ(d.translation_scale, 2.0);
+    EXPECT_DOUBLE_EQ(d.fade_s, 0.5);
+    EXPECT_DOUBLE_EQ(d.peak_force_n, l.ee[static_cast<std::size_t>(k)].peak_force);
+    EXPECT_EQ(d.renders_torque, l.ee[static_cast<std::size_t>(k)].renders_torque);
+    EXPECT_EQ(d.pc_mode, hemm::haptics::tdpa::PcMode::kObserveOnly);
+  }
+  EXPECT_EQ(lp.pc_mode, hemm::haptics::tdpa::PcMode::kObserveOnly);
+  // Without a block: its default, the controller on; the model mode by default.
+  c.clear_mode();
+  ASSERT_EQ(tele::telemanip_params(c, 1e-3, l, &tp, &lp), "");
+  EXPECT_EQ(tp.mode, tele::FeedbackMode::kModel);
+  EXPECT_EQ(tp.direct[0].pc_mode, hemm::haptics::tdpa::PcMode::kControl);
+  EXPECT_EQ(lp.pc_mode, hemm::haptics::tdpa::PcMode::kControl);
 }

@@ -183,3 +183,86 @@ TEST(TelemanipLink, EachRiseOfTheRefusalCountIsOneRefusalPerEpoch) {
   EXPECT_EQ(m.summary.refused, 4u);
   EXPECT_EQ(m.count, 1u);
 }
+
+// The direct mode (issue 25 part 5): an arm in it is named with its twist
+// (zero while released: the robot holds) and its passivity port, never a
+// pose; its gripper is still commanded; the other arm keeps its pose.
+TEST(TelemanipLink, DirectArmsSendTheirTwistAndPortInPlaceOfThePose) {
+  tele::TelemanipSetpoint sp;
+  sp.t_ns = 1;
+  for (tele::ArmSetpoint& a : sp.arm) {
+    a.active = true;
+    a.pressed = true;
+    a.p_A = Eigen::Vector3d(0.6, 0.0, 0.9);
+  }
+  tele::ArmSetpoint& d = sp.arm[1];
+  d.direct = true;
+  d.twist_A.v = Eigen::Vector3d(0.01, -0.02, 0.03);
+  d.twist_A.omega = Eigen::Vector3d(0.0, 0.0, 0.2);
+  d.side.in_J << 1, 2, 3, 4, 5, 6;
+  d.side.out_J.setConstant(0.5);
+  d.has_gripper = true;
+  d.opening_m = 0.04;
+  hw::ArmsCommand c;
+  tele::setpoint_to_command(sp, true, 7, &c, hemm::haptics::tdpa::PcMode::kControl);
+  ASSERT_EQ(c.arm_size(), 1);
+  EXPECT_EQ(c.arm(0).index(), 0u);
+  ASSERT_EQ(c.twist_size(), 1);
+  EXPECT_EQ(c.twist(0).index(), 1u);
+  EXPECT_DOUBLE_EQ(c.twist(0).v_a().y(), -0.02);
+  EXPECT_DOUBLE_EQ(c.twist(0).omega_a().z(), 0.2);
+  ASSERT_EQ(c.passivity_size(), 1);
+  EXPECT_EQ(c.passivity(0).index(), 1u);
+  ASSERT_EQ(c.passivity(0).energy_in_j_size(), 6);
+  EXPECT_DOUBLE_EQ(c.passivity(0).energy_in_j(5), 6.0);
+  EXPECT_TRUE(c.passivity(0).pc_on());
+  ASSERT_EQ(c.gripper_size(), 1);
+  EXPECT_DOUBLE_EQ(c.gripper(0).opening_m(), 0.04);
+  // Released: the twist is zero, the port still goes (the energy is cumulative).
+  tele::setpoint_to_command(sp, false, 8, &c, hemm::haptics::tdpa::PcMode::kObserveOnly);
+  ASSERT_EQ(c.twist_size(), 1);
+  EXPECT_DOUBLE_EQ(c.twist(0).v_a().y(), 0.0);
+  EXPECT_DOUBLE_EQ(c.twist(0).omega_a().z(), 0.0);
+  ASSERT_EQ(c.passivity_size(), 1);
+  EXPECT_FALSE(c.passivity(0).pc_on());
+}
+
+// The robot's ports and wrenches reach the servo thread with the state's
+// sequence; a bad one is dropped and counted, the rest of the state taken.
+TEST(TelemanipLink, DirectPortsAndWrenchesAreCheckedOneByOne) {
+  LinkTestRig r;
+  hw::ArmsState s = link_test_state(0.6);
+  hw::PassivityPort* p = s.add_passivity();
+  p->set_index(0);
+  for (int i = 0; i < 6; ++i) p->add_energy_in_j(0.1 * (i + 1));
+  hw::DirectWrench* w = s.add_direct_wrench();
+  w->set_index(0);
+  for (int i = 0; i < 6; ++i) w->add_wrench_a(static_cast<float>(i));
+  hw::PassivityPort* bad = s.add_passivity();  // arm 1: a negative energy
+  bad->set_index(1);
+  for (int i = 0; i < 6; ++i) bad->add_energy_in_j(i == 3 ? -1.0 : 1.0);
+  hw::DirectWrench* badw = s.add_direct_wrench();  // arm 1: five values
+  badw->set_index(1);
+  for (int i = 0; i < 5; ++i) badw->add_wrench_a(1.0f);
+  r.link.on_arms_state(10, 1, s);
+  const tele::RemoteArmsState* got = r.remote.take();
+  ASSERT_NE(got, nullptr);
+  const tele::DirectPeer& d0 = got->arm[0].direct;
+  EXPECT_TRUE(d0.has_port);
+  EXPECT_EQ(d0.seq, 10u);
+  EXPECT_DOUBLE_EQ(d0.energy_in_J[5], 0.6);
+  EXPECT_TRUE(d0.has_wrench);
+  EXPECT_DOUBLE_EQ(d0.wrench_A[4], 4.0);
+  EXPECT_DOUBLE_EQ(d0.wrist_force_A.z(), -2.0);
+  EXPECT_FALSE(got->arm[1].direct.has_port);
+  EXPECT_FALSE(got->arm[1].direct.has_wrench);
+  EXPECT_EQ(r.link.stats().ports_rejected, 1u);
+  EXPECT_EQ(r.link.stats().wrenches_rejected, 1u);
+  EXPECT_EQ(r.link.stats().states_in, 1u);
+  // The next state without ports: none for the servo (the arms left the direct mode).
+  r.link.on_arms_state(11, 2, link_test_state(0.6));
+  got = r.remote.take();
+  ASSERT_NE(got, nullptr);
+  EXPECT_FALSE(got->arm[0].direct.has_port);
+  EXPECT_FALSE(got->arm[0].direct.has_wrench);
+}

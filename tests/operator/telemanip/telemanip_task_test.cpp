@@ -97,6 +97,17 @@ struct TaskTestRun {
 const Eigen::Vector3d kTaskTestRightA(0.65, -0.25, 0.85), kTaskTestLeftA(0.7, 0.25, 0.9);
 const Eigen::Vector3d kTaskTestRightD(0.3, -0.2, 0.3), kTaskTestLeftD(0.3, 0.2, 0.3);
 
+// Counts this thread's allocations from now on; false if the counter does
+// not see an allocation made on purpose.
+bool task_test_start_counting() {
+  hemm::test::count_allocations_on_this_thread(true);
+  const std::uint64_t probe = hemm::test::counted_allocations();
+  auto* q = new std::array<double, 16>{};
+  asm volatile("" : : "g"(q) : "memory");
+  delete q;
+  return hemm::test::counted_allocations() > probe;
+}
+
 }  // namespace
 
 TEST(TelemanipTask, GripperPressedIntoTheBenchPushesItsOwnHandBack) {
@@ -174,14 +185,7 @@ TEST(TelemanipTask, TickAllocatesNothingWithBothHandsRendering) {
     run.step(task_test_sample(kTaskTestRightD - Eigen::Vector3d(0, 0, 0.12 * f),
                               kTaskTestLeftD - Eigen::Vector3d(0, 0, 0.165 * f), true));
   }
-  hemm::test::count_allocations_on_this_thread(true);
-  const std::uint64_t probe = hemm::test::counted_allocations();
-  {
-    auto* q = new std::array<double, 16>{};  // the counter counts
-    asm volatile("" : : "g"(q) : "memory");
-    delete q;
-  }
-  ASSERT_GT(hemm::test::counted_allocations(), probe);
+  ASSERT_TRUE(task_test_start_counting());
   std::vector<std::int64_t> ns(2000);
   std::vector<double> cpu(2000);  // the thread's own CPU time: the loaded machine's preemption left out
   const std::uint64_t before = hemm::test::counted_allocations();
@@ -208,4 +212,84 @@ TEST(TelemanipTask, TickAllocatesNothingWithBothHandsRendering) {
   std::printf("tick compute, both hands in contact (beside other builds): wall median %.1f us, p99 %.1f us, max %.1f us; "
               "thread CPU median %.1f us, p99 %.1f us, max %.1f us\n",
               ns[1000] * 1e-3, ns[1980] * 1e-3, ns.back() * 1e-3, cpu[1000] * 1e6, cpu[1980] * 1e6, cpu.back() * 1e6);
+}
+
+// The direct mode (issue 25 part 5): each hand's twist in A goes into the
+// setpoint with its port, the robot's wrench comes back on the hand through
+// the passivity controller, the robot's newest energy taken each tick; no
+// heap allocation in 2000 ticks with both hands moving against a remote
+// wrench.
+TEST(TelemanipTask, DirectModeTickSendsTheTwistAndAllocatesNothing) {
+  tele::TelemanipTaskParams p = task_test_params();
+  p.mode = tele::FeedbackMode::kDirect;
+  p.render = false;
+  for (int k = 0; k < 2; ++k) {
+    p.direct[static_cast<std::size_t>(k)].R_A_D = p.mapping[static_cast<std::size_t>(k)].R_A_D;
+    p.direct[static_cast<std::size_t>(k)].peak_force_n = p.limits[static_cast<std::size_t>(k)].peak_force;
+  }
+  TaskTestRun run(p);
+  tele::RemoteArmsState rs = task_test_remote(kTaskTestRightA, kTaskTestLeftA);
+  rs.frame_epoch = 4;
+  for (tele::RemoteArm& a : rs.arm) {
+    a.direct.has_port = true;
+    a.direct.has_wrench = true;
+    a.direct.wrench_A << 0.0, 0.0, 5.0, 0.0, 0.0, 0.0;  // the bench pushing up on the gripper
+  }
+  std::uint64_t seq = 0;
+  const auto publish = [&](double energy) {
+    rs.seq = ++seq;
+    for (tele::RemoteArm& a : rs.arm) {
+      a.direct.seq = rs.seq;
+      a.direct.energy_in_J.setConstant(energy);
+    }
+    run.task.remote().publish(rs);
+  };
+  auto sample = [](double vz, bool deadman) {
+    hd::DeviceSample s = task_test_sample(kTaskTestRightD, kTaskTestLeftD, deadman);
+    for (int k = 0; k < 2; ++k) s.ee[static_cast<std::size_t>(k)].velocity_H = Eigen::Vector3d(0.02, 0.0, vz);
+    return s;
+  };
+  publish(0.0);
+  for (int i = 0; i < 400; ++i) run.step(sample(0.0, true));  // pressed; the fade comes in
+  const tele::TelemanipSetpoint* sp = run.task.setpoints().take();
+  ASSERT_NE(sp, nullptr);
+  for (int k = 0; k < 2; ++k) {
+    EXPECT_TRUE(sp->arm[static_cast<std::size_t>(k)].direct);
+    // D's x is A's -x: the hand's 2 cm/s along D x is -2 cm/s in A.
+    EXPECT_NEAR(sp->arm[static_cast<std::size_t>(k)].twist_A.v.x(), -0.02, 1e-12);
+  }
+  // Moving down into the remote's 5 N: the hand does the work, nothing cut,
+  // the whole 5 N shown (on D's z, shared with A).
+  for (int i = 0; i < 200; ++i) {
+    publish(0.0);
+    run.step(sample(-0.05, true));
+  }
+  EXPECT_NEAR(run.out.command.ee[0].force_H.z(), 5.0, 1e-9);
+  EXPECT_GT(run.task.direct_hand(0).side.in_J[2], 0.0);
+  // Moving up, pushed by it: only what the robot's budget allows (none here).
+  for (int i = 0; i < 50; ++i) {
+    publish(0.0);
+    run.step(sample(0.05, true));
+  }
+  EXPECT_NEAR(run.out.command.ee[0].force_H.z(), 0.0, 1e-12);
+  EXPECT_GT(run.task.direct_hand(0).side.dissipated_J.sum(), 0.0);
+  ASSERT_TRUE(task_test_start_counting());
+  const std::uint64_t before = hemm::test::counted_allocations();
+  for (int i = 0; i < 2000; ++i) {
+    publish(1e-3 * i);
+    const double vz = 0.05 * std::sin(2.0 * std::numbers::pi * i / 500.0);
+    run.step(sample(vz, i < 1500));  // released for the last 500: the fade out
+  }
+  const std::uint64_t after = hemm::test::counted_allocations();
+  hemm::test::count_allocations_on_this_thread(false);
+  EXPECT_EQ(after - before, 0u);
+  EXPECT_GE(run.task.direct_hand(0).stats.peer_accepted, 2200u);
+  // Released 0.5 s (the 0.2 s fade long done): nothing shown, zero twist.
+  EXPECT_DOUBLE_EQ(run.out.command.ee[0].force_H.norm(), 0.0);
+  EXPECT_DOUBLE_EQ(run.task.direct_hand(0).sent_A.v.norm(), 0.0);
+  // The robot's energy is never less than the hand's output.
+  for (int k = 0; k < 2; ++k) {
+    const auto& side = run.task.direct_hand(k).side;
+    EXPECT_TRUE(((side.peer_in_J - side.out_J).array() >= -1e-12).all());
+  }
 }
