@@ -19,6 +19,7 @@
 #include <iostream>
 #include <limits>
 #include <memory>
+#include <optional>
 
 #include "common/clock/steady_clock.h"
 #include "common/config/config.h"
@@ -93,6 +94,18 @@ int run_telemanip(const config::OperatorConfig& cfg, const OperatorArgs& a) {
     std::cerr << "hemm-operator: bad config: " << e << "\n";
     return net::kExitUsage;
   }
+  // The task's plan from its scene, before anything costly is built: a bad
+  // scene is refused at once (under the sanitizers the servo task's
+  // calibration alone takes tens of seconds).
+  std::optional<twoarm_tasks::TaskScript> plan;
+  if (!cfg.telemanip().task().empty()) {
+    try {
+      plan = tele::task_plan(cfg.telemanip().task(), task_scene);
+    } catch (const std::exception& e) {
+      std::cerr << "hemm-operator: bad config: " << e.what() << "\n";
+      return net::kExitUsage;
+    }
+  }
   std::unique_ptr<tele::TaskHumanBrain> brain;  // the task's SIMULATED human, if any
   std::unique_ptr<tele::TelemanipTask> task;
   std::unique_ptr<hb::SimulatedBimanualDevice> device;
@@ -112,8 +125,8 @@ int run_telemanip(const config::OperatorConfig& cfg, const OperatorArgs& a) {
     task = std::make_unique<tele::TelemanipTask>(tp);
     model = std::make_unique<ModelThread>(channel, mp);
     task->set_roi_out(&model->probe_positions());
-    if (!cfg.telemanip().task().empty()) {
-      brain = std::make_unique<tele::TaskHumanBrain>(tele::task_plan(cfg.telemanip().task(), task_scene), tp.mapping);
+    if (plan) {
+      brain = std::make_unique<tele::TaskHumanBrain>(std::move(*plan), tp.mapping);
       device = std::make_unique<hb::SimulatedBimanualDevice>(
           setup.sim, tele::task_hands(setup.sim, tp.mapping, {&task->anchors(0), &task->anchors(1)}, *brain, &robot_safety));
     }
