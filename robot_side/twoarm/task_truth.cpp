@@ -39,6 +39,12 @@ const char* to_string(Task t) {
   return "?";
 }
 
+std::optional<Task> task_from_string(std::string_view name) {
+  for (const Task t : {Task::kBox, Task::kPeg, Task::kBar})
+    if (name == to_string(t)) return t;
+  return std::nullopt;
+}
+
 TaskTruthModel make_task_truth_model(const WorkbenchSim& sim, Task task, const TaskTruthParams& p) {
   const mjModel* m = sim.m();
   const mjData* d = sim.d();

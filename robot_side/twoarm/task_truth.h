@@ -39,7 +39,9 @@
 
 #include <array>
 #include <numbers>
+#include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "robot_side/twoarm/workbench_sim.h"
@@ -48,6 +50,8 @@ namespace hemm::twoarm {
 
 enum class Task { kBox = 0, kPeg = 1, kBar = 2 };
 const char* to_string(Task t);
+// The task to_string names (nullopt: none of them).
+std::optional<Task> task_from_string(std::string_view name);
 
 struct TaskTruthParams {
   double goal_xy_tol_m = 0.03;       // box: from the shelf board's top centre

@@ -541,18 +541,12 @@ std::optional<std::string> TwoArmStation::load(const config::RobotConfig& config
   }
   std::unique_ptr<const TaskTruthModel> judge;
   if (const std::string& task = config.twoarm().task(); !task.empty()) {
-    Task t = Task::kBox;
-    if (task == "peg") {
-      t = Task::kPeg;
-    } else if (task == "bar") {
-      t = Task::kBar;
-    } else if (task != "box") {
-      return "twoarm.task '" + task + "': box, peg, bar or empty";
-    }
+    const std::optional<Task> t = task_from_string(task);
+    if (!t) return "twoarm.task '" + task + "': box, peg, bar or empty";
     TaskTruthParams tp;
     tp.wrist_force_limit_N = config.twoarm().force_limit_n();
     try {
-      judge = std::make_unique<const TaskTruthModel>(make_task_truth_model(robot->sim(), t, tp));
+      judge = std::make_unique<const TaskTruthModel>(make_task_truth_model(robot->sim(), *t, tp));
     } catch (const std::exception& e) {
       return std::string(e.what());
     }

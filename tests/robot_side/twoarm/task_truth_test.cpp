@@ -64,6 +64,13 @@ struct TruthDriver {
 
 }  // namespace
 
+// The names the configs use read back into the tasks they name, and nothing else does.
+TEST(TaskTruth, TaskNamesReadBack) {
+  for (const ht::Task t : {ht::Task::kBox, ht::Task::kPeg, ht::Task::kBar})
+    EXPECT_EQ(ht::task_from_string(ht::to_string(t)), t);
+  for (const char* bad : {"", "Box", "ball", "?", "box "}) EXPECT_FALSE(ht::task_from_string(bad).has_value()) << bad;
+}
+
 TEST(TaskTruth, BoxOnTheShelfOrNot) {
   ht::TwoArmRobot robot(kWorkbenchScene, ht::TwoArmRobotOptions{});
   const ht::TaskTruthModel tm = ht::make_task_truth_model(robot.sim(), ht::Task::kBox);
