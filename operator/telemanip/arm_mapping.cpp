@@ -9,12 +9,22 @@ namespace {
 
 bool mapping_in_range(double v, double lo, double hi) { return std::isfinite(v) && v > lo && v <= hi; }
 
+// R^k about R's own axis (angle in [0, pi] from Eigen's AngleAxis): the
+// scaled turn of the mapping and, with 1/k, its inverse.
+Eigen::Matrix3d scaled_turn(const Eigen::Matrix3d& R, double k) {
+  if (k == 1.0) return R;
+  const Eigen::AngleAxisd aa(R);
+  return Eigen::AngleAxisd(k * aa.angle(), aa.axis()).toRotationMatrix();
+}
+
 }  // namespace
 
 std::string validate(const ArmMappingParams& p) {
   if (!p.R_A_D.allFinite() || !p.R_A_D.isUnitary(1e-9) || p.R_A_D.determinant() < 0.0)
     return "R_A_D must be a rotation (orthonormal, det +1)";
   if (!mapping_in_range(p.translation_scale, 0.0, 10.0)) return "translation scale must be in (0, 10]";
+  if (!(std::isfinite(p.rotation_scale) && p.rotation_scale >= 0.25 && p.rotation_scale <= 4.0))
+    return "rotation scale must be in [0.25, 4]";
   if (!mapping_in_range(p.max_step_m, 0.0, 0.1)) return "max_step_m must be in (0, 0.1] m";
   if (!mapping_in_range(p.max_step_rad, 0.0, 1.0)) return "max_step_rad must be in (0, 1] rad";
   if (p.deadman_ee < 0 || p.deadman_ee > 1) return "deadman_ee must be 0 or 1";
@@ -36,7 +46,7 @@ Eigen::Isometry3d mapped_pose_A(const ArmMappingParams& p, const ArmMappingState
   T.translation() = s.T_A_anchor.translation() +
                     p.translation_scale * (p.R_A_D * (T_D_E.translation() - s.T_D_anchor.translation()));
   const Eigen::Matrix3d dR_D = T_D_E.linear() * s.T_D_anchor.linear().transpose();  // the hand's turn, in D
-  T.linear() = p.R_A_D * dR_D * p.R_A_D.transpose() * s.T_A_anchor.linear();
+  T.linear() = scaled_turn(p.R_A_D * dR_D * p.R_A_D.transpose(), p.rotation_scale) * s.T_A_anchor.linear();
   return T;
 }
 
@@ -46,7 +56,7 @@ Eigen::Isometry3d hand_pose_D(const ArmMappingParams& p, const ArmMappingState& 
   T.translation() = s.T_D_anchor.translation() +
                     p.R_A_D.transpose() * (T_A_G.translation() - s.T_A_anchor.translation()) / p.translation_scale;
   const Eigen::Matrix3d dR_A = T_A_G.linear() * s.T_A_anchor.linear().transpose();
-  T.linear() = p.R_A_D.transpose() * dR_A * p.R_A_D * s.T_D_anchor.linear();
+  T.linear() = p.R_A_D.transpose() * scaled_turn(dR_A, 1.0 / p.rotation_scale) * p.R_A_D * s.T_D_anchor.linear();
   return T;
 }
 

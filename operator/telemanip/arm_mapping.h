@@ -6,9 +6,11 @@
 // remote gripper's grasp frame. The mapping is
 //
 //   p_A_G = p_A_anchor + s R_A_D (p_D_E - p_D_anchor)
-//   R_A_G = (R_A_D R_D_E R_D_anchor^T R_A_D^T) R_A_anchor
+//   R_A_G = Exp(k Log(R_A_D R_D_E R_D_anchor^T R_A_D^T)) R_A_anchor
 //
 // with R_A_D the fixed alignment of D's axes in A, s the translation scale,
+// k the rotation scale (the hand's turn since the press, about the same
+// axis, k times as far),
 // and (p_D_anchor, R_D_anchor) / (p_A_anchor, R_A_anchor) the indexing
 // offset T_Ar_Dr: the hand's pose and the arm's commanded pose when the
 // dead-man was last pressed. Re-anchoring at each press (a clutch) is what
@@ -16,7 +18,10 @@
 // the commanded pose continuous: the arm never jumps at a press. The hand's
 // rotation since the press turns the gripper about G's origin, in A's axes
 // as D's axes are aligned to them (rotation scale 1: the bimanual paper maps
-// its arms 1:1 in rotation).
+// its arms 1:1 in rotation; above 1 a grasp turned far from the rest
+// orientation is reached without the operator's wrist at its limit, and the
+// hand feels k times the remote torque, so power stays the same at both
+// ends, as F_D = s F_A does for the translation).
 //
 // Per step the commanded pose moves towards the mapped one by at most
 // max_step_m and max_step_rad (a rate clamp: a hand yanked or a sample
@@ -37,6 +42,7 @@ namespace hemm::op::telemanip {
 struct ArmMappingParams {
   Eigen::Matrix3d R_A_D = Eigen::Matrix3d::Identity();  // D's axes in A (a rotation)
   double translation_scale = 1.0;                        // A metres per D metre, (0, 10]
+  double rotation_scale = 1.0;                           // A radians per D radian, [1/4, 4]
   double max_step_m = 0.002;     // per step (1 kHz: 2 m/s), (0, 0.1]
   double max_step_rad = 0.006;   // per step (1 kHz: 6 rad/s), (0, 1]
   // Which end-effector's dead-man gates this arm (the grip-force handle has

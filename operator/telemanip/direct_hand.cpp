@@ -21,6 +21,7 @@ const char* to_string(FeedbackMode m) noexcept { return m == FeedbackMode::kDire
 std::string validate(const DirectHandParams& p) {
   if (!p.R_A_D.allFinite() || !(std::abs(p.R_A_D.determinant() - 1.0) < 1e-6)) return "R_A_D must be a rotation";
   if (!(p.translation_scale > 0.0 && p.translation_scale <= 10.0)) return "translation scale must be in (0, 10]";
+  if (!(p.rotation_scale >= 0.25 && p.rotation_scale <= 4.0)) return "rotation scale must be in [0.25, 4]";
   if (!(p.max_speed_mps > 0.0 && p.max_rate_radps > 0.0)) return "speed and rate limits must be > 0";
   if (!(p.fade_s > 0.0 && p.fade_s <= 2.0)) return "fade must be in (0, 2] s";
   if (!(p.peak_force_n >= 0.0 && p.peak_torque_nm >= 0.0 && std::isfinite(p.peak_force_n) &&
@@ -40,9 +41,9 @@ void direct_hand_tick(const DirectHandParams& p, const device::EndEffectorSample
   if (fresh != nullptr && fresh->has_port &&
       tdpa::receive_peer<6>(s->side, fresh->seq, fresh->energy_in_J) == tdpa::Receive::kAccepted)
     ++st.peer_accepted;
-  // The hand's twist in A: x_A = s R_A_D x_D, orientations turn as they do in D.
+  // The hand's twist in A: x_A = s R_A_D x_D, turns k times as fast as in D.
   s->hand_A.v = directhand_clamp(p.translation_scale * (p.R_A_D * e.velocity_H), p.max_speed_mps);
-  s->hand_A.omega = directhand_clamp(p.R_A_D * e.angular_velocity_H, p.max_rate_radps);
+  s->hand_A.omega = directhand_clamp(p.rotation_scale * (p.R_A_D * e.angular_velocity_H), p.max_rate_radps);
   if (pressed) {
     s->sent_A = s->hand_A;
   } else {
@@ -57,12 +58,14 @@ void direct_hand_tick(const DirectHandParams& p, const device::EndEffectorSample
   if (latest != nullptr && latest->has_wrench && latest->wrench_A.allFinite()) {
     const double fmax = p.peak_force_n > 0.0 ? p.peak_force_n / p.translation_scale : 0.0;
     received.force = s->gain * directhand_clamp(latest->wrench_A.head<3>(), fmax);
-    if (p.renders_torque) received.torque = s->gain * directhand_clamp(latest->wrench_A.tail<3>(), p.peak_torque_nm);
+    if (p.renders_torque)
+      received.torque =
+          s->gain * directhand_clamp(latest->wrench_A.tail<3>(), p.peak_torque_nm / p.rotation_scale);
   }
   s->shown_A = tdpa::operator_arm_tick(s->side, received, s->hand_A, dt_s, p.pc_mode);
   const Eigen::Matrix3d R_D_A = p.R_A_D.transpose();
   const Eigen::Vector3d F = R_D_A * (p.translation_scale * s->shown_A.force);
-  const Eigen::Vector3d T = R_D_A * s->shown_A.torque;
+  const Eigen::Vector3d T = R_D_A * (p.rotation_scale * s->shown_A.torque);
   cmd->force_H = F.allFinite() ? F : Eigen::Vector3d::Zero();
   cmd->torque_H = T.allFinite() ? T : Eigen::Vector3d::Zero();
   const double shown = s->shown_A.force.norm();

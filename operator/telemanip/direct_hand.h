@@ -40,6 +40,7 @@ const char* to_string(FeedbackMode m) noexcept;
 struct DirectHandParams {
   Eigen::Matrix3d R_A_D = Eigen::Matrix3d::Identity();  // the mapping's
   double translation_scale = 1.0;                       // A metres per D metre
+  double rotation_scale = 1.0;                          // A radians per D radian (arm_mapping.h)
   double max_speed_mps = 1.0;                           // the twist sent is clamped to these (in A)
   double max_rate_radps = 3.0;
   double fade_s = 0.2;            // the dead-man's fade of the displayed wrench, (0, 2]

@@ -58,6 +58,9 @@ void TaskHumanBrain::tick(double t_s) {
   progress_.searches = st_.searches;
   progress_.error = st_.error;
   progress_.ticks = ticks_;
+  progress_.wait_pos_m = st_.wait_pos_m;
+  progress_.wait_rot_rad = st_.wait_rot_rad;
+  progress_.wait_speed_mps = st_.wait_speed_mps;
 }
 
 void TaskHumanBrain::start(double rate_hz) {
@@ -116,11 +119,25 @@ device::bimanual::HumanTarget TaskHumanHand::at(double t_s) const noexcept {
   } else {
     g.joystick = Eigen::Vector2d(0.0, wish_.lever);
   }
-  if (!wish_.active || !anchor_.engaged) return g;
+  const double dt = last_t_s_ >= 0.0 ? std::clamp(t_s - last_t_s_, 0.0, 0.1) : 0.0;
+  last_t_s_ = t_s;
+  if (!wish_.active || !anchor_.engaged) {
+    turn_bias_D_.setZero();  // a new press: the mapping re-anchors, the hand starts over
+    return g;
+  }
   // Where the hand must be for the mapping to ask the plan's G (from the anchor).
   const Eigen::Isometry3d hand_D = hand_pose_D(mapping_, anchor_.state, wish_.T_A_G);
   g.position_D = hand_D.translation();
-  g.orientation_D = Eigen::Quaterniond(hand_D.linear());
+  // The turn the commanded G still lacks, in A, seen as the hand's (in D, 1/k of it).
+  const Eigen::AngleAxisd lack_A(wish_.T_A_G.linear() * anchor_.state.T_A_G_cmd.linear().transpose());
+  const Eigen::Vector3d lack_D =
+      mapping_.R_A_D.transpose() * (lack_A.angle() * lack_A.axis()) / mapping_.rotation_scale;
+  turn_bias_D_ += kTurnGain_per_s * dt * lack_D;
+  if (const double n = turn_bias_D_.norm(); n > kTurnBiasMax_rad) turn_bias_D_ *= kTurnBiasMax_rad / n;
+  const double b = turn_bias_D_.norm();
+  const Eigen::Matrix3d bias =
+      b > 0.0 ? Eigen::AngleAxisd(b, turn_bias_D_ / b).toRotationMatrix() : Eigen::Matrix3d::Identity();
+  g.orientation_D = Eigen::Quaterniond(bias * hand_D.linear());
   return g;
 }
 
@@ -184,6 +201,11 @@ void fill_task_report(const TaskProgress& p, report::TelemanipTaskProgress* out)
   out->set_searches(p.searches);
   out->set_error(p.error);
   out->set_brain_ticks(p.ticks);
+  for (std::size_t a = 0; a < 2; ++a) {
+    out->add_wait_pos_m(p.wait_pos_m[a]);
+    out->add_wait_rot_rad(p.wait_rot_rad[a]);
+    out->add_wait_speed_mps(p.wait_speed_mps[a]);
+  }
 }
 
 }  // namespace hemm::op::telemanip

@@ -73,6 +73,8 @@ struct TaskProgress {
   int searches = 0;
   std::string error;
   std::uint64_t ticks = 0;
+  // ScriptState's wait_* of the last tick (what the step waits on).
+  std::array<double, 2> wait_pos_m{0.0, 0.0}, wait_rot_rad{0.0, 0.0}, wait_speed_mps{0.0, 0.0};
 };
 
 class TaskHumanBrain {
@@ -114,6 +116,8 @@ class TaskHumanBrain {
 // One hand of the SIMULATED task human (the device's HumanScript).
 class TaskHumanHand final : public device::bimanual::HumanScript {
  public:
+  static constexpr double kTurnGain_per_s = 1.5;    // of the remaining turn error, per second
+  static constexpr double kTurnBiasMax_rad = 0.25;  // the most it turns beyond its spring's target
   // rest: the hand at rest (pose, grasp). lever_travel_m > 0: the handle's
   // grip lever travel; 0: the lever is the joystick's forward axis.
   // robot_safety: the robot's newest status (TelemanipLink::set_safety_out),
@@ -135,6 +139,13 @@ class TaskHumanHand final : public device::bimanual::HumanScript {
   mutable TaskHandWish wish_;
   mutable MappingAnchor anchor_;
   mutable DeadmanHabit deadman_;
+  // The human's correction of its grasp's turn: what the commanded G still
+  // lacks of the wish's orientation, integrated into a further turn of the
+  // hand (a person turns a little more until the gripper on its display is
+  // right; the hand's own spring leaves it some hundredths of a radian short,
+  // k times that at the gripper with rotation scale k).
+  mutable Eigen::Vector3d turn_bias_D_ = Eigen::Vector3d::Zero();
+  mutable double last_t_s_ = -1.0;
 };
 
 // The task settings (telemanip.task, task_scene, task_settle_s): empty when

@@ -26,6 +26,8 @@ std::string telemanip_params(const config::TelemanipConfig& c, double period_s, 
     return "telemanip.yaw_a_d_deg: must be finite, within +-360";
   if (!(c.translation_scale() > 0.0 && c.translation_scale() <= 10.0))
     return "telemanip.translation_scale: must be in (0, 10]";
+  if (!(c.rotation_scale() >= 0.25 && c.rotation_scale() <= 4.0))
+    return "telemanip.rotation_scale: must be in [0.25, 4]";
   if (!(c.max_speed_mps() > 0.0 && c.max_speed_mps() <= 5.0)) return "telemanip.max_speed_mps: must be in (0, 5]";
   if (!(c.max_rate_radps() > 0.0 && c.max_rate_radps() <= 20.0)) return "telemanip.max_rate_radps: must be in (0, 20]";
   if (limits.end_effectors != kTeleArms) return "telemanip: the device must have two end-effectors (sim-bimanual)";
@@ -39,6 +41,7 @@ std::string telemanip_params(const config::TelemanipConfig& c, double period_s, 
     const config::TelemanipArmConfig& a = *arms[k];
     m.R_A_D = R;
     m.translation_scale = c.translation_scale();
+    m.rotation_scale = c.rotation_scale();
     m.max_step_m = c.max_speed_mps() * period_s;
     m.max_step_rad = c.max_rate_radps() * period_s;
     if (a.deadman_ee() > 1) return std::string("telemanip.") + names[k] + ".deadman_ee: must be 0 or 1";
@@ -64,6 +67,7 @@ std::string telemanip_params(const config::TelemanipConfig& c, double period_s, 
     const ArmMappingParams& m = t.mapping[static_cast<std::size_t>(k)];
     d.R_A_D = m.R_A_D;
     d.translation_scale = m.translation_scale;
+    d.rotation_scale = m.rotation_scale;
     d.max_speed_mps = c.max_speed_mps();
     d.max_rate_radps = c.max_rate_radps();
     d.fade_s = c.direct_fade_s();

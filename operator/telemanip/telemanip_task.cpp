@@ -78,9 +78,11 @@ TelemanipTask::TelemanipTask(const TelemanipTaskParams& p) : p_(p) {
     d.peak_force = l.peak_force / s;
     d.max_stiffness = l.max_stiffness / (s * s);
     if (l.max_linear_speed > 0) d.max_speed = std::min(d.max_speed, s * l.max_linear_speed);
+    // Likewise k^2 in rotation (tau_D = k tau_A, turn_A = k turn_D).
+    const double k_rot = p.mapping[static_cast<std::size_t>(k)].rotation_scale;
     d.renders_torque = l.renders_torque;
-    d.peak_torque = l.peak_torque;
-    d.max_rot_stiffness = l.max_rotational_stiffness;
+    d.peak_torque = l.peak_torque / k_rot;
+    d.max_rot_stiffness = l.max_rotational_stiffness / (k_rot * k_rot);
     const vps::ProbeTool& mid = tools_.tools[tools_.tools.size() / 2];
     vps::ToolParams& tp = tool_params_[static_cast<std::size_t>(k)];
     tp.coupling = vps::design_coupling(mid.mass, mid.inertia_com, d).params;
@@ -147,7 +149,7 @@ void TelemanipTask::render_hand(int k, const vps::Voxmap* vm, std::uint64_t buil
   const Eigen::Matrix3d R_D_A = mp.R_A_D.transpose();
   const Eigen::Vector3d r = cmd.T_A_G.linear() * tool.shell.reference_point;
   const Eigen::Vector3d F = R_D_A * (mp.translation_scale * s.device.force);
-  const Eigen::Vector3d T = R_D_A * (s.device.torque + r.cross(s.device.force));
+  const Eigen::Vector3d T = R_D_A * (mp.rotation_scale * (s.device.torque + r.cross(s.device.force)));
   c.force_H = F.allFinite() ? F : Eigen::Vector3d::Zero();
   c.torque_H = T.allFinite() ? T : Eigen::Vector3d::Zero();
   st.last_force_D = c.force_H;

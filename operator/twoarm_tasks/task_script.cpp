@@ -299,10 +299,15 @@ ScriptOutput script_step(const TaskScript& sc, ScriptState& st, const wire::Arms
   }
   bool confirmed = s >= 1.0 && in_step >= step.dwell_s && have;
   const double tol = step.tol_m > 0.0 ? step.tol_m : p.pos_tol_m;
+  for (std::size_t a = 0; a < kArms; ++a) {
+    const bool waits = step.wait_reach[a] && have;
+    st.wait_pos_m[a] = waits ? (b[a].T_A_G.translation() - st.to[a].translation()).norm() : 0.0;
+    st.wait_rot_rad[a] = waits ? script_angle(b[a].T_A_G.linear(), st.to[a].linear()) : 0.0;
+    st.wait_speed_mps[a] = waits ? b[a].v_A.norm() : 0.0;
+  }
   for (std::size_t a = 0; a < kArms && confirmed; ++a) {
     if (step.wait_reach[a]) {
-      confirmed = (b[a].T_A_G.translation() - st.to[a].translation()).norm() <= tol &&
-                  script_angle(b[a].T_A_G.linear(), st.to[a].linear()) <= p.rot_tol_rad && b[a].v_A.norm() <= p.settle_speed_mps;
+      confirmed = st.wait_pos_m[a] <= tol && st.wait_rot_rad[a] <= p.rot_tol_rad && st.wait_speed_mps[a] <= p.settle_speed_mps;
     }
     if (confirmed && step.wait_grasped[a]) confirmed = b[a].holding;
     if (confirmed && step.wait_opened[a]) {

@@ -114,6 +114,10 @@ struct ScriptState {
   enum class Insert { kDescend, kSearch, kIn } insert = Insert::kDescend;
   double insert_z = 0.0, insert_z0 = 0.0, insert_t0 = 0.0, search_t0 = 0.0, search_z = 0.0;
   int searches = 0;
+  // What the step waits on (the last tick's check, for the progress report):
+  // per arm the believed G against the step's goal - position [m], turn
+  // [rad], speed [m/s]; 0 for an arm the step does not wait on.
+  std::array<double, kArms> wait_pos_m{0.0, 0.0}, wait_rot_rad{0.0, 0.0}, wait_speed_mps{0.0, 0.0};
   bool done = false;
   double done_t = -1.0;
   std::string error;  // a believed state it cannot read (it then holds its targets)

@@ -135,6 +135,41 @@ TEST(ArmMapping, HandPoseIsTheMappingsInverse) {
   EXPECT_TRUE(tele::mapped_pose_A(p, s, hand).isApprox(goal_A, 1e-12));
 }
 
+// Rotation scale k: the hand's turn, about the same axis (in A's axes), k
+// times as far; the inverse turns the hand 1/k of the goal's turn; a hand
+// turned back to where it was pressed gives the anchor's orientation.
+TEST(ArmMapping, RotationScaleTurnsTheGripperKTimesAboutTheSameAxis) {
+  for (double k : {0.5, 2.0, 3.0}) {
+    tele::ArmMappingParams p = mapping_test_params(1.0);
+    p.rotation_scale = k;
+    ASSERT_EQ(tele::validate(p), "");
+    tele::ArmMappingState s;
+    tele::reset_arm_mapping(&s, kMappingTestG0);
+    tele::ArmCommandOut out;
+    const Eigen::Matrix3d R_D0 = Eigen::AngleAxisd(0.4, Eigen::Vector3d::UnitY()).toRotationMatrix();
+    const Eigen::Vector3d p_D(0.3, 0.1, 0.2);
+    tele::map_arm_step(p, mapping_test_hand(mapping_test_pose(p_D, R_D0), true), &s, &out);
+    const Eigen::Vector3d axis_D = Eigen::Vector3d(0.3, -1.0, 0.5).normalized();
+    const double turn = 0.25;
+    const Eigen::Matrix3d R_D1 = Eigen::AngleAxisd(turn, axis_D).toRotationMatrix() * R_D0;
+    const Eigen::Isometry3d got = tele::mapped_pose_A(p, s, mapping_test_pose(p_D, R_D1));
+    // D's axes in A: x and y flip, z stays.
+    const Eigen::Vector3d axis_A = p.R_A_D * axis_D;
+    const Eigen::Matrix3d want = Eigen::AngleAxisd(k * turn, axis_A).toRotationMatrix() * kMappingTestG0.linear();
+    EXPECT_TRUE(got.linear().isApprox(want, 1e-12)) << "k " << k;
+    EXPECT_LT((got.translation() - kMappingTestG0.translation()).norm(), 1e-12);
+    // The inverse: a goal turned 0.6 rad needs the hand turned 0.6 / k.
+    const Eigen::Isometry3d goal_A = mapping_test_pose(
+        kMappingTestG0.translation(),
+        Eigen::AngleAxisd(0.6, Eigen::Vector3d(1.0, 0.2, -0.4).normalized()).toRotationMatrix() * kMappingTestG0.linear());
+    const Eigen::Isometry3d hand = tele::hand_pose_D(p, s, goal_A);
+    EXPECT_NEAR(Eigen::AngleAxisd(hand.linear() * R_D0.transpose()).angle(), 0.6 / k, 1e-12) << "k " << k;
+    EXPECT_TRUE(tele::mapped_pose_A(p, s, hand).isApprox(goal_A, 1e-12)) << "k " << k;
+    // Back where it was pressed: the anchor's orientation.
+    EXPECT_TRUE(tele::mapped_pose_A(p, s, mapping_test_pose(p_D, R_D0)).linear().isApprox(kMappingTestG0.linear(), 1e-12));
+  }
+}
+
 TEST(ArmMapping, RateClampLimitsEachStep) {
   tele::ArmMappingParams p = mapping_test_params(1.0);
   p.max_step_m = 0.002;
@@ -225,6 +260,11 @@ TEST(ArmMapping, BadParametersAreRefused) {
   EXPECT_NE(tele::validate(scale), "");
   scale.translation_scale = NAN;
   EXPECT_NE(tele::validate(scale), "");
+  for (double k : {0.0, 0.2, 4.5, double(NAN)}) {
+    tele::ArmMappingParams rot = p;
+    rot.rotation_scale = k;
+    EXPECT_NE(tele::validate(rot), "") << k;
+  }
   tele::ArmMappingParams step = p;
   step.max_step_m = -1.0;
   EXPECT_NE(tele::validate(step), "");

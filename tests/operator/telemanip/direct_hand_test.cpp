@@ -256,3 +256,34 @@ TEST(DirectHand, ReleaseFadesTheWrenchAndStopsTheTwist) {
   EXPECT_DOUBLE_EQ(r.max_sent_after_release, 0.0);
   EXPECT_LT(r.robot_travel_after_release_m, 0.01);
 }
+
+// The rotation scale k in the direct mode: the hand's angular velocity goes
+// out k times as fast (about the same axis, in A), the remote torque is shown
+// k times as large, so the power at the hand equals the arm's (tau_D . w_D =
+// tau_A . w_A); the observer alone (no controller) leaves the wrench as sent.
+TEST(DirectHand, RotationScaleScalesTheTurnAndTheTorqueShown) {
+  for (double k : {1.0, 2.5}) {
+    tele::DirectHandParams p;
+    p.R_A_D = Eigen::AngleAxisd(std::numbers::pi, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    p.rotation_scale = k;
+    p.max_rate_radps = 100.0;
+    p.pc_mode = td::PcMode::kObserveOnly;
+    ASSERT_EQ(tele::validate(p), "");
+    tele::DirectHandState s;
+    s.gain = 1.0;
+    hemm::device::EndEffectorSample e;
+    e.angular_velocity_H = Eigen::Vector3d(0.2, -0.1, 0.3);
+    tele::DirectPeer peer;
+    peer.has_wrench = true;
+    peer.wrench_A << 0.0, 0.0, 0.0, 0.4, 0.1, -0.2;
+    hemm::device::EndEffectorCommand cmd;
+    tele::direct_hand_tick(p, e, true, nullptr, &peer, 1e-3, &s, &cmd);
+    EXPECT_TRUE(s.sent_A.omega.isApprox(k * (p.R_A_D * e.angular_velocity_H), 1e-12)) << k;
+    const Eigen::Vector3d tau_A = peer.wrench_A.tail<3>();
+    EXPECT_TRUE(cmd.torque_H.isApprox(k * (p.R_A_D.transpose() * tau_A), 1e-12)) << k;
+    EXPECT_NEAR(cmd.torque_H.dot(e.angular_velocity_H), tau_A.dot(s.sent_A.omega), 1e-12) << k;
+  }
+  tele::DirectHandParams bad;
+  bad.rotation_scale = 0.1;
+  EXPECT_NE(tele::validate(bad), "");
+}

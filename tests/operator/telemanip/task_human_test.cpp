@@ -72,6 +72,9 @@ TEST(TaskHuman, HandPoseMapsBackToTheScriptsTargetThroughTheMapping) {
     brain.tick(t);
     out = hs::script_step(plan, twin, &believed, t);
   }
+  // The arm already commanded where the script wants it: no turn to correct.
+  anchor.state.T_A_G_cmd = out.targets.T_A_G[1];
+  anchors.publish(anchor);
   g = left.at(2.0);
   EXPECT_TRUE(g.deadman);
   const Eigen::Isometry3d want = out.targets.T_A_G[1];
@@ -94,6 +97,52 @@ TEST(TaskHuman, HandPoseMapsBackToTheScriptsTargetThroughTheMapping) {
   EXPECT_FALSE(p.done);
   EXPECT_EQ(p.steps_done, 0u);
   EXPECT_EQ(p.steps, plan.steps.size());
+}
+
+// The human turns its hand further while the commanded G lacks some of the
+// wished turn (integrated: kTurnGain_per_s of the lack, seen in D at 1/k),
+// never more than kTurnBiasMax_rad beyond its spring's target, and starts
+// over at a new press.
+TEST(TaskHuman, HandTurnsFurtherWhileTheCommandedGripperLacksTheWishedTurn) {
+  tele::ArmMappingParams m = task_human_test_mapping();
+  m.rotation_scale = 3.0;
+  hemm::NewestMailbox<tele::TaskHandWish> wishes;
+  hemm::NewestMailbox<tele::MappingAnchor> anchors;
+  hemm::device::bimanual::HumanTarget rest;
+  rest.position_D = Eigen::Vector3d(0.35, 0.2, 0.1);
+  const tele::TaskHumanHand hand(rest, m, &wishes, &anchors, 0.0, nullptr);
+  tele::TaskHandWish w;
+  w.active = w.deadman = true;
+  w.T_A_G = Eigen::Translation3d(0.6, 0.3, 0.9) * Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitX());
+  wishes.publish(w);
+  tele::MappingAnchor a;
+  a.engaged = a.state.initialized = a.state.engaged = true;
+  a.state.T_A_anchor = Eigen::Translation3d(0.6, 0.3, 0.9) * Eigen::Isometry3d::Identity();
+  a.state.T_D_anchor = hemm::device::bimanual::pose_D(rest);
+  // The commanded G 0.06 rad short of the wish, about the same axis.
+  a.state.T_A_G_cmd = Eigen::Translation3d(0.6, 0.3, 0.9) * Eigen::AngleAxisd(0.44, Eigen::Vector3d::UnitX());
+  anchors.publish(a);
+  const Eigen::Matrix3d spring_D = tele::hand_pose_D(m, a.state, w.T_A_G).linear();
+  const Eigen::Vector3d lack_D = m.R_A_D.transpose() * Eigen::Vector3d(0.06, 0.0, 0.0) / 3.0;
+  hemm::device::bimanual::HumanTarget g = hand.at(0.0);
+  EXPECT_TRUE(g.orientation_D.toRotationMatrix().isApprox(spring_D, 1e-12));  // no time has passed
+  for (int i = 1; i <= 1000; ++i) g = hand.at(i * 1e-3);
+  // After 1 s: 1.5 x the lack, turned about the lack's own axis.
+  const Eigen::AngleAxisd extra(g.orientation_D.toRotationMatrix() * spring_D.transpose());
+  EXPECT_NEAR(extra.angle(), tele::TaskHumanHand::kTurnGain_per_s * 1.0 * lack_D.norm(), 1e-9);
+  EXPECT_GT(extra.axis().dot(lack_D.normalized()), 1.0 - 1e-9);
+  // Bounded however long the lack stays.
+  for (int i = 1; i <= 200; ++i) g = hand.at(1.0 + i * 0.1);
+  const Eigen::AngleAxisd most(g.orientation_D.toRotationMatrix() * spring_D.transpose());
+  EXPECT_NEAR(most.angle(), tele::TaskHumanHand::kTurnBiasMax_rad, 1e-9);
+  // Released and pressed again: the correction starts over.
+  a.engaged = false;
+  anchors.publish(a);
+  hand.at(21.1);
+  a.engaged = true;
+  anchors.publish(a);
+  g = hand.at(21.1);
+  EXPECT_TRUE(g.orientation_D.toRotationMatrix().isApprox(spring_D, 1e-12));
 }
 
 TEST(TaskHuman, LeverInvertsTheMappingsOpening) {

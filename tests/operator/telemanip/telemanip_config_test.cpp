@@ -43,6 +43,7 @@ TEST(TelemanipConfig, BadFieldsAreNamedAndChangeNothing) {
   const Case cases[] = {
       {"telemanip.translation_scale", [](hemm::config::TelemanipConfig* c) { c->set_translation_scale(0.0); }},
       {"telemanip.yaw_a_d_deg", [](hemm::config::TelemanipConfig* c) { c->set_yaw_a_d_deg(NAN); }},
+      {"telemanip.rotation_scale", [](hemm::config::TelemanipConfig* c) { c->set_rotation_scale(5.0); }},
       {"telemanip.max_speed_mps", [](hemm::config::TelemanipConfig* c) { c->set_max_speed_mps(-1.0); }},
       {"telemanip.command_rate_hz", [](hemm::config::TelemanipConfig* c) { c->set_command_rate_hz(50.0); }},
       {"telemanip.right.deadman_ee", [](hemm::config::TelemanipConfig* c) { c->mutable_right()->set_deadman_ee(2); }},
@@ -84,6 +85,7 @@ TEST(TelemanipConfig, DirectModeTakesTheMappingTheDeviceAndThePassivityBlock) {
   c.set_mode("direct");
   c.set_yaw_a_d_deg(180.0);
   c.set_translation_scale(2.0);
+  c.set_rotation_scale(2.5);
   c.set_direct_fade_s(0.5);
   hemm::config::OperatorPassivityConfig pc;
   pc.set_controller(false);
@@ -98,6 +100,8 @@ TEST(TelemanipConfig, DirectModeTakesTheMappingTheDeviceAndThePassivityBlock) {
     EXPECT_TRUE(d.R_A_D.isApprox(tp.mapping[static_cast<std::size_t>(k)].R_A_D, 1e-15));
     EXPECT_NEAR(d.R_A_D(0, 0), -1.0, 1e-12);
     EXPECT_DOUBLE_EQ(d.translation_scale, 2.0);
+    EXPECT_DOUBLE_EQ(d.rotation_scale, 2.5);
+    EXPECT_DOUBLE_EQ(tp.mapping[static_cast<std::size_t>(k)].rotation_scale, 2.5);
     EXPECT_DOUBLE_EQ(d.fade_s, 0.5);
     EXPECT_DOUBLE_EQ(d.peak_force_n, l.ee[static_cast<std::size_t>(k)].peak_force);
     EXPECT_EQ(d.renders_torque, l.ee[static_cast<std::size_t>(k)].renders_torque);

@@ -46,6 +46,12 @@ TEST(TaskScript, WaitsForTheBelievedStateAtAnyDelay) {
   EXPECT_TRUE(out.deadman);
   EXPECT_EQ(st.step, 0u);
   EXPECT_LT((out.targets.T_A_G[1].translation() - goal).norm(), 1e-9);
+  // What it waits on: the left G's distance and turn from the goal, not the right's.
+  EXPECT_NEAR(st.wait_pos_m[1], (rest_l.translation() - goal).norm(), 1e-9);
+  EXPECT_NEAR(st.wait_rot_rad[1], Eigen::AngleAxisd(rest_l.linear().transpose() * st.to[1].linear()).angle(), 1e-9);
+  EXPECT_GT(st.wait_rot_rad[1], sc.p.rot_tol_rad);
+  EXPECT_EQ(st.wait_pos_m[0], 0.0);
+  EXPECT_EQ(st.wait_rot_rad[0], 0.0);
   // The right arm was not told to move.
   EXPECT_LT((out.targets.T_A_G[0].translation() - rest_r.translation()).norm(), 1e-12);
   // Believed there (orientation as targeted): the step ends, the next begins.
