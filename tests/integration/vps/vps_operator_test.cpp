@@ -21,6 +21,7 @@
 
 #include "tests/integration/latency/csv_columns.h"
 #include "tests/integration/link/child_process.h"
+#include "tests/sanitizer_build.h"
 
 namespace hemm::test {
 namespace {
@@ -175,7 +176,13 @@ TEST(VpsOperatorLoopback, PegInHoleWithTheSimulatedBimanualDeviceInTheLoopComple
 // Ideal actuators, relaxed spring-only humans (the device's own contract):
 // the same completion, and the hands yield: rigid hands end 13 mm apart in
 // z; these stay about 15 mm apart, their springs carrying the press.
+// Release pass only: it runs the code of the shipped bimanual run above with
+// other parameters (tests/sanitizer_build.h), and under the sanitizers the
+// servo cannot keep its period (a 2-core VM: 37 % of the ticks overran, compute median
+// 0.70 ms), so the relaxed hands' insertion is not the device's behaviour
+// there (the pins jammed 48 mm off the axis).
 TEST(VpsOperatorLoopback, PegInHoleWithTheSimulatedBimanualDeviceIdealActuatorsCompletesStably) {
+  if (kSanitizerBuild) GTEST_SKIP() << "release pass only (the shipped bimanual run covers its code here)";
   PegRun r;
   ASSERT_TRUE(run_peg("operator_vps_peg_bimanual.pbtxt", 4200, &r,
                       {"human_voluntary_force_n: 15\n    human_co_contracting: true", "ideal_actuators: true"}));

@@ -967,7 +967,9 @@ TEST(RobotStationLoopback, AfterALostLinkCommandsAreFollowedOnlyAfterANeutralOne
 
 // An operator's e-stop is never refused, not even when its request queue is
 // full: bursts of mode changes fill the queue (the ones around the e-stop are
-// refused for it), the e-stop in the middle of each burst is taken.
+// refused for it), the e-stop in the middle of each burst is taken. Whether a
+// burst fills the queue depends on how fast the station drains it beside the
+// machine's other load: bursts go on (at most 16) until two were judged full.
 TEST(RobotStationLoopback, AnOperatorsEStopIsNeverRefusedEvenWhenTheRequestQueueIsFull) {
   RobotSide robot(test_config());
   robot.start();
@@ -975,9 +977,9 @@ TEST(RobotStationLoopback, AnOperatorsEStopIsNeverRefusedEvenWhenTheRequestQueue
   ASSERT_TRUE(op.wait_connected());
   const auto level = spdlog::get_level();
   spdlog::set_level(spdlog::level::err);  // thousands of refusals otherwise
-  constexpr int kBursts = 4, kHalf = 300;
+  constexpr int kMaxBursts = 16, kJudgedWanted = 2, kHalf = 300;
   int judged = 0;
-  for (int b = 0; b < kBursts; ++b) {
+  for (int b = 0; b < kMaxBursts && judged < kJudgedWanted; ++b) {
     const uint64_t base = 100000 * static_cast<uint64_t>(b + 1);
     std::vector<hw::SessionFrame> fs;
     for (int i = 0; i < kHalf; ++i) fs.push_back(mode_change(hw::MODE_NAVIGATION, base + static_cast<uint64_t>(i)));
@@ -997,7 +999,8 @@ TEST(RobotStationLoopback, AnOperatorsEStopIsNeverRefusedEvenWhenTheRequestQueue
   }
   spdlog::set_level(level);
   EXPECT_GT(robot.station->statistics().requests_refused, 0u);
-  EXPECT_GE(judged, 1) << "the queue was never full around an e-stop: nothing judged";
+  EXPECT_GE(judged, kJudgedWanted) << "the queue was full around an e-stop in only " << judged << " of "
+                                   << kMaxBursts << " bursts";
   EXPECT_TRUE(robot.station->statistics().estop);
 }
 
