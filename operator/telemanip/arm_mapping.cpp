@@ -22,15 +22,20 @@ Eigen::Matrix3d scaled_turn(const Eigen::Matrix3d& R, double k) {
 std::string validate(const ArmMappingParams& p) {
   if (!p.R_A_D.allFinite() || !p.R_A_D.isUnitary(1e-9) || p.R_A_D.determinant() < 0.0)
     return "R_A_D must be a rotation (orthonormal, det +1)";
-  if (!mapping_in_range(p.translation_scale, 0.0, 10.0)) return "translation scale must be in (0, 10]";
-  if (!(std::isfinite(p.rotation_scale) && p.rotation_scale >= 0.25 && p.rotation_scale <= 4.0))
-    return "rotation scale must be in [0.25, 4]";
+  if (std::string e = check_scales(p.translation_scale, p.rotation_scale); !e.empty()) return e;
   if (!mapping_in_range(p.max_step_m, 0.0, 0.1)) return "max_step_m must be in (0, 0.1] m";
   if (!mapping_in_range(p.max_step_rad, 0.0, 1.0)) return "max_step_rad must be in (0, 1] rad";
   if (p.deadman_ee < 0 || p.deadman_ee > 1) return "deadman_ee must be 0 or 1";
   if (!mapping_in_range(p.grip_travel_m, 0.0, 0.2)) return "grip travel must be in (0, 0.2] m";
   for (double v : {p.opening_open_m, p.opening_closed_m, p.force_open_n, p.force_closed_n})
     if (!std::isfinite(v) || v < 0.0) return "gripper openings and forces must be finite and >= 0";
+  return {};
+}
+
+std::string check_scales(double translation_scale, double rotation_scale) {
+  if (!mapping_in_range(translation_scale, 0.0, 10.0)) return "translation_scale: must be in (0, 10]";
+  if (!(std::isfinite(rotation_scale) && rotation_scale >= 0.25 && rotation_scale <= 4.0))
+    return "rotation_scale: must be in [0.25, 4]";
   return {};
 }
 

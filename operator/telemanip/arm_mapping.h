@@ -59,6 +59,11 @@ struct ArmMappingParams {
 // openings and forces >= 0.
 std::string validate(const ArmMappingParams& p);
 
+// The scales' allowed ranges (the mapping, the direct mode and the config
+// all refuse the same): empty if both are allowed, else "<name>: must be in
+// <range>" for the first that is not, named as the config's fields are.
+std::string check_scales(double translation_scale, double rotation_scale);
+
 // One hand's reading, in D (the device API's "H" for the bimanual device).
 struct HandReading {
   Eigen::Isometry3d T_D_E = Eigen::Isometry3d::Identity();

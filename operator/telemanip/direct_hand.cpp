@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "operator/telemanip/arm_mapping.h"
+
 namespace hemm::op::telemanip {
 
 namespace {
@@ -20,8 +22,7 @@ const char* to_string(FeedbackMode m) noexcept { return m == FeedbackMode::kDire
 
 std::string validate(const DirectHandParams& p) {
   if (!p.R_A_D.allFinite() || !(std::abs(p.R_A_D.determinant() - 1.0) < 1e-6)) return "R_A_D must be a rotation";
-  if (!(p.translation_scale > 0.0 && p.translation_scale <= 10.0)) return "translation scale must be in (0, 10]";
-  if (!(p.rotation_scale >= 0.25 && p.rotation_scale <= 4.0)) return "rotation scale must be in [0.25, 4]";
+  if (std::string e = check_scales(p.translation_scale, p.rotation_scale); !e.empty()) return e;
   if (!(p.max_speed_mps > 0.0 && p.max_rate_radps > 0.0)) return "speed and rate limits must be > 0";
   if (!(p.fade_s > 0.0 && p.fade_s <= 2.0)) return "fade must be in (0, 2] s";
   if (!(p.peak_force_n >= 0.0 && p.peak_torque_nm >= 0.0 && std::isfinite(p.peak_force_n) &&

@@ -24,10 +24,7 @@ std::string telemanip_params(const config::TelemanipConfig& c, double period_s, 
                              const config::OperatorPassivityConfig* passivity) {
   if (!(std::isfinite(c.yaw_a_d_deg()) && std::abs(c.yaw_a_d_deg()) <= 360.0))
     return "telemanip.yaw_a_d_deg: must be finite, within +-360";
-  if (!(c.translation_scale() > 0.0 && c.translation_scale() <= 10.0))
-    return "telemanip.translation_scale: must be in (0, 10]";
-  if (!(c.rotation_scale() >= 0.25 && c.rotation_scale() <= 4.0))
-    return "telemanip.rotation_scale: must be in [0.25, 4]";
+  if (std::string e = check_scales(c.translation_scale(), c.rotation_scale()); !e.empty()) return "telemanip." + e;
   if (!(c.max_speed_mps() > 0.0 && c.max_speed_mps() <= 5.0)) return "telemanip.max_speed_mps: must be in (0, 5]";
   if (!(c.max_rate_radps() > 0.0 && c.max_rate_radps() <= 20.0)) return "telemanip.max_rate_radps: must be in (0, 20]";
   if (limits.end_effectors != kTeleArms) return "telemanip: the device must have two end-effectors (sim-bimanual)";

@@ -263,8 +263,12 @@ TEST(ArmMapping, BadParametersAreRefused) {
   for (double k : {0.0, 0.2, 4.5, double(NAN)}) {
     tele::ArmMappingParams rot = p;
     rot.rotation_scale = k;
-    EXPECT_NE(tele::validate(rot), "") << k;
+    EXPECT_EQ(tele::validate(rot).rfind("rotation_scale: must be in [0.25, 4]", 0), 0u) << k;
   }
+  // The ranges' ends are allowed (one check for the mapping, the direct mode and the config).
+  EXPECT_EQ(tele::check_scales(10.0, 0.25), "");
+  EXPECT_EQ(tele::check_scales(1e-3, 4.0), "");
+  EXPECT_EQ(tele::check_scales(10.5, 1.0), "translation_scale: must be in (0, 10]");
   tele::ArmMappingParams step = p;
   step.max_step_m = -1.0;
   EXPECT_NE(tele::validate(step), "");
