@@ -2,7 +2,10 @@
 // the tool is K * integral over the tool's penetrating surface of p n dA, with
 // p the depth of the surface point in the scene and n the tool's inward
 // normal). Prints a table of magnitude error per voxel size and asserts the
-// direction (within 2 degrees) and a falling error trend.
+// direction (within 2 degrees) and a falling error trend. The sanitizer pass
+// takes one voxel size of each sweep (tests/sanitizer_build.h): the finest
+// sizes were most of its 95 s here, and every size runs the same code; the
+// trend is asserted in the release pass.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -12,6 +15,7 @@
 #include "common/haptics/vps/closed_forms.h"
 #include "common/haptics/vps/contact.h"
 #include "common/mesh/primitives.h"
+#include "tests/sanitizer_build.h"
 
 namespace hemm::vps {
 namespace {
@@ -45,6 +49,7 @@ void print_table(const char* name, const std::vector<Row>& rows) {
 }
 
 void expect_falling(const std::vector<Row>& rows) {
+  if (hemm::test::kSanitizerBuild) return;  // one size there: no trend to judge
   // Monotone within a margin, and clearly smaller at the finest than at the coarsest size.
   for (std::size_t i = 1; i < rows.size(); ++i) EXPECT_LE(rows[i].err_cont, rows[i - 1].err_cont * 1.15 + 0.005);
   EXPECT_LT(rows.back().err_cont, 0.5 * rows.front().err_cont + 0.005);
@@ -60,7 +65,8 @@ PairResult eval(const Voxmap& vm, const PointShell& ps, const Eigen::Isometry3d&
   return r;
 }
 
-const std::vector<double> kVoxels = {0.008, 0.004, 0.002, 0.0015};
+const std::vector<double> kVoxels =
+    hemm::test::kSanitizerBuild ? std::vector<double>{0.004} : std::vector<double>{0.008, 0.004, 0.002, 0.0015};
 
 TEST(VpsAccuracy, SphereAgainstPlane) {
   const double R = 0.05, delta = 0.006;
@@ -157,7 +163,9 @@ TEST(VpsAccuracy, BoxFaceContacts) {
       kK * W * (delta * delta * delta / 3 + o * delta * delta / 2 + delta * ((L * L - delta * delta) / 2 + o * (L - delta))) +
       kK * W * ((delta - h.z()) * delta * delta / 2 - delta * delta * delta / 3);
   std::vector<Row> rows;
-  for (double s : {0.004, 0.003, 0.002, 0.0015}) {
+  const std::vector<double> voxels =
+      hemm::test::kSanitizerBuild ? std::vector<double>{0.003} : std::vector<double>{0.004, 0.003, 0.002, 0.0015};
+  for (double s : voxels) {
     VoxmapParams vp;
     vp.voxel_size = s;
     // Enough distance layers to cover the penetration depth (10 mm).
