@@ -14,6 +14,7 @@
 #include "common/clock/steady_clock.h"
 #include "common/mesh/primitives.h"
 #include "tests/operator/servo/alloc_counter.h"
+#include "tests/sanitizer_build.h"
 
 namespace hemm::vps {
 namespace {
@@ -212,9 +213,10 @@ TEST_F(WorkBudgetOnAScene, CalibrationMeasuresTheCostAndTheBudgetHoldsTheTime) {
   ASSERT_GT(c.samples, 12);
   EXPECT_GE(c.median_work, rp.min_work);
   // A unit is a node visit or a point test: between a nanosecond and a few
-  // microseconds on any machine this runs on, loaded or not.
+  // microseconds on any machine this runs on, loaded or not; about ten
+  // times dearer under the sanitizers (7.0 us seen beside other tests).
   EXPECT_GT(c.median_ns_per_unit, 1.0);
-  EXPECT_LT(c.median_ns_per_unit, 5000.0);
+  EXPECT_LT(c.median_ns_per_unit, hemm::test::kSanitizerBuild ? 50000.0 : 5000.0);
   EXPECT_GE(c.p90_ns_per_unit, c.median_ns_per_unit);
   EXPECT_EQ(c.rate.mean_ns, c.median_ns_per_unit);
   // Ticks on poses through the surface, with a budget of a fifth of the
