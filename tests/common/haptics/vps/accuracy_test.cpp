@@ -65,8 +65,7 @@ PairResult eval(const Voxmap& vm, const PointShell& ps, const Eigen::Isometry3d&
   return r;
 }
 
-const std::vector<double> kVoxels =
-    hemm::test::kSanitizerBuild ? std::vector<double>{0.004} : std::vector<double>{0.008, 0.004, 0.002, 0.0015};
+const std::vector<double> kVoxels = hemm::test::sanitizer_cases<double>({0.008, 0.004, 0.002, 0.0015}, {1});
 
 TEST(VpsAccuracy, SphereAgainstPlane) {
   const double R = 0.05, delta = 0.006;
@@ -163,8 +162,7 @@ TEST(VpsAccuracy, BoxFaceContacts) {
       kK * W * (delta * delta * delta / 3 + o * delta * delta / 2 + delta * ((L * L - delta * delta) / 2 + o * (L - delta))) +
       kK * W * ((delta - h.z()) * delta * delta / 2 - delta * delta * delta / 3);
   std::vector<Row> rows;
-  const std::vector<double> voxels =
-      hemm::test::kSanitizerBuild ? std::vector<double>{0.003} : std::vector<double>{0.004, 0.003, 0.002, 0.0015};
+  const std::vector<double> voxels = hemm::test::sanitizer_cases<double>({0.004, 0.003, 0.002, 0.0015}, {1});
   for (double s : voxels) {
     VoxmapParams vp;
     vp.voxel_size = s;

@@ -242,8 +242,7 @@ TEST(VpsThinWall, PlatesThinnerThanAVoxelAreNotTunnelledAndMatchTheExactPlateFor
   ASSERT_FALSE(build_pointshell(sphere, pp, Eigen::Vector3d::Zero(), &ps));
   std::printf("\n  voxel  | wall           | from  | |F| error >= 0.3 mm | >= 1 mm | max sideways | early |F| | min F_n\n");
   // The sanitizer pass: the middle size alone (tests/sanitizer_build.h; 31 s there with all three).
-  const std::vector<double> voxels =
-      hemm::test::kSanitizerBuild ? std::vector<double>{0.0025} : std::vector<double>{0.0015, 0.0025, 0.004};
+  const std::vector<double> voxels = hemm::test::sanitizer_cases<double>({0.0015, 0.0025, 0.004}, {1});
   for (const double s : voxels) {
     for (const double frac : {0.35, 0.6, 0.9, 0.0, -1.0}) {
       const double t = frac >= 0 ? frac * s : 0.02;
@@ -376,8 +375,7 @@ TEST(VpsThinWall, NoForceOnceTheSpherePushedThroughNoLongerOverlapsTheWall) {
   std::printf("\n  voxel  | wall           | layers | R     | from  | out by  | apart: ticks  max |F|  contacts | "
               "back: |F| error  min F against\n");
   // Under the sanitizers one voxel size (2 mm) of the three: the same code (tests/sanitizer_build.h).
-  const std::vector<double> voxels =
-      hemm::test::kSanitizerBuild ? std::vector<double>{0.002} : std::vector<double>{0.001, 0.002, 0.004};
+  const std::vector<double> voxels = hemm::test::sanitizer_cases<double>({0.001, 0.002, 0.004}, {1});
   for (const double s : voxels) {
     for (const double t : {0.0006, 0.0009, 0.0}) {
       for (const bool deep : {false, true}) {

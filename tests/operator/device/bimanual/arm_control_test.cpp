@@ -163,10 +163,8 @@ TEST(NullSpace, ElbowMovesAlongFdWhileTheHandHoldsStillBothProjectors) {
   friction.plant.actuators = hb::lwr_actuators(friction.plant.rig.arm);
   hb::SimulationConfig all;  // friction, ripple and the nominal model off by a few per cent
   // The sanitizer pass: the ideal plant with both projectors (tests/sanitizer_build.h).
-  const std::vector<Row> rows =
-      hemm::test::kSanitizerBuild
-          ? std::vector<Row>{{"ideal actuators", ideal_config()}}
-          : std::vector<Row>{{"ideal actuators", ideal_config()}, {"friction + ripple", friction}, {"+ model error", all}};
+  const std::vector<Row> rows = hemm::test::sanitizer_cases<Row>(
+      {{"ideal actuators", ideal_config()}, {"friction + ripple", friction}, {"+ model error", all}}, {0});
   std::printf("\nnull space, F_d = 20 N at the right elbow, the hand holding still (|F| at the hand, N):\n");
   std::printf("%-10s %-18s %14s %12s %12s %14s %12s\n", "projector", "plant", "static |F_E|", "moving rms", "moving max",
               "elbow along F_d", "elbow speed");
@@ -302,12 +300,12 @@ TEST(FeedForward, HandArmSystemStaysStableOverHandStiffnessAndDamping) {
   struct Hand {
     double k, b, grasp;
   };
-  const std::vector<Hand> all = {{0, 0, 4000},      {0, 25, 4000},     {300, 5, 4000},   {300, 25, 4000},
-                                 {300, 100, 4000},  {1000, 25, 4000},  {1000, 100, 4000}, {3000, 50, 4000},
-                                 {3000, 150, 4000}, {300, 25, 1500},   {300, 25, 10000}, {1000, 50, 10000}};
   // The sanitizer pass (tests/sanitizer_build.h): the free hand, the stiffest
   // arm and the stiffest grasp, the same code as the rest of the sweep.
-  const std::vector<Hand> hands = hemm::test::kSanitizerBuild ? std::vector<Hand>{all[0], all[8], all[11]} : all;
+  const std::vector<Hand> hands = hemm::test::sanitizer_cases<Hand>(
+      {{0, 0, 4000}, {0, 25, 4000}, {300, 5, 4000}, {300, 25, 4000}, {300, 100, 4000}, {1000, 25, 4000},
+       {1000, 100, 4000}, {3000, 50, 4000}, {3000, 150, 4000}, {300, 25, 1500}, {300, 25, 10000}, {1000, 50, 10000}},
+      {0, 8, 11});
   std::printf("\nstability with feed-forward (push 15 N + 0.3 N m for 0.1 s, then release):\n");
   std::printf("%10s %10s %10s %14s %14s\n", "k [N/m]", "b [N s/m]", "grasp [N/m]", "|v| 0.1-0.4 s", "|v| 1.2-1.5 s");
   for (const Hand& hd : hands) {
