@@ -8,7 +8,8 @@
 #     the bar in workbench.xml),
 #   * above 0 ms a hemm-relay between them: rtt/2 each way, 5 % loss, the seed
 #     (outage runs: a 1 s outage OUTAGE_AT s after the relay starts),
-#   * hemm-operator with deploy/configs/operator_telemanip_tasks.pbtxt,
+#   * hemm-operator with deploy/configs/operator_telemanip_tasks.pbtxt (both
+#     configs with the path's round trip as link.rtt_ms, written into the run's folder),
 #     --task TASK --task-scene SCENE [--telemanip-mode MODE]; it ends when the
 #     script is done (+ its settle time) or at its duration,
 # and collects both JSON reports into OUT/TASK-RTTms-MODE[-outage]-sSEED/.
@@ -120,8 +121,13 @@ for run in "${runs[@]}"; do
   if [[ "$task" == box ]]; then scene="$scenes/workbench_box.xml"; fi
   # The station's config: the shipped one with absolute paths and the task judged.
   sed -e "s|key_file: \"demo.key\"|key_file: \"$cfg/demo.key\"|" -e "s|scene: \"../scenes/workbench.xml\"|scene: \"$scene\"|" \
-    -e "s|^twoarm {|twoarm {\n  task: \"$task\"|" -e "s|seed: 1 |seed: $seed |" "$cfg/robot_twoarm.pbtxt" >"$dir/robot.pbtxt"
+    -e "s|^twoarm {|twoarm {\n  task: \"$task\"|" -e "s|seed: 1 |seed: $seed |" \
+    -e "s|^link {|link {\n  rtt_ms: $rtt|" "$cfg/robot_twoarm.pbtxt" >"$dir/robot.pbtxt"
   grep -q "task: \"$task\"" "$dir/robot.pbtxt" || { echo "telemanip_table: could not set the task in $dir/robot.pbtxt" >&2; exit 1; }
+  # Both ends know the path's round trip: each handshake step waits
+  # handshake_timeout_ms (3 s) plus it, and at 3000 ms one step takes the
+  # round trip itself (without it the first contact timed out every time).
+  { echo "link { rtt_ms: $rtt }"; cat "$cfg/operator_telemanip_tasks.pbtxt"; } >"$dir/operator.pbtxt"
   op_s=$((90 + 30 * rtt / 1000))
   if [[ -n "$limit" ]]; then op_s=$limit; fi
   echo "== [$((SECONDS - t0)) s] run $k/${#runs[@]}: $name (ports $p..$((p + 3)), operator at most $op_s s)"
@@ -148,7 +154,7 @@ for run in "${runs[@]}"; do
   modeargs=()
   if [[ "$mode" == direct ]]; then modeargs=(--telemanip-mode direct); fi
   rc=0
-  "$bin/hemm-operator" --config "$cfg/operator_telemanip_tasks.pbtxt" --key "$cfg/demo.key" --session-port "$port" \
+  "$bin/hemm-operator" --config "$dir/operator.pbtxt" --key "$cfg/demo.key" --session-port "$port" \
     --stream-port "$stream" --task "$task" --task-scene "$scene" "${modeargs[@]}" --duration "$op_s" \
     --log-level warn --stats-json "$dir/operator.json" >"$dir/operator.txt" 2>"$dir/operator.log" || rc=$?
   echo "$rc" >"$dir/operator.rc"
