@@ -39,12 +39,13 @@ std::string validate(const GripperGeometry& g) {
   return {};
 }
 
-mesh::TriangleMesh gripper_mesh(const GripperGeometry& g, double opening_m) {
+mesh::TriangleMesh gripper_mesh(const GripperGeometry& g, double opening_m, bool fingers) {
   const double gap = std::max(opening_m, kGripperMinGap);
   mesh::TriangleMesh m;
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
   T.translation() = Eigen::Vector3d(0.0, 0.0, g.palm_centre_z);
   mesh::append_mesh(&m, mesh::make_box(g.palm_half, 8), T);
+  if (!fingers) return m;
   for (double side : {1.0, -1.0}) {  // finger a (+y) and b (-y), pads facing G
     T.translation() = Eigen::Vector3d(0.0, side * (0.5 * gap + g.finger_half.y()), g.finger_centre_z);
     mesh::append_mesh(&m, mesh::make_box(g.finger_half, 4), T);
@@ -52,7 +53,7 @@ mesh::TriangleMesh gripper_mesh(const GripperGeometry& g, double opening_m) {
   return m;
 }
 
-std::string make_gripper_tool(const GripperGeometry& g, double opening_m, vps::ProbeTool* out) {
+std::string make_gripper_tool(const GripperGeometry& g, double opening_m, vps::ProbeTool* out, bool fingers) {
   if (std::string e = validate(g); !e.empty()) return e;
   if (!(opening_m >= 0.0 && opening_m <= g.max_opening_m)) return "gripper: opening outside [0, max opening]";
   const double gap = std::max(opening_m, kGripperMinGap);
@@ -74,7 +75,7 @@ std::string make_gripper_tool(const GripperGeometry& g, double opening_m, vps::P
   sp.voxel_size = g.spacing;
   sp.levels = g.levels;
   vps::ProbeTool t;
-  if (auto e = vps::build_pointshell(gripper_mesh(g, opening_m), sp, com, &t.shell)) return "gripper: " + e->message;
+  if (auto e = vps::build_pointshell(gripper_mesh(g, opening_m, fingers), sp, com, &t.shell)) return "gripper: " + e->message;
   t.mass = mass;
   t.inertia_com = I;
   *out = std::move(t);
@@ -98,6 +99,7 @@ std::string make_gripper_tool_set(const GripperGeometry& g, GripperToolSet* out)
   s.tools.resize(s.opening_m.size());
   for (std::size_t i = 0; i < s.opening_m.size(); ++i)
     if (std::string e = make_gripper_tool(g, s.opening_m[i], &s.tools[i]); !e.empty()) return e;
+  if (std::string e = make_gripper_tool(g, 0.5 * g.max_opening_m, &s.palm, false); !e.empty()) return e;
   *out = std::move(s);
   return {};
 }

@@ -34,20 +34,27 @@ struct GripperGeometry {
 // Empty when usable.
 std::string validate(const GripperGeometry& g);
 
-// The palm and fingers at `opening_m` as one mesh (three closed boxes), in G.
-mesh::TriangleMesh gripper_mesh(const GripperGeometry& g, double opening_m);
+// The palm and fingers at `opening_m` as one mesh (three closed boxes), in G;
+// without the fingers, the palm alone.
+mesh::TriangleMesh gripper_mesh(const GripperGeometry& g, double opening_m, bool fingers = true);
 
 // Pointshell, mass and inertia about the centre of mass (G's axes) at one
-// opening. Allocates. Fails with a message on a bad geometry.
-std::string make_gripper_tool(const GripperGeometry& g, double opening_m, vps::ProbeTool* out);
+// opening; fingers false: the palm's pointshell alone, the mass and inertia
+// still the whole gripper's. Allocates. Fails with a message on a bad geometry.
+std::string make_gripper_tool(const GripperGeometry& g, double opening_m, vps::ProbeTool* out, bool fingers = true);
 
 struct GripperToolSet {
   std::vector<double> opening_m;        // ascending
   std::vector<vps::ProbeTool> tools;    // one per opening
+  // The palm's shell alone (at half the stroke), for a gripper that holds
+  // something: its fingers are on the held object, whose own voxels the live
+  // voxmap keeps (the head camera sees it) and would push them.
+  vps::ProbeTool palm;
   // Index of the shell nearest `opening` (clamped; a non-finite one: the widest). No allocation.
   int nearest(double opening) const noexcept;
 };
-// Shells at 0, step, 2 step, ... max_opening_m (the last at max). Allocates.
+// Shells at 0, step, 2 step, ... max_opening_m (the last at max), and the
+// palm's. Allocates.
 std::string make_gripper_tool_set(const GripperGeometry& g, GripperToolSet* out);
 
 }  // namespace hemm::op::telemanip

@@ -55,7 +55,11 @@ report::Telemanip make_telemanip_report(const TelemanipLinkStats& link, const Te
     telereport_vec(st.last_force_D, h->mutable_last_force_d());
     telereport_vec(m.T_A_G_cmd.translation(), h->mutable_commanded_p_a());
     if (remote != nullptr && remote->valid) telereport_vec(remote->arm[static_cast<std::size_t>(k)].p_A, h->mutable_remote_p_a());
+    h->set_felt_weight_n(task.held().weight_n[static_cast<std::size_t>(k)]);
   }
+  r.set_held_holds(task.held().holds);
+  r.set_held_ticks(task.held().held_ticks);
+  r.set_held_peak_squeeze_n(task.held().peak_squeeze_n);
   if (timing != nullptr) servo::fill(r.mutable_timing(), *timing);
   r.set_mode(to_string(task.params().mode));
   r.set_ports_rejected(link.ports_rejected);

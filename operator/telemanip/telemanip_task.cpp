@@ -49,6 +49,7 @@ std::string validate(const TelemanipTaskParams& p) {
       if (std::string e = validate(d); !e.empty()) return "direct: " + e;
   }
   if (std::string e = validate(p.gripper); !e.empty()) return e;
+  if (std::string e = validate(p.held); !e.empty()) return e;
   if (!(std::isfinite(p.contact_stiffness) && p.contact_stiffness > 0 && p.contact_stiffness <= 1e10))
     return "contact stiffness must be in (0, 1e10] N/m^3";
   if (p.budget < 1) return "work budget must be >= 1";
@@ -89,8 +90,9 @@ TelemanipTask::TelemanipTask(const TelemanipTaskParams& p) : p_(p) {
     tp.contact.stiffness = p.contact_stiffness;
     tp.budget = p.budget;
     Hand& h = hands_[static_cast<std::size_t>(k)];
-    h.states.resize(tools_.tools.size());
-    for (std::size_t i = 0; i < tools_.tools.size(); ++i) vps::init_tool_state(tools_.tools[i], &h.states[i]);
+    h.states.resize(tools_.tools.size() + 1);  // and the palm's, last
+    for (std::size_t i = 0; i < h.states.size(); ++i)
+      vps::init_tool_state(shell_tool(static_cast<int>(i)), &h.states[i]);
     h.shell = tools_.nearest(p.mapping[static_cast<std::size_t>(k)].opening_open_m);
   }
   vps::TimeBudgetParams tb;
@@ -107,14 +109,19 @@ TelemanipTask::TelemanipTask(const TelemanipTaskParams& p) : p_(p) {
   for (auto& b : budget_) b = vps::TickWorkBudget(tb, calibration_.rate);
 }
 
-void TelemanipTask::render_hand(int k, const vps::Voxmap* vm, std::uint64_t build, double opening,
+const vps::ProbeTool& TelemanipTask::shell_tool(int i) const noexcept {
+  return i >= static_cast<int>(tools_.tools.size()) ? tools_.palm : tools_.tools[static_cast<std::size_t>(i)];
+}
+
+void TelemanipTask::render_hand(int k, const vps::Voxmap* vm, std::uint64_t build, double opening, bool holding,
                                 std::int64_t deadline_ns, device::EndEffectorCommand& c) noexcept {
   const std::size_t ki = static_cast<std::size_t>(k);
   Hand& h = hands_[ki];
   const ArmCommandOut& cmd = cmd_[ki];
   HandRenderStats& st = stats_[ki];
-  // The shell of the gripper's opening; the coupled body carries over.
-  const int want = tools_.nearest(opening);
+  // The shell of the gripper's opening (the palm's while it holds
+  // something); the coupled body carries over.
+  const int want = holding ? static_cast<int>(tools_.tools.size()) : tools_.nearest(opening);
   if (want != h.shell) {
     vps::ToolState& from = h.states[static_cast<std::size_t>(h.shell)];
     vps::ToolState& to = h.states[static_cast<std::size_t>(want)];
@@ -124,7 +131,7 @@ void TelemanipTask::render_hand(int k, const vps::Voxmap* vm, std::uint64_t buil
     to.voxmap = nullptr;  // its pair cache is of another shell
     h.shell = want;
   }
-  const vps::ProbeTool& tool = tools_.tools[static_cast<std::size_t>(h.shell)];
+  const vps::ProbeTool& tool = shell_tool(h.shell);
   vps::ToolState& s = h.states[static_cast<std::size_t>(h.shell)];
   vps::ToolParams& tp = tool_params_[ki];
   if (!cmd.pressed) vm = nullptr;  // released: the tool follows the command, nothing displayed
@@ -160,6 +167,27 @@ void TelemanipTask::render_hand(int k, const vps::Voxmap* vm, std::uint64_t buil
   if (s.contact.contacts > 0) {
     ++st.contact_ticks;
     st.sum_force_n += f;
+  }
+}
+
+void TelemanipTask::render_held(const RemoteArmsState& remote, device::DeviceCommand& command) noexcept {
+  HeldObjectInputs in;
+  in.remote_valid = remote.valid;
+  for (std::size_t k = 0; k < kTeleArms; ++k) {
+    in.pressed[k] = cmd_[k].pressed;
+    in.holding[k] = remote.gripper[k].holding;
+    in.T_A_G[k] = cmd_[k].T_A_G;
+    in.remote_force_A[k] = remote.arm[k].force_A;
+  }
+  HeldObjectWrench w;
+  held_object_step(p_.held, in, p_.period_s, &held_, &w);
+  for (std::size_t k = 0; k < kTeleArms; ++k) {
+    // At G (= the E point), into D as the contact's wrench is (F_D = s F_A, tau_D = k tau_A).
+    const ArmMappingParams& mp = p_.mapping[k];
+    const Eigen::Matrix3d R_D_A = mp.R_A_D.transpose();
+    device::EndEffectorCommand& c = command.ee[k];
+    c.force_H += R_D_A * (mp.translation_scale * w.force_A[k]);
+    c.torque_H += R_D_A * (mp.rotation_scale * w.torque_A[k]);
   }
 }
 
@@ -225,7 +253,8 @@ void TelemanipTask::tick(const device::DeviceSample& in, const servo::ModelSnaps
       const double opening = remote != nullptr && remote->valid ? remote->gripper[ki].opening_m
                              : c.has_gripper                    ? c.opening_m
                                                                 : p_.mapping[ki].opening_open_m;
-      render_hand(k, vm, build, opening, out.deadline_ns, out.command.ee[ki]);
+      const bool holding = remote != nullptr && remote->valid && remote->gripper[ki].holding;
+      render_hand(k, vm, build, opening, holding, out.deadline_ns, out.command.ee[ki]);
       work += stats_[ki].last_work;
     }
     a.active = ms.initialized;
@@ -240,6 +269,8 @@ void TelemanipTask::tick(const device::DeviceSample& in, const servo::ModelSnaps
     an.state = ms;
     anchors_[ki].publish();
   }
+  if (p_.render && remote != nullptr && remote->valid && map_[0].initialized && map_[1].initialized)
+    render_held(*remote, out.command);
   setpoints_.publish();
   if (roi_out_ != nullptr && map_[0].initialized && map_[1].initialized) {
     ProbePosition& pp = roi_out_->back();

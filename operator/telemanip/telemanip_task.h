@@ -8,13 +8,17 @@
 //  2. the mapping (arm_mapping.h) turns the hand's pose, the gating
 //     dead-man and the grip lever into the commanded T_A_G and gripper;
 //  3. while the hand is engaged, the gripper's pointshell at its opening
-//     (the remote one's, or the commanded one before any state) is pulled to
+//     (the remote one's, or the commanded one before any state; the palm's
+//     alone while the remote gripper holds something) is pulled to
 //     the commanded T_A_G by the 6-DoF virtual coupling and rendered with VPS
 //     against the snapshot's live voxmap (frame W; the workbench's A is W);
 //     the coupling's reaction, at E and in D (force times the translation
 //     scale: the hand's work equals the tool's), goes to the device;
 //     released, nothing is displayed and the tool follows the command;
-//  4. both arms' setpoints go into the mailbox the link sends from.
+//  4. what the grippers hold adds its measured weight, and held by both, the
+//     rigid coupling between the hands (held_object.h), to each hand's
+//     wrench (model-mediated mode, rendering on);
+//  5. both arms' setpoints go into the mailbox the link sends from.
 //
 // In the direct mode (params.mode; issue 25 part 5) step 3 is the direct
 // force-feedback hand instead (direct_hand.h): the robot's wrench through the
@@ -41,6 +45,7 @@
 #include "operator/servo/servo_loop.h"
 #include "operator/telemanip/arm_mapping.h"
 #include "operator/telemanip/gripper_tool.h"
+#include "operator/telemanip/held_object.h"
 #include "operator/telemanip/telemanip_link.h"
 
 namespace hemm::op::telemanip {
@@ -51,6 +56,7 @@ struct TelemanipTaskParams {
   std::array<ArmMappingParams, kTeleArms> mapping{};
   bool render = true;  // model-mediated forces (false: commands only)
   GripperGeometry gripper;
+  HeldObjectParams held;  // the held object's weight and two-hand coupling
   double contact_stiffness = 3e7;        // N/m^3 (as the 6-DoF probe tool)
   std::int64_t budget = 4000;            // VPS work units per hand per tick
   std::int64_t tick_budget_ns = 100'000; // VPS time per hand per tick (0: none)
@@ -105,6 +111,8 @@ class TelemanipTask final : public servo::ServoTask {
   const ArmMappingState& mapping(int k) const noexcept { return map_[static_cast<std::size_t>(k)]; }
   const ArmCommandOut& command(int k) const noexcept { return cmd_[static_cast<std::size_t>(k)]; }
   const HandRenderStats& render_stats(int k) const noexcept { return stats_[static_cast<std::size_t>(k)]; }
+  // The held object's state (holds, peak squeeze, felt weights).
+  const HeldObjectState& held() const noexcept { return held_; }
   // The direct mode's hand (its passivity port, what it showed and sent).
   const DirectHandState& direct_hand(int k) const noexcept { return direct_[static_cast<std::size_t>(k)]; }
   std::uint64_t direct_resets() const noexcept { return direct_resets_; }
@@ -120,7 +128,11 @@ class TelemanipTask final : public servo::ServoTask {
     int shell = 0;                       // the one in use
     std::uint64_t voxmap_build = 0;      // the build its pair state belongs to
   };
-  void render_hand(int k, const vps::Voxmap* vm, std::uint64_t build, double opening, std::int64_t deadline_ns,
+  // Step 4: the held object's wrench added to both hands' commands.
+  void render_held(const RemoteArmsState& remote, device::DeviceCommand& command) noexcept;
+  // Shell i: the opening's (GripperToolSet::tools), the palm's past them.
+  const vps::ProbeTool& shell_tool(int i) const noexcept;
+  void render_hand(int k, const vps::Voxmap* vm, std::uint64_t build, double opening, bool holding, std::int64_t deadline_ns,
                    device::EndEffectorCommand& c) noexcept;
 
   TelemanipTaskParams p_;
@@ -132,6 +144,7 @@ class TelemanipTask final : public servo::ServoTask {
   std::array<ArmMappingState, kTeleArms> map_{};
   std::array<ArmCommandOut, kTeleArms> cmd_{};
   std::array<HandRenderStats, kTeleArms> stats_{};
+  HeldObjectState held_;
   std::array<DirectHandState, kTeleArms> direct_{};
   std::uint64_t direct_epoch_ = 0;  // the robot's frame epoch the ports count in
   bool direct_epoch_seen_ = false;

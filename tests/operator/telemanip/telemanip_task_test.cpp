@@ -2,7 +2,9 @@
 // hand through the mapping, each gripper's pointshell pressed into a bench
 // voxmap pushes its own hand back with the series-spring closed form of the
 // coupling and the pads' contact (K * pad area), the hand in free space
-// feels nothing, a released dead-man stops pressing and displays nothing,
+// feels nothing, a gripper that holds something feels its palm alone, a
+// released dead-man stops pressing and displays nothing, an object held by
+// both grippers couples the hands and weighs on them,
 // and the tick allocates nothing with both hands rendering.
 #include "operator/telemanip/telemanip_task.h"
 
@@ -157,11 +159,64 @@ TEST(TelemanipTask, GripperPressedIntoTheBenchPushesItsOwnHandBack) {
   ASSERT_NE(sp, nullptr);
   EXPECT_TRUE(sp->arm[0].active && sp->arm[0].pressed && sp->arm[1].active);
   EXPECT_NEAR(sp->arm[0].p_A.z(), 0.73, 1e-9);
+  // The remote gripper says it holds something: its fingers are on the held
+  // object, whose own voxels the live voxmap keeps, so the palm's shell alone
+  // is rendered - here 7.5 cm and more above G, off the bench: nothing felt.
+  tele::RemoteArmsState holding = task_test_remote(kTaskTestRightA, kTaskTestLeftA);
+  holding.gripper[0].holding = true;
+  run.task.remote().publish(holding);
+  const std::uint64_t contacts = run.task.render_stats(0).contact_ticks;
+  for (int i = 0; i < 300; ++i)
+    run.step(task_test_sample(kTaskTestRightD - Eigen::Vector3d(0, 0, down), kTaskTestLeftD, true));
+  EXPECT_LT(run.out.command.ee[0].force_H.norm(), 0.02 * f_expected);
+  EXPECT_LE(run.task.render_stats(0).contact_ticks - contacts, 10u);
   // Dead-man released: nothing pressed, nothing displayed, the command holds.
   run.step(task_test_sample(kTaskTestRightD - Eigen::Vector3d(0, 0, down + 0.05), kTaskTestLeftD, false));
   EXPECT_FALSE(run.task.command(0).pressed);
   EXPECT_LT(run.out.command.ee[0].force_H.norm(), 1e-12);
   EXPECT_TRUE(run.task.command(0).T_A_G.isApprox(G, 1e-12));
+}
+
+// Both remote grippers report holding one object, each wrist 9.81 N of its
+// weight: each hand feels that weight (times the translation scale), and,
+// when the right hand moves 5 mm (1 cm in A), the coupling pulls it back
+// with the spring's force (held_object.h), equal and opposite on the left.
+TEST(TelemanipTask, AnObjectHeldByBothGrippersCouplesTheHandsAndWeighsOnThem) {
+  tele::TelemanipTaskParams p = task_test_params();
+  for (auto& m : p.mapping) m.translation_scale = 2.0;
+  TaskTestRun run(p);  // no voxmap: the held object's wrench alone
+  tele::RemoteArmsState rs = task_test_remote(kTaskTestRightA, kTaskTestLeftA);
+  for (int k = 0; k < 2; ++k) {
+    rs.gripper[static_cast<std::size_t>(k)].holding = true;
+    rs.arm[static_cast<std::size_t>(k)].force_A = Eigen::Vector3d(0, 0, -9.81);
+  }
+  run.task.remote().publish(rs);
+  for (int i = 0; i < 3000; ++i) run.step(task_test_sample(kTaskTestRightD, kTaskTestLeftD, true));
+  EXPECT_EQ(run.task.held().holds, 1u);
+  for (int k = 0; k < 2; ++k) {
+    const Eigen::Vector3d F = run.out.command.ee[static_cast<std::size_t>(k)].force_H;
+    EXPECT_NEAR(F.z(), -2.0 * 9.81, 1e-3) << k;  // F_D = s F_A, z shared by A and D
+    EXPECT_NEAR(F.head<2>().norm(), 0.0, 1e-9) << k;
+  }
+  // The right hand 5 mm along D's y (A's -y: away from the left hand) over
+  // 100 ticks, then held: stretched by 1 cm in A.
+  for (int i = 1; i <= 600; ++i) {
+    const double f = std::min(1.0, i / 100.0);
+    run.step(task_test_sample(kTaskTestRightD + Eigen::Vector3d(0, 0.005 * f, 0), kTaskTestLeftD, true));
+  }
+  ASSERT_NEAR(run.task.command(0).T_A_G.translation().y(), kTaskTestRightA.y() - 0.01, 1e-9);
+  const double spring_A = p.held.stiffness_n_per_m * 0.01;
+  const Eigen::Vector3d F0 = run.out.command.ee[0].force_H, F1 = run.out.command.ee[1].force_H;
+  EXPECT_NEAR(F0.y(), -2.0 * spring_A, 1e-6);  // back towards where it took hold (D's -y)
+  EXPECT_NEAR(F1.y(), 2.0 * spring_A, 1e-6);   // the left pulled towards the right
+  EXPECT_NEAR(F0.x(), 0.0, 1e-9);
+  EXPECT_NEAR(F0.z(), -2.0 * 9.81, 1e-3);
+  // Its largest: the spring and the damper at the ramp's end (0.1 m/s in A).
+  EXPECT_GT(run.task.held().peak_squeeze_n, spring_A - 1e-6);
+  EXPECT_LT(run.task.held().peak_squeeze_n, spring_A + p.held.damping_ns_per_m * 0.1 + 1e-6);
+  // The dead-man released: the coupling and the weight's pull end (the weight fades at its rate).
+  run.step(task_test_sample(kTaskTestRightD, kTaskTestLeftD, false));
+  EXPECT_FALSE(run.task.held().both_held);
 }
 
 TEST(TelemanipTask, WithoutARobotStateNothingIsCommanded) {
