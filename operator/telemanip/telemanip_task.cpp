@@ -90,7 +90,7 @@ TelemanipTask::TelemanipTask(const TelemanipTaskParams& p) : p_(p) {
     tp.contact.stiffness = p.contact_stiffness;
     tp.budget = p.budget;
     Hand& h = hands_[static_cast<std::size_t>(k)];
-    h.states.resize(tools_.tools.size() + 1);  // and the palm's, last
+    h.states.resize(static_cast<std::size_t>(palm_shell()) + 1);  // and the palm's, last
     for (std::size_t i = 0; i < h.states.size(); ++i)
       vps::init_tool_state(shell_tool(static_cast<int>(i)), &h.states[i]);
     h.shell = tools_.nearest(p.mapping[static_cast<std::size_t>(k)].opening_open_m);
@@ -110,7 +110,7 @@ TelemanipTask::TelemanipTask(const TelemanipTaskParams& p) : p_(p) {
 }
 
 const vps::ProbeTool& TelemanipTask::shell_tool(int i) const noexcept {
-  return i >= static_cast<int>(tools_.tools.size()) ? tools_.palm : tools_.tools[static_cast<std::size_t>(i)];
+  return i >= palm_shell() ? tools_.palm : tools_.tools[static_cast<std::size_t>(i)];
 }
 
 void TelemanipTask::render_hand(int k, const vps::Voxmap* vm, std::uint64_t build, double opening, bool holding,
@@ -121,7 +121,7 @@ void TelemanipTask::render_hand(int k, const vps::Voxmap* vm, std::uint64_t buil
   HandRenderStats& st = stats_[ki];
   // The shell of the gripper's opening (the palm's while it holds
   // something); the coupled body carries over.
-  const int want = holding ? static_cast<int>(tools_.tools.size()) : tools_.nearest(opening);
+  const int want = holding ? palm_shell() : tools_.nearest(opening);
   if (want != h.shell) {
     vps::ToolState& from = h.states[static_cast<std::size_t>(h.shell)];
     vps::ToolState& to = h.states[static_cast<std::size_t>(want)];

@@ -132,6 +132,7 @@ class TelemanipTask final : public servo::ServoTask {
   void render_held(const RemoteArmsState& remote, device::DeviceCommand& command) noexcept;
   // Shell i: the opening's (GripperToolSet::tools), the palm's past them.
   const vps::ProbeTool& shell_tool(int i) const noexcept;
+  int palm_shell() const noexcept { return static_cast<int>(tools_.tools.size()); }
   void render_hand(int k, const vps::Voxmap* vm, std::uint64_t build, double opening, bool holding, std::int64_t deadline_ns,
                    device::EndEffectorCommand& c) noexcept;
 

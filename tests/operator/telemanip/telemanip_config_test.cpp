@@ -51,6 +51,9 @@ TEST(TelemanipConfig, BadFieldsAreNamedAndChangeNothing) {
       {"telemanip.right", [](hemm::config::TelemanipConfig* c) { c->mutable_right()->set_force_closed_n(150.0); }},
       {"telemanip.human_script", [](hemm::config::TelemanipConfig* c) { c->set_human_script("dance"); }},
       {"telemanip.mode", [](hemm::config::TelemanipConfig* c) { c->set_mode("Direct"); }},
+      {"telemanip.held", [](hemm::config::TelemanipConfig* c) { c->mutable_held()->set_weight_filter_s(0.0); }},
+      {"telemanip.held", [](hemm::config::TelemanipConfig* c) { c->mutable_held()->set_stiffness_n_per_m(-300.0); }},
+      {"telemanip.held", [](hemm::config::TelemanipConfig* c) { c->mutable_held()->set_coupling_fade_s(NAN); }},
       {"telemanip.direct_fade_s", [](hemm::config::TelemanipConfig* c) {
          c->set_mode("direct");
          c->set_direct_fade_s(0.0);
