@@ -221,6 +221,11 @@ for name in sorted(os.listdir(out)):
         energy_in_j=[p.get('energy_in_j', 0.0) for p in ports], energy_out_j=[p.get('energy_out_j', 0.0) for p in ports],
         dissipated_j=[p.get('dissipated_j', 0.0) for p in ports],
         refusals=(robot.get('twoarm') or {}).get('commands_refused', 0),
+        step_done_s=tp.get('step_done_s', []),
+        servo_compute_p99_us=((op.get('timing') or {}).get('compute_us') or {}).get('p99'),
+        servo_ticks=int((op.get('timing') or {}).get('ticks', 0)), servo_misses=int((op.get('timing') or {}).get('misses', 0)),
+        servo_fifo=bool((op.get('timing') or {}).get('fifo')),
+        control_compute_us=[((robot.get('twoarm') or {}).get('control_compute') or {}).get(q) for q in ('median', 'p99')],
         operator_rc=open(os.path.join(d, 'operator.rc')).read().strip() if os.path.exists(os.path.join(d, 'operator.rc')) else '?'))
 
 cells = {}
@@ -236,8 +241,9 @@ def fmt(x, f='%.1f'):
 order = {'box': 0, 'peg': 1, 'bar': 2}
 table = []
 lines = ['| task | rtt [ms] | mode | runs | success | completion [s] (truth) | script [s] | right wrist peak / RMS [N] | '
-         'left wrist peak / RMS [N] | peak squeeze [N] | object contact peak [N] | wrench error [N] | energy in / out [J] | failures |',
-         '| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |']
+         'left wrist peak / RMS [N] | peak squeeze [N] | object contact peak [N] | wrench error [N] | energy in / out [J] | '
+         'servo compute p99 [us] / misses [%] | robot controllers p99 [us] | failures |',
+         '| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |']
 for key in sorted(cells, key=lambda k: (order.get(k[0], 9), k[2], k[3], k[1])):
     rs = cells[key]
     ok = [r for r in rs if r['success']]
@@ -248,14 +254,20 @@ for key in sorted(cells, key=lambda k: (order.get(k[0], 9), k[2], k[3], k[1])):
              squeeze_peak_n=max(r['squeeze_peak_n'] for r in rs), object_env_peak_n=max(r['object_env_peak_n'] for r in rs),
              wrench_error=mean([r['wrench_error'] for r in rs if r['wrench_error'] is not None]) if any(r['wrench_error'] is not None for r in rs) else None,
              energy_in_j=sum(sum(r['energy_in_j']) for r in rs) / len(rs), energy_out_j=sum(sum(r['energy_out_j']) for r in rs) / len(rs),
-             failures=sorted({'s%d: %s (last step: %s)' % (r['seed'], r['why'].strip('; '), r['last_step']) for r in rs if not r['success']}))
+             servo_compute_p99_us=max((r['servo_compute_p99_us'] for r in rs if r['servo_compute_p99_us'] is not None), default=None),
+             servo_miss_pct=100.0 * sum(r['servo_misses'] for r in rs) / max(1, sum(r['servo_ticks'] for r in rs)),
+             control_compute_p99_us=max((r['control_compute_us'][1] for r in rs if r['control_compute_us'][1] is not None), default=None),
+             failures=sorted({'s%d: %s (last step: %s%s)' % (r['seed'], r['why'].strip('; '), r['last_step'],
+                                                             ', steps ended at %s s' % ' '.join('%.0f' % x for x in r['step_done_s']) if r['step_done_s'] else '')
+                              for r in rs if not r['success']}))
     table.append(c)
     energy = '%.2f / %.2f' % (c['energy_in_j'], c['energy_out_j']) if key[2] == 'direct' else '-'
-    lines.append('| %s | %d%s | %s | %d | %d/%d | %s | %s | %s / %s | %s / %s | %s | %s | %s | %s | %s |' % (
+    lines.append('| %s | %d%s | %s | %d | %d/%d | %s | %s | %s / %s | %s / %s | %s | %s | %s | %s | %s / %s | %s | %s |' % (
         key[0], key[1], ' (1 s outage)' if key[3] else '', key[2], len(rs), len(ok), len(rs), fmt(c['completion_s']),
         fmt(c['script_s']), fmt(c['wrist_peak_n'][0]), fmt(c['wrist_rms_n'][0]), fmt(c['wrist_peak_n'][1]),
         fmt(c['wrist_rms_n'][1]), fmt(c['squeeze_peak_n']) if key[0] == 'box' else '-', fmt(c['object_env_peak_n']),
-        fmt(c['wrench_error'], '%.2f'), energy, '; '.join(c['failures']) or '-'))
+        fmt(c['wrench_error'], '%.2f'), energy, fmt(c['servo_compute_p99_us'], '%.0f'), fmt(c['servo_miss_pct'], '%.2f'),
+        fmt(c['control_compute_p99_us'], '%.0f'), '; '.join(c['failures']) or '-'))
 with open(os.path.join(out, 'table.md'), 'w') as f:
     f.write('\n'.join(lines) + '\n')
 with open(os.path.join(out, 'table.json'), 'w') as f:

@@ -600,7 +600,11 @@ std::optional<std::string> LiveVoxmap::snapshot(vps::Voxmap* out, std::int64_t (
             const Eigen::Vector3d on_plane = x - (h / n.dot(view[i])) * view[i] - c;
             if (on_plane.squaredNorm() <= shadow_r2) shadowed[bi][static_cast<std::size_t>(vi)] = 1;
           }
-          const double sd = std::copysign(std::hypot(std::max(lateral - s, 0.0), h), h);
+          // (sqrt, not std::hypot: the values are centimetres, far from
+          // overflow, and glibc's hypot was a fifth of the voxmap thread's
+          // CPU in the telemanip runs.)
+          const double beyond_rim = std::max(lateral - s, 0.0);
+          const double sd = std::copysign(std::sqrt(beyond_rim * beyond_rim + h * h), h);
           const auto dist = static_cast<float>(std::abs(sd));
           vps::Voxel& out_vx = best_outside[bi][static_cast<std::size_t>(vi)];
           const bool nearest = dist < best[bi][static_cast<std::size_t>(vi)];

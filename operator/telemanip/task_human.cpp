@@ -61,6 +61,8 @@ void TaskHumanBrain::tick(double t_s) {
   progress_.wait_pos_m = st_.wait_pos_m;
   progress_.wait_rot_rad = st_.wait_rot_rad;
   progress_.wait_speed_mps = st_.wait_speed_mps;
+  progress_.step_done_s.resize(st_.step_end_t.size());
+  for (std::size_t i = 0; i < st_.step_end_t.size(); ++i) progress_.step_done_s[i] = st_.step_end_t[i] - st_.start_t;
 }
 
 void TaskHumanBrain::start(double rate_hz) {
@@ -206,6 +208,7 @@ void fill_task_report(const TaskProgress& p, report::TelemanipTaskProgress* out)
     out->add_wait_rot_rad(p.wait_rot_rad[a]);
     out->add_wait_speed_mps(p.wait_speed_mps[a]);
   }
+  for (double s : p.step_done_s) out->add_step_done_s(s);
 }
 
 }  // namespace hemm::op::telemanip

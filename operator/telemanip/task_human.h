@@ -28,6 +28,7 @@
 #include <mutex>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "common/concurrency/newest_mailbox.h"
 #include "operator/device/bimanual/human.h"
@@ -75,6 +76,7 @@ struct TaskProgress {
   std::uint64_t ticks = 0;
   // ScriptState's wait_* of the last tick (what the step waits on).
   std::array<double, 2> wait_pos_m{0.0, 0.0}, wait_rot_rad{0.0, 0.0}, wait_speed_mps{0.0, 0.0};
+  std::vector<double> step_done_s;  // each finished step's end, from the script's start
 };
 
 class TaskHumanBrain {

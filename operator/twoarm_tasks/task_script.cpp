@@ -362,6 +362,7 @@ ScriptOutput script_step(const TaskScript& sc, ScriptState& st, const wire::Arms
     st.targets.T_A_G[a].translation() = Eigen::Vector3d(xy.x(), xy.y(), st.insert_z);
   }
   if (confirmed) {
+    st.step_end_t.push_back(t);
     ++st.step;
     st.step_begun = false;
     if (st.step >= sc.steps.size()) {

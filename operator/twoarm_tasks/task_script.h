@@ -118,6 +118,9 @@ struct ScriptState {
   // per arm the believed G against the step's goal - position [m], turn
   // [rad], speed [m/s]; 0 for an arm the step does not wait on.
   std::array<double, kArms> wait_pos_m{0.0, 0.0}, wait_rot_rad{0.0, 0.0}, wait_speed_mps{0.0, 0.0};
+  // When each finished step ended (the operator's clock, t_s): where a
+  // run's time went.
+  std::vector<double> step_end_t;
   bool done = false;
   double done_t = -1.0;
   std::string error;  // a believed state it cannot read (it then holds its targets)

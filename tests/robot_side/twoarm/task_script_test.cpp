@@ -58,6 +58,8 @@ TEST(TaskScript, WaitsForTheBelievedStateAtAnyDelay) {
   const hw::ArmsState there = hemm::test::believed_arms_state({rest_r, out.targets.T_A_G[1]});
   out = hs::script_step(sc, st, &there, 61.0);
   EXPECT_EQ(st.step, 1u);
+  ASSERT_EQ(st.step_end_t.size(), 1u);  // when it ended, on the script's clock
+  EXPECT_EQ(st.step_end_t[0], 61.0);
   // The closing step waits for the gripper to hold, however long.
   const hw::ArmsState down = hemm::test::believed_arms_state({rest_r, *sc.steps[1].pose[1]});
   for (double t = 61.01; t < 90.0; t += 0.01) out = hs::script_step(sc, st, &down, t);
@@ -68,6 +70,10 @@ TEST(TaskScript, WaitsForTheBelievedStateAtAnyDelay) {
   const hw::ArmsState holding = hemm::test::believed_arms_state({rest_r, *sc.steps[1].pose[1]}, {false, true});
   hs::script_step(sc, st, &holding, 120.0);
   EXPECT_EQ(st.step, 3u);
+  ASSERT_EQ(st.step_end_t.size(), 3u);
+  // Believed down all along: the descent ends when its 10 cm at the slow speed do.
+  EXPECT_NEAR(st.step_end_t[1], 61.0 + 0.10 / sc.p.slow_speed_mps, 0.02);
+  EXPECT_EQ(st.step_end_t[2], 120.0);
   EXPECT_TRUE(st.error.empty());
 }
 
