@@ -251,13 +251,27 @@ int run_telemanip(const config::OperatorConfig& cfg, const OperatorArgs& a) {
               << "), searches " << p.searches << (p.error.empty() ? "" : ", error: " + p.error) << "\n";
   }
   telemanip_mode_report(cfg, *task, client.statistics(), &r);
+  const hb::BimanualDeviceCounters& dc = device->counters();  // the plant's thread has stopped
+  for (report::TelemanipHand& h : *r.mutable_hand()) {
+    if (h.index() >= static_cast<std::uint32_t>(hb::kArms)) continue;
+    const std::size_t k = h.index();
+    h.set_device_joint_limit_ticks(dc.joint_limit_writes[k]);
+    h.set_device_wall_ticks(dc.wall_writes[k]);
+    h.set_device_collision_ticks(dc.collision_writes[k]);
+    h.set_device_peak_joint_limit_nm(dc.peak_joint_limit_nm[k]);
+    h.set_device_peak_wall_n(dc.peak_wall_n[k]);
+    h.set_device_peak_collision_nm(dc.peak_collision_nm[k]);
+  }
   std::cout << "telemanip: commands " << r.commands_sent() << " (dead-man pressed " << r.deadman_pressed()
             << "), states " << r.states_in() << " (rejected " << r.states_rejected() << "), refusals "
             << r.refusals().refused() << " (last " << r.refusals().last_reason() << ")\n";
   for (const report::TelemanipHand& h : r.hand())
     std::cout << "telemanip: hand " << h.index() << ": presses " << h.presses() << ", engaged ticks "
               << h.engaged_ticks() << ", contact ticks " << h.contact_ticks() << ", peak force " << h.peak_force_n()
-              << " N\n";
+              << " N; the device's own limits engaged: joint range " << h.device_joint_limit_ticks() << " ticks (peak "
+              << h.device_peak_joint_limit_nm() << " N m), walls " << h.device_wall_ticks() << " (peak "
+              << h.device_peak_wall_n() << " N), avoidance " << h.device_collision_ticks() << " (peak "
+              << h.device_peak_collision_nm() << " N m)\n";
   std::cout << servo::to_string(timing) << "\n" << net::to_summary(client.statistics()) << std::flush;
   if (!a.stats_json.empty() && !net::write_text_file(a.stats_json, config::to_json(r), &error)) {
     std::cerr << "hemm-operator: " << error << "\n";

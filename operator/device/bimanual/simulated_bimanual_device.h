@@ -51,6 +51,13 @@ struct BimanualDeviceCounters {
   std::uint64_t missing_input_commands = 0;  // grip force asked of a handle without a grip
   std::uint64_t limited_commands = 0;       // clamped to the peak force/torque
   std::uint64_t disabled_commands = 0;      // a wrench asked of a disabled end-effector
+  // Per arm, the writes in which the device's own limits pushed back on the
+  // hand (what a stalled hand runs into, beside the rendered wrench): the
+  // joint-range springs and speed damping (|tau_limits| > 0.5 N m), the
+  // workspace and speed walls at E (|force| > 1 N), the arm-arm and
+  // arm-table avoidance (|tau_collision| > 0.5 N m); and each one's peak.
+  std::array<std::uint64_t, kArms> joint_limit_writes{}, wall_writes{}, collision_writes{};
+  std::array<double, kArms> peak_joint_limit_nm{}, peak_wall_n{}, peak_collision_nm{};
 };
 
 class SimulatedBimanualDevice final : public HapticDevice {
@@ -96,6 +103,7 @@ class SimulatedBimanualDevice final : public HapticDevice {
     std::array<ArmActuation, kArms> act{};
   };
   void hardware_step() noexcept;  // plant thread
+  void count_limits() noexcept;   // write()'s: the controllers' limit terms into counters_
 
   BimanualSimulation sim_;
   std::array<std::shared_ptr<const HumanScript>, kArms> hands_;

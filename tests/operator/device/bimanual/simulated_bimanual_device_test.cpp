@@ -237,3 +237,38 @@ TEST(SimulatedBimanualDevice, ThreadedThePlantStepsApartAndTheServoSideAllocates
   dev.write(none);
   EXPECT_NEAR(dev.simulation().time_s(), t + c.plant.control_period_s, 1e-12);
 }
+
+TEST(SimulatedBimanualDevice, CountsTheWritesInWhichItsOwnLimitsPushBack) {
+  // At rest nothing of the device's own pushes on either hand; the right
+  // hand then reaches 0.2 m below the workspace's floor (its arm spring
+  // pulls it there): the arm-table avoidance stops it ~2 cm above the floor's
+  // wall, and is counted for the right arm alone.
+  hb::SimulationConfig c;
+  hb::BimanualSimulation probe(c);
+  auto h = probe.resting_targets();
+  auto reach = h[0];
+  reach.position_D.z() = c.control[0].workspace_D.min_D.z() - 0.2;
+  std::array<std::shared_ptr<const hb::HumanScript>, 2> hands = {
+      std::make_shared<hb::HumanKeyScript>(std::vector<hb::HumanKey>{{0.0, h[0]}, {1.0, h[0]}, {1.5, reach}}),
+      std::make_shared<hb::HumanKeyScript>(std::vector<hb::HumanKey>{{0.0, h[1]}})};
+  hb::SimulatedBimanualDevice dev(c, hands);
+  const hd::DeviceCommand none;
+  for (int k = 0; k < 900; ++k) dev.write(none);
+  const hb::BimanualDeviceCounters& n = dev.counters();
+  for (std::size_t a = 0; a < 2; ++a) {
+    EXPECT_EQ(n.wall_writes[a], 0u) << "arm " << a;
+    EXPECT_EQ(n.joint_limit_writes[a], 0u) << "arm " << a;
+    EXPECT_EQ(n.collision_writes[a], 0u) << "arm " << a;
+  }
+  for (int k = 0; k < 2100; ++k) dev.write(none);
+  std::printf("right arm: wall %llu writes (peak %.1f N), joint range %llu (peak %.2f N m), avoidance %llu; z %.3f of wall %.3f\n",
+              static_cast<unsigned long long>(n.wall_writes[0]), n.peak_wall_n[0],
+              static_cast<unsigned long long>(n.joint_limit_writes[0]), n.peak_joint_limit_nm[0],
+              static_cast<unsigned long long>(n.collision_writes[0]),
+              dev.simulation().output(hb::ArmSide::kRight).T_D_E.translation().z(), c.control[0].workspace_D.min_D.z());
+  EXPECT_GT(n.collision_writes[0], 100u);
+  EXPECT_GT(n.peak_collision_nm[0], 0.5);
+  EXPECT_GT(dev.simulation().output(hb::ArmSide::kRight).T_D_E.translation().z(), c.control[0].workspace_D.min_D.z());
+  EXPECT_EQ(n.wall_writes[1] + n.joint_limit_writes[1] + n.collision_writes[1], 0u);
+  EXPECT_EQ(n.peak_wall_n[1] + n.peak_joint_limit_nm[1] + n.peak_collision_nm[1], 0.0);
+}
