@@ -261,6 +261,7 @@ int run_telemanip(const config::OperatorConfig& cfg, const OperatorArgs& a) {
     h.set_device_peak_joint_limit_nm(dc.peak_joint_limit_nm[k]);
     h.set_device_peak_wall_n(dc.peak_wall_n[k]);
     h.set_device_peak_collision_nm(dc.peak_collision_nm[k]);
+    h.set_device_stretched_ticks(dc.stretched_writes[k]);
   }
   std::cout << "telemanip: commands " << r.commands_sent() << " (dead-man pressed " << r.deadman_pressed()
             << "), states " << r.states_in() << " (rejected " << r.states_rejected() << "), refusals "
@@ -271,7 +272,7 @@ int run_telemanip(const config::OperatorConfig& cfg, const OperatorArgs& a) {
               << " N; the device's own limits engaged: joint range " << h.device_joint_limit_ticks() << " ticks (peak "
               << h.device_peak_joint_limit_nm() << " N m), walls " << h.device_wall_ticks() << " (peak "
               << h.device_peak_wall_n() << " N), avoidance " << h.device_collision_ticks() << " (peak "
-              << h.device_peak_collision_nm() << " N m)\n";
+              << h.device_peak_collision_nm() << " N m), elbow stretched " << h.device_stretched_ticks() << "\n";
   std::cout << servo::to_string(timing) << "\n" << net::to_summary(client.statistics()) << std::flush;
   if (!a.stats_json.empty() && !net::write_text_file(a.stats_json, config::to_json(r), &error)) {
     std::cerr << "hemm-operator: " << error << "\n";

@@ -126,7 +126,7 @@ void SimulatedBimanualDevice::write(const DeviceCommand& cmd_in) noexcept {
     sim_.control(readings_, w, grip, c.act);
     c.t_ns = steady_now_ns();
     commands_.publish();
-    count_limits();
+    count_limits(readings_);
     min_arm_arm_m_ = std::min(min_arm_arm_m_, col.min_arm_arm_m);
     min_arm_table_m_ = std::min(min_arm_table_m_, col.min_arm_table_m);
     return;
@@ -134,13 +134,13 @@ void SimulatedBimanualDevice::write(const DeviceCommand& cmd_in) noexcept {
   // The hands move to where they want to be at the end of this period.
   const double t = sim_.time_s() + sim_.config().plant.control_period_s;
   sim_.step(w, grip, {hands_[0]->at(t), hands_[1]->at(t)});
-  count_limits();
+  count_limits(sim_.readings());
   const PlantTruth& truth = sim_.truth();
   min_arm_arm_m_ = std::min({min_arm_arm_m_, truth.min_arm_arm_m, col.min_arm_arm_m});
   min_arm_table_m_ = std::min({min_arm_table_m_, truth.min_arm_table_m, col.min_arm_table_m});
 }
 
-void SimulatedBimanualDevice::count_limits() noexcept {
+void SimulatedBimanualDevice::count_limits(const ArmReadings& r) noexcept {
   for (int a = 0; a < kArms; ++a) {
     const auto k = static_cast<std::size_t>(a);
     const ArmOutput& o = sim_.output(static_cast<ArmSide>(a));
@@ -148,6 +148,7 @@ void SimulatedBimanualDevice::count_limits() noexcept {
     counters_.joint_limit_writes[k] += joint > 0.5 ? 1u : 0u;
     counters_.wall_writes[k] += wall > 1.0 ? 1u : 0u;
     counters_.collision_writes[k] += col > 0.5 ? 1u : 0u;
+    counters_.stretched_writes[k] += std::abs(r[k].q(3)) < 0.1 ? 1u : 0u;
     counters_.peak_joint_limit_nm[k] = std::max(counters_.peak_joint_limit_nm[k], joint);
     counters_.peak_wall_n[k] = std::max(counters_.peak_wall_n[k], wall);
     counters_.peak_collision_nm[k] = std::max(counters_.peak_collision_nm[k], col);

@@ -56,7 +56,10 @@ struct BimanualDeviceCounters {
   // joint-range springs and speed damping (|tau_limits| > 0.5 N m), the
   // workspace and speed walls at E (|force| > 1 N), the arm-arm and
   // arm-table avoidance (|tau_collision| > 0.5 N m); and each one's peak.
-  std::array<std::uint64_t, kArms> joint_limit_writes{}, wall_writes{}, collision_writes{};
+  // Beside them, the writes with the elbow (joint 4) within 0.1 rad of
+  // straight: the arm at the end of its reach, a singularity no limit term
+  // reports, where the hand goes no further from the shoulder.
+  std::array<std::uint64_t, kArms> joint_limit_writes{}, wall_writes{}, collision_writes{}, stretched_writes{};
   std::array<double, kArms> peak_joint_limit_nm{}, peak_wall_n{}, peak_collision_nm{};
 };
 
@@ -103,7 +106,7 @@ class SimulatedBimanualDevice final : public HapticDevice {
     std::array<ArmActuation, kArms> act{};
   };
   void hardware_step() noexcept;  // plant thread
-  void count_limits() noexcept;   // write()'s: the controllers' limit terms into counters_
+  void count_limits(const ArmReadings& r) noexcept;  // write()'s: the limit terms and the elbow into counters_
 
   BimanualSimulation sim_;
   std::array<std::shared_ptr<const HumanScript>, kArms> hands_;

@@ -259,6 +259,7 @@ TEST(SimulatedBimanualDevice, CountsTheWritesInWhichItsOwnLimitsPushBack) {
     EXPECT_EQ(n.wall_writes[a], 0u) << "arm " << a;
     EXPECT_EQ(n.joint_limit_writes[a], 0u) << "arm " << a;
     EXPECT_EQ(n.collision_writes[a], 0u) << "arm " << a;
+    EXPECT_EQ(n.stretched_writes[a], 0u) << "arm " << a;
   }
   for (int k = 0; k < 2100; ++k) dev.write(none);
   std::printf("right arm: wall %llu writes (peak %.1f N), joint range %llu (peak %.2f N m), avoidance %llu; z %.3f of wall %.3f\n",
@@ -271,4 +272,30 @@ TEST(SimulatedBimanualDevice, CountsTheWritesInWhichItsOwnLimitsPushBack) {
   EXPECT_GT(dev.simulation().output(hb::ArmSide::kRight).T_D_E.translation().z(), c.control[0].workspace_D.min_D.z());
   EXPECT_EQ(n.wall_writes[1] + n.joint_limit_writes[1] + n.collision_writes[1], 0u);
   EXPECT_EQ(n.peak_wall_n[1] + n.peak_joint_limit_nm[1] + n.peak_collision_nm[1], 0.0);
+}
+
+TEST(SimulatedBimanualDevice, CountsTheWritesWithAnArmAtTheEndOfItsReach) {
+  // The right hand pulled 0.4 m towards the operator (-x in D): the arm
+  // straightens (joint 4 near 0) and the hand stops short, with no limit term
+  // engaged - the counter is what says why.
+  hb::SimulationConfig c;
+  hb::BimanualSimulation probe(c);
+  auto h = probe.resting_targets();
+  auto pull = h[0];
+  pull.position_D.x() -= 0.4;
+  std::array<std::shared_ptr<const hb::HumanScript>, 2> hands = {
+      std::make_shared<hb::HumanKeyScript>(std::vector<hb::HumanKey>{{0.0, h[0]}, {0.5, h[0]}, {1.5, pull}}),
+      std::make_shared<hb::HumanKeyScript>(std::vector<hb::HumanKey>{{0.0, h[1]}})};
+  hb::SimulatedBimanualDevice dev(c, hands);
+  const hd::DeviceCommand none;
+  for (int k = 0; k < 3000; ++k) dev.write(none);
+  const hb::BimanualDeviceCounters& n = dev.counters();
+  const double q4 = dev.simulation().reading(hb::ArmSide::kRight).q(3);
+  const double reached = h[0].position_D.x() - dev.simulation().output(hb::ArmSide::kRight).T_D_E.translation().x();
+  std::printf("pulled 0.40 m towards the operator: reached %.3f m, elbow %.3f rad, stretched in %llu of 3000 writes\n", reached,
+              q4, static_cast<unsigned long long>(n.stretched_writes[0]));
+  EXPECT_LT(reached, 0.3);
+  EXPECT_LT(std::abs(q4), 0.1);
+  EXPECT_GT(n.stretched_writes[0], 500u);
+  EXPECT_EQ(n.stretched_writes[1], 0u);
 }
