@@ -224,7 +224,6 @@ for name in sorted(os.listdir(out)):
         step_done_s=tp.get('step_done_s', []),
         servo_compute_p99_us=((op.get('timing') or {}).get('compute_us') or {}).get('p99'),
         servo_ticks=int((op.get('timing') or {}).get('ticks', 0)), servo_misses=int((op.get('timing') or {}).get('misses', 0)),
-        servo_fifo=bool((op.get('timing') or {}).get('fifo')),
         control_compute_us=[((robot.get('twoarm') or {}).get('control_compute') or {}).get(q) for q in ('median', 'p99')],
         operator_rc=open(os.path.join(d, 'operator.rc')).read().strip() if os.path.exists(os.path.join(d, 'operator.rc')) else '?'))
 

@@ -21,12 +21,17 @@ using Eigen::Vector3d;
 
 namespace {
 
+// Each hand on its own keyed script (right, left).
+std::array<std::shared_ptr<const hb::HumanScript>, 2> keyed_hands(std::vector<hb::HumanKey> right,
+                                                                  std::vector<hb::HumanKey> left) {
+  return {std::make_shared<hb::HumanKeyScript>(std::move(right)), std::make_shared<hb::HumanKeyScript>(std::move(left))};
+}
+
 // Holds the hand where it starts, with a dead-man pressed.
 std::array<std::shared_ptr<const hb::HumanScript>, 2> holding(const hb::SimulationConfig& c) {
   hb::BimanualSimulation s(c);
   const auto h = s.resting_targets();
-  return {std::make_shared<hb::HumanKeyScript>(std::vector<hb::HumanKey>{{0.0, h[0]}}),
-          std::make_shared<hb::HumanKeyScript>(std::vector<hb::HumanKey>{{0.0, h[1]}})};
+  return keyed_hands({{0.0, h[0]}}, {{0.0, h[1]}});
 }
 
 }  // namespace
@@ -94,10 +99,7 @@ TEST(SimulatedBimanualDevice, DisabledEndEffectorGetsNothing) {
   auto h = probe.resting_targets();
   auto pull = h[1];
   pull.push_force_D = Vector3d(-250.0, 0, 0);
-  std::array<std::shared_ptr<const hb::HumanScript>, 2> hands = {
-      std::make_shared<hb::HumanKeyScript>(std::vector<hb::HumanKey>{{0.0, h[0]}}),
-      std::make_shared<hb::HumanKeyScript>(std::vector<hb::HumanKey>{{0.0, h[1]}, {0.3, pull}})};
-  hb::SimulatedBimanualDevice dev(c, hands);
+  hb::SimulatedBimanualDevice dev(c, keyed_hands({{0.0, h[0]}}, {{0.0, h[1]}, {0.3, pull}}));
   hd::DeviceCommand cmd;
   cmd.ee[1].force_H = Vector3d(0, 5, 0);
   hd::DeviceSample s;
@@ -248,10 +250,7 @@ TEST(SimulatedBimanualDevice, CountsTheWritesInWhichItsOwnLimitsPushBack) {
   auto h = probe.resting_targets();
   auto reach = h[0];
   reach.position_D.z() = c.control[0].workspace_D.min_D.z() - 0.2;
-  std::array<std::shared_ptr<const hb::HumanScript>, 2> hands = {
-      std::make_shared<hb::HumanKeyScript>(std::vector<hb::HumanKey>{{0.0, h[0]}, {1.0, h[0]}, {1.5, reach}}),
-      std::make_shared<hb::HumanKeyScript>(std::vector<hb::HumanKey>{{0.0, h[1]}})};
-  hb::SimulatedBimanualDevice dev(c, hands);
+  hb::SimulatedBimanualDevice dev(c, keyed_hands({{0.0, h[0]}, {1.0, h[0]}, {1.5, reach}}, {{0.0, h[1]}}));
   const hd::DeviceCommand none;
   for (int k = 0; k < 900; ++k) dev.write(none);
   const hb::BimanualDeviceCounters& n = dev.counters();
@@ -283,10 +282,7 @@ TEST(SimulatedBimanualDevice, CountsTheWritesWithAnArmAtTheEndOfItsReach) {
   auto h = probe.resting_targets();
   auto pull = h[0];
   pull.position_D.x() -= 0.4;
-  std::array<std::shared_ptr<const hb::HumanScript>, 2> hands = {
-      std::make_shared<hb::HumanKeyScript>(std::vector<hb::HumanKey>{{0.0, h[0]}, {0.5, h[0]}, {1.5, pull}}),
-      std::make_shared<hb::HumanKeyScript>(std::vector<hb::HumanKey>{{0.0, h[1]}})};
-  hb::SimulatedBimanualDevice dev(c, hands);
+  hb::SimulatedBimanualDevice dev(c, keyed_hands({{0.0, h[0]}, {0.5, h[0]}, {1.5, pull}}, {{0.0, h[1]}}));
   const hd::DeviceCommand none;
   for (int k = 0; k < 3000; ++k) dev.write(none);
   const hb::BimanualDeviceCounters& n = dev.counters();
