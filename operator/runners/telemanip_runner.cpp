@@ -27,6 +27,7 @@
 #include "common/net/link_stats.h"
 #include "operator/bimanual/bimanual_config.h"
 #include "operator/client/operator_client.h"
+#include "operator/device/bimanual/handles.h"
 #include "operator/device/bimanual/simulated_bimanual_device.h"
 #include "operator/model/model_thread.h"
 #include "operator/runners/runners.h"
@@ -83,6 +84,15 @@ int run_telemanip(const config::OperatorConfig& cfg, const OperatorArgs& a) {
       !e.empty()) {
     std::cerr << "hemm-operator: bad config: " << e << "\n";
     return net::kExitUsage;
+  }
+  for (int k = 0; k < hb::kArms; ++k) {
+    const tele::ArmMappingParams& m = tp.mapping[static_cast<std::size_t>(k)];
+    const hb::HandleKind gate = setup.sim.plant.handles[static_cast<std::size_t>(m.deadman_ee)];
+    if (m.clutch_button > 0 && !hb::has_input(gate, hb::HandleInput::kButtons)) {
+      std::cerr << "hemm-operator: bad config: telemanip." << (k == 0 ? "right" : "left") << ".clutch_button: the "
+                << hb::to_string(gate) << " handle of end-effector " << m.deadman_ee << " (deadman_ee) has no buttons\n";
+      return net::kExitUsage;
+    }
   }
   const std::string robot_address = a.robot.empty() ? cfg.net().robot_address() : a.robot;
   const auto key =
@@ -248,7 +258,7 @@ int run_telemanip(const config::OperatorConfig& cfg, const OperatorArgs& a) {
     tele::fill_task_report(p, r.mutable_task());
     std::cout << "telemanip: task " << p.task << " (SIMULATED human): " << (p.done ? "script done" : "script NOT done")
               << " after " << p.done_s << " s, step " << p.steps_done << " of " << p.steps << " (" << p.last_step
-              << "), searches " << p.searches << (p.error.empty() ? "" : ", error: " + p.error) << "\n";
+              << "), searches " << p.searches << ", clutch presses " << p.clutch_presses << (p.error.empty() ? "" : ", error: " + p.error) << "\n";
   }
   telemanip_mode_report(cfg, *task, client.statistics(), &r);
   const hb::BimanualDeviceCounters& dc = device->counters();  // the plant's thread has stopped
@@ -268,7 +278,7 @@ int run_telemanip(const config::OperatorConfig& cfg, const OperatorArgs& a) {
             << r.refusals().refused() << " (last " << r.refusals().last_reason() << ")\n";
   for (const report::TelemanipHand& h : r.hand())
     std::cout << "telemanip: hand " << h.index() << ": presses " << h.presses() << ", engaged ticks "
-              << h.engaged_ticks() << ", contact ticks " << h.contact_ticks() << ", peak force " << h.peak_force_n()
+              << h.engaged_ticks() << ", clutch ticks " << h.clutch_ticks() << ", contact ticks " << h.contact_ticks() << ", peak force " << h.peak_force_n()
               << " N; the device's own limits engaged: joint range " << h.device_joint_limit_ticks() << " ticks (peak "
               << h.device_peak_joint_limit_nm() << " N m), walls " << h.device_wall_ticks() << " (peak "
               << h.device_peak_wall_n() << " N), avoidance " << h.device_collision_ticks() << " (peak "

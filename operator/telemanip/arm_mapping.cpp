@@ -26,6 +26,7 @@ std::string validate(const ArmMappingParams& p) {
   if (!mapping_in_range(p.max_step_m, 0.0, 0.1)) return "max_step_m must be in (0, 0.1] m";
   if (!mapping_in_range(p.max_step_rad, 0.0, 1.0)) return "max_step_rad must be in (0, 1] rad";
   if (p.deadman_ee < 0 || p.deadman_ee > 1) return "deadman_ee must be 0 or 1";
+  if (p.clutch_button < 0 || p.clutch_button > 8) return "clutch_button must be 0 (none) or a button 1-8";
   if (!mapping_in_range(p.grip_travel_m, 0.0, 0.2)) return "grip travel must be in (0, 0.2] m";
   for (double v : {p.opening_open_m, p.opening_closed_m, p.force_open_n, p.force_closed_n})
     if (!std::isfinite(v) || v < 0.0) return "gripper openings and forces must be finite and >= 0";
@@ -77,15 +78,19 @@ void map_arm_step(const ArmMappingParams& p, const HandReading& hand, ArmMapping
   if (!s->initialized) {
     out->T_A_G = Eigen::Isometry3d::Identity();
     out->pressed = false;
+    out->clutched = false;
     return;
   }
-  const bool press = hand.valid && hand.deadman;
+  const bool deadman = hand.valid && hand.deadman;
+  const bool clutched = deadman && p.clutch_button > 0 && hand.clutch;
+  const bool press = deadman && !clutched;
   if (press && !s->engaged) {  // re-anchor: the arm continues from what it was told
     s->T_A_anchor = s->T_A_G_cmd;
     s->T_D_anchor = hand.T_D_E;
     ++s->presses;
   }
   s->engaged = press;
+  if (clutched) ++s->clutch_steps;
   if (press) {
     const Eigen::Isometry3d want = mapped_pose_A(p, *s, hand.T_D_E);
     // Translation: at most max_step_m along the way to the mapped position.
@@ -109,7 +114,8 @@ void map_arm_step(const ArmMappingParams& p, const HandReading& hand, ArmMapping
     if (out->clamped) ++s->clamped_steps;
   }
   out->T_A_G = s->T_A_G_cmd;
-  out->pressed = press;
+  out->pressed = deadman;
+  out->clutched = clutched;
   if (hand.has_grip && hand.valid) {
     out->has_gripper = true;
     grip_to_gripper(p, hand.grip_position_m, &out->opening_m, &out->force_n);

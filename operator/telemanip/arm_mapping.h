@@ -30,6 +30,14 @@
 // [opening_open_m .. opening_closed_m] and its grip force
 // [force_open_n .. force_closed_n]. Dead-man released: the command is not
 // pressed and the commanded pose holds (the robot holds in impedance).
+//
+// The clutch (indexing without letting go): a button on the gating
+// handle (clutch_button). Held with the dead-man pressed, the arm keeps its
+// commanded pose, still pressed (the robot sees one steady pose, no re-arm),
+// while the hand moves freely - the device stays powered, as it does not
+// with the dead-man released (the device brakes an arm no one holds). At
+// the button's release the mapping re-anchors, as at a dead-man press: the
+// operator brings the hand back to where it is comfortable and goes on.
 #pragma once
 
 #include <Eigen/Core>
@@ -48,6 +56,8 @@ struct ArmMappingParams {
   // Which end-effector's dead-man gates this arm (the grip-force handle has
   // none: its arm may be gated by the other hand's joystick dead-man).
   int deadman_ee = 0;
+  // The clutch: button number (1 = kButton1, ...) on deadman_ee's handle; 0: none.
+  int clutch_button = 0;
   // Grip lever -> gripper (only when the hand's handle has a grip lever).
   double grip_travel_m = 0.025;   // the lever's travel (handles.h, grip-force interface)
   double opening_open_m = 0.12;   // lever at 0
@@ -69,17 +79,19 @@ struct HandReading {
   Eigen::Isometry3d T_D_E = Eigen::Isometry3d::Identity();
   bool valid = true;      // a finite pose from an enabled end-effector
   bool deadman = false;   // the gating dead-man (ArmMappingParams::deadman_ee) pressed
+  bool clutch = false;    // the clutch button (ArmMappingParams::clutch_button) held
   bool has_grip = false;  // the handle has a grip lever
   double grip_position_m = 0.0;
 };
 
 struct ArmMappingState {
   bool initialized = false;  // the commanded pose was set (from the robot's G)
-  bool engaged = false;      // anchored: the dead-man is pressed
+  bool engaged = false;      // anchored: the dead-man is pressed and the clutch not held
   Eigen::Isometry3d T_A_G_cmd = Eigen::Isometry3d::Identity();  // what the arm is told
   Eigen::Isometry3d T_A_anchor = Eigen::Isometry3d::Identity();
   Eigen::Isometry3d T_D_anchor = Eigen::Isometry3d::Identity();
-  std::uint64_t presses = 0;          // re-anchorings (dead-man presses)
+  std::uint64_t presses = 0;          // re-anchorings (dead-man presses, clutch releases)
+  std::uint64_t clutch_steps = 0;     // steps with the clutch held (dead-man pressed)
   std::uint64_t clamped_steps = 0;    // steps the rate clamp shortened
 };
 
@@ -97,6 +109,7 @@ void reset_arm_mapping(ArmMappingState* s, const Eigen::Isometry3d& T_A_G) noexc
 struct ArmCommandOut {
   Eigen::Isometry3d T_A_G = Eigen::Isometry3d::Identity();  // the commanded pose
   bool pressed = false;    // send it with the dead-man pressed
+  bool clutched = false;   // pressed, but the clutch holds the pose: display nothing
   bool has_gripper = false;  // a gripper target (the handle has a lever)
   double opening_m = 0.0;
   double force_n = 0.0;

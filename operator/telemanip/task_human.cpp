@@ -63,6 +63,7 @@ void TaskHumanBrain::tick(double t_s) {
   progress_.wait_speed_mps = st_.wait_speed_mps;
   progress_.step_done_s.resize(st_.step_end_t.size());
   for (std::size_t i = 0; i < st_.step_end_t.size(); ++i) progress_.step_done_s[i] = st_.step_end_t[i] - st_.start_t;
+  progress_.clutch_presses = indexing_.presses[0].load(std::memory_order_relaxed) + indexing_.presses[1].load(std::memory_order_relaxed);
 }
 
 void TaskHumanBrain::start(double rate_hz) {
@@ -96,17 +97,46 @@ TaskProgress TaskHumanBrain::progress() const {
 
 TaskHumanHand::TaskHumanHand(const device::bimanual::HumanTarget& rest, const ArmMappingParams& mapping,
                              NewestMailbox<TaskHandWish>* wishes, NewestMailbox<MappingAnchor>* anchors,
-                             double lever_travel_m, const std::atomic<std::uint32_t>* robot_safety)
+                             double lever_travel_m, const std::atomic<std::uint32_t>* robot_safety,
+                             TaskIndexing* indexing, int hand, std::uint32_t clutch_buttons)
     : rest_(rest),
       mapping_(mapping),
       wishes_(wishes),
       anchors_(anchors),
       lever_travel_m_(lever_travel_m),
-      robot_safety_(robot_safety) {
+      robot_safety_(robot_safety),
+      indexing_(indexing),
+      hand_(hand),
+      clutch_buttons_(clutch_buttons),
+      last_p_D_(rest.position_D),
+      last_q_D_(rest.orientation_D) {
   if (std::string e = validate(mapping); !e.empty()) throw std::invalid_argument("task human: mapping: " + e);
   if (wishes_ == nullptr || anchors_ == nullptr) throw std::invalid_argument("task human: no mailbox");
   if (!(std::isfinite(lever_travel_m) && lever_travel_m >= 0.0))
     throw std::invalid_argument("task human: lever travel must be >= 0");
+  if (hand < 0 || hand > 1) throw std::invalid_argument("task human: hand must be 0 (right) or 1 (left)");
+  if (indexing != nullptr) {
+    const TaskIndexingParams& q = indexing->p;
+    if (!(q.reach_m > 0.0 && q.reach_m < 1.0 && q.hold_s > 0.0 && q.hold_s < 10.0 && q.cooldown_s >= 0.0 &&
+          q.cooldown_s < 10.0))
+      throw std::invalid_argument("task human: indexing reach in (0, 1) m, hold in (0, 10) s, cooldown in [0, 10) s");
+  }
+}
+
+bool TaskHumanHand::clutch_step(double t_s) const noexcept {
+  if (indexing_ == nullptr || clutch_buttons_ == 0) return false;
+  if (clutch_held_) {
+    if (t_s - clutch_t0_ >= indexing_->p.hold_s) {
+      clutch_held_ = false;
+      clutch_released_t_ = t_s;
+    }
+  } else if (t_s - clutch_released_t_ >= indexing_->p.cooldown_s &&
+             (indexing_->wants[0].load(std::memory_order_relaxed) || indexing_->wants[1].load(std::memory_order_relaxed))) {
+    clutch_held_ = true;
+    clutch_t0_ = t_s;
+    indexing_->presses[static_cast<std::size_t>(hand_)].fetch_add(1, std::memory_order_relaxed);
+  }
+  return clutch_held_;
 }
 
 device::bimanual::HumanTarget TaskHumanHand::at(double t_s) const noexcept {
@@ -123,13 +153,29 @@ device::bimanual::HumanTarget TaskHumanHand::at(double t_s) const noexcept {
   }
   const double dt = last_t_s_ >= 0.0 ? std::clamp(t_s - last_t_s_, 0.0, 0.1) : 0.0;
   last_t_s_ = t_s;
+  if (g.deadman && clutch_step(t_s)) g.buttons |= clutch_buttons_;
   if (!wish_.active || !anchor_.engaged) {
-    turn_bias_D_.setZero();  // a new press: the mapping re-anchors, the hand starts over
+    // Released or clutched: the mapping re-anchors at the next press, so
+    // the hand starts over - back towards its rest, from where it was.
+    turn_bias_D_.setZero();
+    if (indexing_ != nullptr) indexing_->wants[static_cast<std::size_t>(hand_)].store(false, std::memory_order_relaxed);
+    const Eigen::Vector3d d = rest_.position_D - last_p_D_;
+    const double step = kReturnSpeed_mps * dt;
+    last_p_D_ += d.norm() > step ? (step / d.norm()) * d : d;
+    const double a = last_q_D_.angularDistance(rest_.orientation_D);
+    const double turn = kReturnRate_radps * dt;
+    last_q_D_ = a > turn ? last_q_D_.slerp(turn / a, rest_.orientation_D) : rest_.orientation_D;
+    g.position_D = last_p_D_;
+    g.orientation_D = last_q_D_;
     return g;
   }
   // Where the hand must be for the mapping to ask the plan's G (from the anchor).
   const Eigen::Isometry3d hand_D = hand_pose_D(mapping_, anchor_.state, wish_.T_A_G);
   g.position_D = hand_D.translation();
+  if (indexing_ != nullptr) {
+    const bool far = (hand_D.translation() - rest_.position_D).norm() > indexing_->p.reach_m;
+    indexing_->wants[static_cast<std::size_t>(hand_)].store(far, std::memory_order_relaxed);
+  }
   // The turn the commanded G still lacks, in A, seen as the hand's (in D, 1/k of it).
   const Eigen::AngleAxisd lack_A(wish_.T_A_G.linear() * anchor_.state.T_A_G_cmd.linear().transpose());
   const Eigen::Vector3d lack_D =
@@ -140,6 +186,8 @@ device::bimanual::HumanTarget TaskHumanHand::at(double t_s) const noexcept {
   const Eigen::Matrix3d bias =
       b > 0.0 ? Eigen::AngleAxisd(b, turn_bias_D_ / b).toRotationMatrix() : Eigen::Matrix3d::Identity();
   g.orientation_D = Eigen::Quaterniond(bias * hand_D.linear());
+  last_p_D_ = g.position_D;
+  last_q_D_ = g.orientation_D;
   return g;
 }
 
@@ -178,8 +226,12 @@ std::array<std::shared_ptr<const device::bimanual::HumanScript>, 2> task_hands(
   std::array<std::shared_ptr<const device::bimanual::HumanScript>, 2> hands;
   for (std::size_t k = 0; k < hands.size(); ++k) {
     const double travel = device::bimanual::handle_spec(sim.plant.handles[k]).grip_travel;
+    // The clutch buttons on this hand's handle: those of the arms it gates.
+    std::uint32_t clutch = 0;
+    for (const ArmMappingParams& m : mapping)
+      if (m.clutch_button > 0 && m.deadman_ee == static_cast<int>(k)) clutch |= 1u << (m.clutch_button - 1);
     hands[k] = std::make_shared<const TaskHumanHand>(rest[k], mapping[k], &brain.wishes(static_cast<int>(k)), anchors[k],
-                                                     travel, robot_safety);
+                                                     travel, robot_safety, &brain.indexing(), static_cast<int>(k), clutch);
   }
   return hands;
 }
@@ -209,6 +261,7 @@ void fill_task_report(const TaskProgress& p, report::TelemanipTaskProgress* out)
     out->add_wait_speed_mps(p.wait_speed_mps[a]);
   }
   for (double s : p.step_done_s) out->add_step_done_s(s);
+  out->set_clutch_presses(p.clutch_presses);
 }
 
 }  // namespace hemm::op::telemanip

@@ -77,6 +77,25 @@ struct TaskProgress {
   // ScriptState's wait_* of the last tick (what the step waits on).
   std::array<double, 2> wait_pos_m{0.0, 0.0}, wait_rot_rad{0.0, 0.0}, wait_speed_mps{0.0, 0.0};
   std::vector<double> step_done_s;  // each finished step's end, from the script's start
+  std::uint32_t clutch_presses = 0;  // the hands' indexing (TaskIndexing::presses, both)
+};
+
+// The SIMULATED human's indexing with the clutch (arm_mapping.h): a hand
+// whose target lies more than reach_m from where it rests asks for it; the
+// hand whose handle carries the clutch presses it while either asks, for
+// hold_s, and the hands move back towards their rest poses meanwhile (both
+// arms' mappings share the one clutch: a person re-centres both hands at
+// once). Shared by both hands of one human (atomics: each hand's at() runs
+// on the device's thread, allocation- and lock-free).
+struct TaskIndexingParams {
+  double reach_m = 0.09;     // the device's rest leaves ~0.13 m towards the operator (tasks doc)
+  double hold_s = 0.8;       // the clutch held this long
+  double cooldown_s = 0.5;   // at least this long between releases and the next press
+};
+struct TaskIndexing {
+  TaskIndexingParams p;
+  std::array<std::atomic<bool>, 2> wants{};
+  std::array<std::atomic<std::uint32_t>, 2> presses{};  // the clutch presses by hand (the one that holds it)
 };
 
 class TaskHumanBrain {
@@ -91,6 +110,8 @@ class TaskHumanBrain {
   NewestMailbox<wire::ArmsState>& believed() noexcept { return believed_; }
   // Hand k's wishes (its TaskHumanHand is the one consumer).
   NewestMailbox<TaskHandWish>& wishes(int k) noexcept { return wishes_[static_cast<std::size_t>(k)]; }
+  // Both hands' indexing (task_hands hands it to them).
+  TaskIndexing& indexing() noexcept { return indexing_; }
 
   // One step of the plan at t_s (seconds, any monotonic clock): the brain
   // thread's, or a test's (then do not start()).
@@ -106,6 +127,7 @@ class TaskHumanBrain {
   std::array<ArmMappingParams, 2> mapping_;
   NewestMailbox<wire::ArmsState> believed_;
   std::array<NewestMailbox<TaskHandWish>, 2> wishes_;
+  TaskIndexing indexing_;
   // The brain thread's.
   twoarm_tasks::ScriptState st_;
   std::uint64_t ticks_ = 0;
@@ -118,6 +140,10 @@ class TaskHumanBrain {
 // One hand of the SIMULATED task human (the device's HumanScript).
 class TaskHumanHand final : public device::bimanual::HumanScript {
  public:
+  // Without the mapping engaged (released, or clutched) the hand moves back
+  // towards its rest pose this fast (a person re-centring the hand).
+  static constexpr double kReturnSpeed_mps = 0.25;
+  static constexpr double kReturnRate_radps = 1.0;
   static constexpr double kTurnGain_per_s = 1.5;    // of the remaining turn error, per second
   static constexpr double kTurnBiasMax_rad = 0.25;  // the most it turns beyond its spring's target
   // rest: the hand at rest (pose, grasp). lever_travel_m > 0: the handle's
@@ -125,12 +151,19 @@ class TaskHumanHand final : public device::bimanual::HumanScript {
   // robot_safety: the robot's newest status (TelemanipLink::set_safety_out),
   // or null (the script's dead-man alone). Throws std::invalid_argument on
   // bad mapping parameters or null mailboxes.
+  // indexing (optional, shared by both hands): this hand is `hand` (0
+  // right, 1 left); clutch_buttons: the button bits of its handle that are
+  // a clutch (this hand presses them; 0: it holds none).
   TaskHumanHand(const device::bimanual::HumanTarget& rest, const ArmMappingParams& mapping,
                 NewestMailbox<TaskHandWish>* wishes, NewestMailbox<MappingAnchor>* anchors, double lever_travel_m,
-                const std::atomic<std::uint32_t>* robot_safety);
+                const std::atomic<std::uint32_t>* robot_safety, TaskIndexing* indexing = nullptr, int hand = 0,
+                std::uint32_t clutch_buttons = 0);
   device::bimanual::HumanTarget at(double t_s) const noexcept override;
 
  private:
+  // The clutch's cycle (the hand that holds it): true while pressed.
+  bool clutch_step(double t_s) const noexcept;
+
   device::bimanual::HumanTarget rest_;
   ArmMappingParams mapping_;
   NewestMailbox<TaskHandWish>* wishes_;
@@ -148,6 +181,14 @@ class TaskHumanHand final : public device::bimanual::HumanScript {
   // k times that at the gripper with rotation scale k).
   mutable Eigen::Vector3d turn_bias_D_ = Eigen::Vector3d::Zero();
   mutable double last_t_s_ = -1.0;
+  TaskIndexing* indexing_;
+  int hand_;
+  std::uint32_t clutch_buttons_;
+  // Where the hand was asked to be last (the return towards rest starts there).
+  mutable Eigen::Vector3d last_p_D_;
+  mutable Eigen::Quaterniond last_q_D_;
+  mutable bool clutch_held_ = false;
+  mutable double clutch_t0_ = 0.0, clutch_released_t_ = -1e9;
 };
 
 // The task settings (telemanip.task, task_scene, task_settle_s): empty when

@@ -43,6 +43,8 @@ std::string telemanip_params(const config::TelemanipConfig& c, double period_s, 
     m.max_step_rad = c.max_rate_radps() * period_s;
     if (a.deadman_ee() > 1) return std::string("telemanip.") + names[k] + ".deadman_ee: must be 0 or 1";
     m.deadman_ee = static_cast<int>(a.deadman_ee());
+    if (a.clutch_button() > 8) return std::string("telemanip.") + names[k] + ".clutch_button: must be 0 (none) or 1-8";
+    m.clutch_button = static_cast<int>(a.clutch_button());
     m.opening_open_m = a.opening_open_m();
     m.opening_closed_m = a.opening_closed_m();
     m.force_open_n = a.force_open_n();

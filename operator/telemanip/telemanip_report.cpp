@@ -48,6 +48,7 @@ report::Telemanip make_telemanip_report(const TelemanipLinkStats& link, const Te
     h->set_presses(m.presses);
     h->set_engaged_ticks(st.engaged_ticks);
     h->set_clamped_steps(m.clamped_steps);
+    h->set_clutch_ticks(m.clutch_steps);
     h->set_contact_ticks(st.contact_ticks);
     h->set_no_model_ticks(st.no_model_ticks);
     h->set_peak_force_n(st.peak_force_n);

@@ -27,6 +27,7 @@ HandReading teletask_hand(const device::DeviceSample& in, int k, const ArmMappin
   const int g = mp.deadman_ee;
   const device::HandleInputs& gate = in.ee[static_cast<std::size_t>(g)].handle;
   h.deadman = g < in.end_effectors && gate.has_deadman && gate.deadman;
+  h.clutch = g < in.end_effectors && mp.clutch_button > 0 && (gate.buttons & (1u << (mp.clutch_button - 1))) != 0;
   h.has_grip = e.handle.has_grip;
   h.grip_position_m = e.handle.grip_position;
   if (!h.has_grip && e.handle.has_joystick) {
@@ -134,12 +135,13 @@ void TelemanipTask::render_hand(int k, const vps::Voxmap* vm, std::uint64_t buil
   const vps::ProbeTool& tool = shell_tool(h.shell);
   vps::ToolState& s = h.states[static_cast<std::size_t>(h.shell)];
   vps::ToolParams& tp = tool_params_[ki];
-  if (!cmd.pressed) vm = nullptr;  // released: the tool follows the command, nothing displayed
+  // Released or clutched: the tool follows the command, nothing displayed.
+  if (!cmd.pressed || cmd.clutched) vm = nullptr;
   if (vm != nullptr && build != h.voxmap_build) s.voxmap = nullptr;  // a new build, maybe at the old address
   if (vm != nullptr) h.voxmap_build = build;
   if (vm == nullptr) {
     vps::probe_tool_tick(tp, tool, nullptr, cmd.T_A_G, &s);
-    if (cmd.pressed) ++st.no_model_ticks;
+    if (cmd.pressed && !cmd.clutched) ++st.no_model_ticks;
     st.last_force_D.setZero();
     st.last_torque_D.setZero();
     st.last_work = 0;
@@ -174,7 +176,7 @@ void TelemanipTask::render_held(const RemoteArmsState& remote, device::DeviceCom
   HeldObjectInputs in;
   in.remote_valid = remote.valid;
   for (std::size_t k = 0; k < kTeleArms; ++k) {
-    in.pressed[k] = cmd_[k].pressed;
+    in.pressed[k] = cmd_[k].pressed && !cmd_[k].clutched;
     in.holding[k] = remote.gripper[k].holding;
     in.T_A_G[k] = cmd_[k].T_A_G;
     in.remote_force_A[k] = remote.arm[k].force_A;
@@ -231,7 +233,7 @@ void TelemanipTask::tick(const device::DeviceSample& in, const servo::ModelSnaps
     a.direct = direct && ms.initialized;
     if (a.direct) {
       DirectHandState& d = direct_[ki];
-      direct_hand_tick(p_.direct[ki], in.ee[ki], c.pressed, fresh != nullptr && fresh->valid ? &fresh->arm[ki].direct : nullptr,
+      direct_hand_tick(p_.direct[ki], in.ee[ki], c.pressed && !c.clutched, fresh != nullptr && fresh->valid ? &fresh->arm[ki].direct : nullptr,
                        remote != nullptr && remote->valid ? &remote->arm[ki].direct : nullptr, p_.period_s, &d,
                        &out.command.ee[ki]);
       a.twist_A = d.sent_A;

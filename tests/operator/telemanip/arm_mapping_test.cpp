@@ -1,6 +1,7 @@
 // The hand -> remote arm mapping against closed forms: the alignment and the
-// scale, indexing (the commanded pose continuous across a clutch), rotation
-// composition, the rate clamp, the grip lever and the dead-man.
+// scale, indexing (the commanded pose continuous across a dead-man press and
+// across the clutch button), rotation composition, the rate clamp, the grip
+// lever and the dead-man.
 #include "operator/telemanip/arm_mapping.h"
 
 #include <gtest/gtest.h>
@@ -94,6 +95,66 @@ TEST(ArmMapping, IndexingKeepsTheRemotePoseContinuousAcrossAClutch) {
   tele::map_arm_step(p, mapping_test_hand(hand, true), &s, &out);
   const Eigen::Vector3d want = kMappingTestG0.translation() + Eigen::Vector3d(-0.10, 0.0, 0.0);
   EXPECT_LT((out.T_A_G.translation() - want).norm(), 1e-12);
+}
+
+// The clutch button: held with the dead-man pressed, the arm keeps its
+// pose (still pressed: the robot sees one steady pose) while the hand goes
+// back; at its release the mapping re-anchors without a jump; a clutch
+// reading on a mapping without a clutch button changes nothing.
+TEST(ArmMapping, ClutchHoldsTheArmPressedWhileTheHandGoesBack) {
+  tele::ArmMappingParams p = mapping_test_params(2.0);
+  p.clutch_button = 1;
+  tele::ArmMappingState s;
+  tele::reset_arm_mapping(&s, kMappingTestG0);
+  tele::ArmCommandOut out;
+  Eigen::Isometry3d hand = mapping_test_pose(Eigen::Vector3d(0.3, 0.0, 0.2), Eigen::Matrix3d::Identity());
+  const Eigen::Vector3d step_D(0.04, 0.01, -0.02);
+  tele::map_arm_step(p, mapping_test_hand(hand, true), &s, &out);
+  hand.translation() += step_D;
+  tele::map_arm_step(p, mapping_test_hand(hand, true), &s, &out);
+  const Eigen::Isometry3d after_first = out.T_A_G;
+  EXPECT_LT((after_first.translation() - (kMappingTestG0.translation() + 2.0 * Eigen::Vector3d(-0.04, -0.01, -0.02))).norm(), 1e-12);
+  // Clutched: the hand back where it began (and turned), the arm holds, pressed.
+  tele::HandReading clutched = mapping_test_hand(hand, true);
+  clutched.clutch = true;
+  for (int k = 0; k < 4; ++k) {
+    clutched.T_D_E.translation() -= step_D / 4.0;
+    clutched.T_D_E.linear() = Eigen::AngleAxisd(0.1 * (k + 1), Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    tele::map_arm_step(p, clutched, &s, &out);
+    EXPECT_TRUE(out.pressed);
+    EXPECT_TRUE(out.clutched);
+    EXPECT_FALSE(s.engaged);
+    EXPECT_TRUE(out.T_A_G.isApprox(after_first, 1e-15));
+  }
+  EXPECT_EQ(s.clutch_steps, 4u);
+  // Released: no jump, then the same hand motion moves the arm on from there.
+  hand = clutched.T_D_E;
+  tele::map_arm_step(p, mapping_test_hand(hand, true), &s, &out);
+  EXPECT_FALSE(out.clutched);
+  EXPECT_TRUE(out.T_A_G.isApprox(after_first, 1e-15));
+  EXPECT_EQ(s.presses, 2u);
+  hand.translation() += step_D;
+  tele::map_arm_step(p, mapping_test_hand(hand, true), &s, &out);
+  EXPECT_LT((out.T_A_G.translation() - (kMappingTestG0.translation() + 4.0 * Eigen::Vector3d(-0.04, -0.01, -0.02))).norm(), 1e-12);
+  EXPECT_TRUE(out.T_A_G.linear().isApprox(after_first.linear(), 1e-12));  // the hand's turn while clutched is not the arm's
+  // The clutch does not act without the dead-man: released is released.
+  clutched = mapping_test_hand(hand, false);
+  clutched.clutch = true;
+  tele::map_arm_step(p, clutched, &s, &out);
+  EXPECT_FALSE(out.pressed);
+  EXPECT_FALSE(out.clutched);
+  // No clutch button configured: a clutch reading is ignored.
+  tele::ArmMappingParams none = mapping_test_params(2.0);
+  tele::ArmMappingState s2;
+  tele::reset_arm_mapping(&s2, kMappingTestG0);
+  clutched = mapping_test_hand(hand, true);
+  tele::map_arm_step(none, clutched, &s2, &out);
+  clutched.clutch = true;
+  clutched.T_D_E.translation() += step_D;
+  tele::map_arm_step(none, clutched, &s2, &out);
+  EXPECT_FALSE(out.clutched);
+  EXPECT_TRUE(s2.engaged);
+  EXPECT_LT((out.T_A_G.translation() - (kMappingTestG0.translation() + 2.0 * Eigen::Vector3d(-0.04, -0.01, -0.02))).norm(), 1e-12);
 }
 
 TEST(ArmMapping, RotationsComposeAboutTheGraspFrameAsRotations) {
@@ -278,4 +339,9 @@ TEST(ArmMapping, BadParametersAreRefused) {
   tele::ArmMappingParams force = p;
   force.force_closed_n = -3.0;
   EXPECT_NE(tele::validate(force), "");
+  for (int b : {-1, 9}) {
+    tele::ArmMappingParams clutch = p;
+    clutch.clutch_button = b;
+    EXPECT_EQ(tele::validate(clutch), "clutch_button must be 0 (none) or a button 1-8") << b;
+  }
 }

@@ -145,6 +145,80 @@ TEST(TaskHuman, HandTurnsFurtherWhileTheCommandedGripperLacksTheWishedTurn) {
   EXPECT_TRUE(g.orientation_D.toRotationMatrix().isApprox(spring_D, 1e-12));
 }
 
+// Indexing: the right hand's target beyond its reach makes the left hand
+// (which holds the clutch) press its button, for hold_s, only with the
+// dead-man pressed; while its mapping is not engaged each hand moves back
+// towards its rest at kReturnSpeed_mps from where it was asked last; the
+// next press waits cooldown_s after the release.
+TEST(TaskHuman, TheHandWithTheClutchPressesItWhenEitherHandIsBeyondItsReach) {
+  namespace hb = hemm::device::bimanual;
+  const tele::ArmMappingParams m = task_human_test_mapping();
+  tele::TaskIndexing indexing;
+  indexing.p.reach_m = 0.07;
+  indexing.p.hold_s = 0.6;
+  indexing.p.cooldown_s = 0.4;
+  std::array<hemm::NewestMailbox<tele::TaskHandWish>, 2> wishes;
+  std::array<hemm::NewestMailbox<tele::MappingAnchor>, 2> anchors;
+  std::array<hb::HumanTarget, 2> rest;
+  rest[0].position_D = Eigen::Vector3d(0.35, -0.2, 0.1);
+  rest[1].position_D = Eigen::Vector3d(0.35, 0.2, 0.1);
+  constexpr std::uint32_t kClutch = 1u << 2;  // button 3
+  const tele::TaskHumanHand right(rest[0], m, &wishes[0], &anchors[0], 0.025, nullptr, &indexing, 0, 0);
+  const tele::TaskHumanHand left(rest[1], m, &wishes[1], &anchors[1], 0.0, nullptr, &indexing, 1, kClutch);
+  // Both anchored at rest on G0; the right's wish 0.12 m of A away: 0.08 m of D at scale 1.5.
+  const Eigen::Isometry3d G0 = Eigen::Translation3d(0.6, -0.3, 0.9) * Eigen::Isometry3d::Identity();
+  for (int k = 0; k < 2; ++k) {
+    tele::MappingAnchor a;
+    a.engaged = a.state.initialized = a.state.engaged = true;
+    a.state.T_A_anchor = a.state.T_A_G_cmd = G0;
+    a.state.T_D_anchor = hb::pose_D(rest[static_cast<std::size_t>(k)]);
+    anchors[static_cast<std::size_t>(k)].publish(a);
+    tele::TaskHandWish w;
+    w.active = w.deadman = true;
+    w.T_A_G = G0;
+    wishes[static_cast<std::size_t>(k)].publish(w);
+  }
+  EXPECT_EQ(left.at(0.0).buttons, 0u);  // both within reach
+  EXPECT_EQ(right.at(0.0).buttons, 0u);
+  tele::TaskHandWish far;
+  far.active = far.deadman = true;
+  far.T_A_G = Eigen::Translation3d(0.6 - 0.12, -0.3, 0.9) * Eigen::Isometry3d::Identity();
+  wishes[0].publish(far);
+  const hb::HumanTarget asked = right.at(0.01);
+  EXPECT_NEAR((asked.position_D - rest[0].position_D).norm(), 0.08, 1e-12);
+  EXPECT_TRUE(indexing.wants[0].load());
+  EXPECT_EQ(right.at(0.01).buttons, 0u);  // the right's handle holds no clutch
+  EXPECT_EQ(left.at(0.02).buttons, kClutch);
+  EXPECT_EQ(indexing.presses[1].load(), 1u);
+  // The servo's mapping, clutched, is not engaged: the right hand goes back towards its rest.
+  tele::MappingAnchor clutched;
+  clutched.engaged = false;
+  anchors[0].publish(clutched);
+  hb::HumanTarget g = right.at(0.02);
+  for (int i = 1; i <= 100; ++i) g = right.at(0.02 + i * 1e-3);
+  // 0.11 s since it was last asked (at 0.01).
+  EXPECT_NEAR((g.position_D - asked.position_D).norm(), tele::TaskHumanHand::kReturnSpeed_mps * 0.11, 1e-9);
+  EXPECT_NEAR((g.position_D - rest[0].position_D).norm(), 0.08 - tele::TaskHumanHand::kReturnSpeed_mps * 0.11, 1e-9);
+  EXPECT_FALSE(indexing.wants[0].load());  // not engaged: it asks nothing
+  for (int i = 1; i <= 300; ++i) g = right.at(0.12 + i * 1e-3);
+  EXPECT_LT((g.position_D - rest[0].position_D).norm(), 1e-12);  // back at rest, and stays
+  // Held for hold_s, then released.
+  EXPECT_EQ(left.at(0.5).buttons, kClutch);
+  EXPECT_EQ(left.at(0.63).buttons, 0u);
+  // Far again at once: no press within the cooldown; one after it.
+  indexing.wants[0].store(true);
+  EXPECT_EQ(left.at(0.9).buttons, 0u);
+  EXPECT_EQ(left.at(1.04).buttons, kClutch);
+  EXPECT_EQ(indexing.presses[1].load(), 2u);
+  // The dead-man released: no clutch pressed.
+  tele::TaskHandWish off;
+  off.active = true;
+  off.deadman = false;
+  off.T_A_G = G0;
+  wishes[1].publish(off);
+  EXPECT_EQ(left.at(1.05).buttons, 0u);
+}
+
 TEST(TaskHuman, LeverInvertsTheMappingsOpening) {
   const tele::ArmMappingParams m = task_human_test_mapping();
   EXPECT_DOUBLE_EQ(tele::lever_for_gripper(m, {0.22, 5.0}), 0.0);

@@ -48,6 +48,7 @@ TEST(TelemanipConfig, BadFieldsAreNamedAndChangeNothing) {
       {"telemanip.command_rate_hz", [](hemm::config::TelemanipConfig* c) { c->set_command_rate_hz(50.0); }},
       {"telemanip.right.deadman_ee", [](hemm::config::TelemanipConfig* c) { c->mutable_right()->set_deadman_ee(2); }},
       {"telemanip.left", [](hemm::config::TelemanipConfig* c) { c->mutable_left()->set_opening_open_m(0.5); }},
+      {"telemanip.left.clutch_button", [](hemm::config::TelemanipConfig* c) { c->mutable_left()->set_clutch_button(9); }},
       {"telemanip.right", [](hemm::config::TelemanipConfig* c) { c->mutable_right()->set_force_closed_n(150.0); }},
       {"telemanip.human_script", [](hemm::config::TelemanipConfig* c) { c->set_human_script("dance"); }},
       {"telemanip.mode", [](hemm::config::TelemanipConfig* c) { c->set_mode("Direct"); }},

@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <iterator>
 #include <string>
 #include <vector>
 
@@ -134,6 +135,24 @@ TEST(TelemanipRunner, TaskArgumentsAreRefusedWithAReason) {
     const hemm::test::ProcessResult r = hemm::test::run_to_completion(argv, dir, std::chrono::seconds(20));
     EXPECT_EQ(r.rc, 2) << c.says << ": " << r.err;
     EXPECT_NE(r.err.find(c.says), std::string::npos) << r.err;
+  }
+  // A clutch on a handle without buttons (the right arm gated by its own grip-force handle).
+  {
+    std::ifstream in(cfg + "operator_telemanip_tasks.pbtxt");
+    std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const std::string from = "right {\n    deadman_ee: 1\n    clutch_button: 1";
+    const std::size_t at = text.find(from);
+    ASSERT_NE(at, std::string::npos) << "the shipped tasks config changed";
+    text.replace(at, from.size(), "right {\n    deadman_ee: 0\n    clutch_button: 1");
+    const std::string bad = dir + "/clutch_without_buttons.pbtxt";
+    std::ofstream(bad) << text;
+    const hemm::test::ProcessResult r = hemm::test::run_to_completion(
+        {bin, "--config", bad, "--key", cfg + "demo.key", "--session-port", "1", "--log-level", "warn"}, dir,
+        std::chrono::seconds(20));
+    EXPECT_EQ(r.rc, 2) << r.err;
+    EXPECT_NE(r.err.find("telemanip.right.clutch_button: the grip_force handle of end-effector 0 (deadman_ee) has no buttons"),
+              std::string::npos)
+        << r.err;
   }
   // A config that is not a telemanip one.
   const hemm::test::ProcessResult r = hemm::test::run_to_completion(
