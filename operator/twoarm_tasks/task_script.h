@@ -45,13 +45,22 @@ struct ScriptParams {
   double open_tol_m = 0.005;
   // Guarded insertion.
   double contact_N = 3.0;         // the wrist's upward force that tells contact
-  double in_margin_m = 0.004;     // searching, G drops this far (unpressed): the peg is in the hole
+  double in_margin_m = 0.002;     // searching, G drops this far (unpressed): the peg is in the hole
   double min_depth_m = 0.03;      // pressed this far below the entry height: at the hole's bottom
-  double press_m = 0.001;         // stuck: target this far below where G rests (the peg's weight presses too)
+  // Stuck: target this far below where G rests (3 N more on the rim at
+  // 1000 N/m): over the hole the peg drops at least this far, whatever its
+  // weight and the arm's sag (at 1 mm a search saw no drop for 140 s).
+  double press_m = 0.003;
   double search_pitch_m = 0.001;  // the search circle grows this much per turn (the clearance is 1 mm)
-  double search_max_m = 0.015;    // the peg sits up to ~1 cm off G's axis in the tilted grasp
+  double search_max_m = 0.025;    // through the device the peg sat up to 15.6 mm off G's axis (tilted in the grasp)
   double search_period_s = 1.5;
   double deadman_delay_s = 0.1;
+  // Guarded set-down (ScriptStep::lower_until_unloaded): down this slowly
+  // (a round trip late, it has gone rtt x this further: 1.5 cm at 3 s),
+  // until the two wrists together carry less than unloaded_N; then the
+  // targets go back to where G was believed then, this far lower.
+  double place_speed_mps = 0.005;
+  double place_press_m = 0.003;
   // box: each hand's grasp frame this far in from its end of the box: the
   // left reaches across to the shelf, so it takes its end nearer the edge.
   std::array<double, kArms> box_end_inset_m{0.05, 0.005};
@@ -79,6 +88,13 @@ struct ScriptStep {
   // bottom_z; entry_z is G's height when the peg's end is at the hole's top.
   int insert_arm = -1;
   double entry_z = 0.0, bottom_z = 0.0;
+  // Guarded set-down with both arms: from the step's pose both targets go
+  // down together (ScriptParams::place_speed_mps, at most lower_max_m) until
+  // the two wrists' vertical forces sum to within unloaded_N - the support
+  // carries the load - then back up to the believed G less place_press_m;
+  // the step ends unloaded and slow after dwell_s there.
+  bool lower_until_unloaded = false;
+  double lower_max_m = 0.0;
 };
 
 struct TaskScript {
@@ -113,7 +129,14 @@ struct ScriptState {
   // Guarded insertion.
   enum class Insert { kDescend, kSearch, kIn } insert = Insert::kDescend;
   double insert_z = 0.0, insert_z0 = 0.0, insert_t0 = 0.0, search_t0 = 0.0, search_z = 0.0;
+  // Dropped in while searching: the believed G's x, y then (the peg is in
+  // the hole there, wherever it sits in the grasp); the descent goes on there.
+  bool insert_xy_set = false;
+  Eigen::Vector2d insert_xy = Eigen::Vector2d::Zero();
   int searches = 0;
+  // Guarded set-down.
+  bool lower_stopped = false;
+  double lower_dz = 0.0, lower_stop_t = 0.0;
   // What the step waits on (the last tick's check, for the progress report):
   // per arm the believed G against the step's goal - position [m], turn
   // [rad], speed [m/s]; 0 for an arm the step does not wait on.

@@ -45,14 +45,21 @@ TEST(TaskFeasibility, BarAt3sRoundTripLossy) {
   feasibility_expect(ht::Task::kBar, 3.0, kFeasibilityLoss, 1);
 }
 
-// The hole 1 mm (x) from where the operator believes it (twice the
-// clearance a side): the peg should land on the rim, the wrist force tell it,
-// and the search circle find the hole. NOT YET: it enters 6 mm and jams (the
-// target 1 mm off the axis presses it on a wall); at 2.5 mm it does not get in either
-// (docs/telemanipulation_tasks.md).
-TEST(TaskFeasibility, DISABLED_PegFindsAHoleItBelievesOffByOneMillimetre) {
-  const tf::FeasibilityRun r = tf::feasibility_run(ht::Task::kPeg, 0.0, 0.0, 1, 150.0, Eigen::Vector3d(0.001, 0.0, 0.0));
-  tf::feasibility_print(ht::Task::kPeg, 0.0, 1, r);
-  EXPECT_TRUE(r.script_done) << r.last_step << " " << r.detail;
-  EXPECT_TRUE(r.verdict.success) << r.verdict.why;
+// The hole off where the operator believes it (its task: line wrong): the
+// peg lands on the rim, the wrist force tells it, the search circle finds
+// the hole and the descent goes on where it dropped in: 1 mm (twice the
+// clearance a side: it used to enter 6 mm and jam, the target off the axis
+// pressing it on a wall) and 4 mm the other way. NOT YET: 8 mm (diagonal)
+// at 3 s round trip searched 240 s without getting in - the circle passes
+// the hole's +-0.5 mm window in ~15 ms at that radius, too short for the
+// peg to drop (docs/telemanipulation_tasks.md).
+TEST(TaskFeasibility, PegFindsAHoleItBelievesOffByMillimetres) {
+  if (hemm::test::kSanitizerBuild) GTEST_SKIP() << "release pass only (two searching runs; PegAt3sRoundTripLossy runs there)";
+  for (const Eigen::Vector3d& off : {Eigen::Vector3d(0.001, 0.0, 0.0), Eigen::Vector3d(0.0, -0.004, 0.0)}) {
+    const tf::FeasibilityRun r = tf::feasibility_run(ht::Task::kPeg, 0.0, 0.0, 1, 150.0, off);
+    tf::feasibility_print(ht::Task::kPeg, 0.0, 1, r);
+    EXPECT_TRUE(r.script_done) << off.transpose() << ": " << r.last_step << " " << r.detail;
+    EXPECT_TRUE(r.verdict.success) << off.transpose() << ": " << r.verdict.why;
+    EXPECT_GE(r.searches, 1) << off.transpose();  // it did land on the rim
+  }
 }
