@@ -65,6 +65,10 @@ struct ArmMappingParams {
   double force_open_n = 5.0;      // grip force at lever 0 (small: fingers close gently)
   double force_closed_n = 40.0;   // at full travel
 };
+// The clutch button's bit in HandleInputs::buttons (0: no clutch).
+constexpr std::uint32_t clutch_bit(const ArmMappingParams& p) noexcept {
+  return p.clutch_button > 0 && p.clutch_button <= 32 ? 1u << (p.clutch_button - 1) : 0u;
+}
 // Empty when usable: finite, R_A_D a rotation (det +1), ranges as above,
 // openings and forces >= 0.
 std::string validate(const ArmMappingParams& p);

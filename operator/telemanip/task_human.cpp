@@ -229,7 +229,7 @@ std::array<std::shared_ptr<const device::bimanual::HumanScript>, 2> task_hands(
     // The clutch buttons on this hand's handle: those of the arms it gates.
     std::uint32_t clutch = 0;
     for (const ArmMappingParams& m : mapping)
-      if (m.clutch_button > 0 && m.deadman_ee == static_cast<int>(k)) clutch |= 1u << (m.clutch_button - 1);
+      if (m.deadman_ee == static_cast<int>(k)) clutch |= clutch_bit(m);
     hands[k] = std::make_shared<const TaskHumanHand>(rest[k], mapping[k], &brain.wishes(static_cast<int>(k)), anchors[k],
                                                      travel, robot_safety, &brain.indexing(), static_cast<int>(k), clutch);
   }

@@ -27,7 +27,7 @@ HandReading teletask_hand(const device::DeviceSample& in, int k, const ArmMappin
   const int g = mp.deadman_ee;
   const device::HandleInputs& gate = in.ee[static_cast<std::size_t>(g)].handle;
   h.deadman = g < in.end_effectors && gate.has_deadman && gate.deadman;
-  h.clutch = g < in.end_effectors && mp.clutch_button > 0 && (gate.buttons & (1u << (mp.clutch_button - 1))) != 0;
+  h.clutch = g < in.end_effectors && (gate.buttons & clutch_bit(mp)) != 0;
   h.has_grip = e.handle.has_grip;
   h.grip_position_m = e.handle.grip_position;
   if (!h.has_grip && e.handle.has_joystick) {
