@@ -208,6 +208,11 @@ int run(int argc, char** argv) {
   app.add_option("--station-json", station_json,
                  "write the robot station's summary (the \"robot\" object of --stats-json: counters, the control "
                  "loop's deadline histograms and worst ticks) as JSON to this file at exit");
+  std::string truth_trace;
+  app.add_option("--truth-trace", truth_trace,
+                 "kind twoarm with twoarm.task set: write the task judge's SIMULATION ONLY truth every 10 ms (grasp "
+                 "sites and targets with their orientations, contact force on each gripper, squeezes, object contacts, goal errors) as CSV to "
+                 "this file at exit (the first 20 minutes of robot time)");
   net::StationControlOptions control_options;
   net::add_station_control_options(app, "hemm-robot", &control_options);
 #ifdef HEMM_WITH_VIEW
@@ -261,6 +266,10 @@ int run(int argc, char** argv) {
     return net::kExitUsage;
   }
 #ifdef HEMM_WITH_VIEW
+  if (cfg.kind() != "twoarm" && !truth_trace.empty()) {
+    std::cerr << "hemm-robot: --truth-trace is the two-arm station's (kind twoarm with a task)\n";
+    return net::kExitUsage;
+  }
   if (cfg.kind() == "twoarm" && view_opts.enabled()) {
     std::cerr << "hemm-robot: the live view shows the mobile robot only (kind twoarm has none yet)\n";
     return net::kExitUsage;
@@ -302,7 +311,12 @@ int run(int argc, char** argv) {
     if (scene_path.empty())
       scene_path = config::resolve_relative_to(config_path, cfg.sim().has_scene() ? cfg.sim().scene()
                                                                                  : "../scenes/workbench.xml");
+    if (!truth_trace.empty() && cfg.twoarm().task().empty()) {
+      std::cerr << "hemm-robot: --truth-trace needs a task to judge (twoarm.task in the config)\n";
+      return net::kExitUsage;
+    }
     twoarm::TwoArmStationOptions to;
+    to.truth_trace_s = truth_trace.empty() ? 0.0 : 1200.0;
     to.realtime = realtime;
     to.state_rate_hz = cfg.net().state_rate_hz();
     to.control_thread = control_thread;
@@ -321,7 +335,17 @@ int run(int argc, char** argv) {
       spdlog::error("event=start_failed error=\"{}\"", error);
       return net::kExitUsage;
     }
-    return serve(io, server, station, serve_options, nullptr, nullptr);
+    bool trace_failed = false;
+    const auto write_trace = [&] {
+      if (truth_trace.empty()) return;
+      std::string e;
+      if (!net::write_text_file(truth_trace, twoarm::truth_trace_csv(station.truth_trace()), &e)) {
+        std::cerr << "hemm-robot: --truth-trace: " << e << "\n";
+        trace_failed = true;
+      }
+    };
+    const int rc = serve(io, server, station, serve_options, nullptr, write_trace);
+    return rc == 0 && trace_failed ? net::kExitInternal : rc;
   }
 
   // The SIMULATED mobile robot: the scene relative to the config file unless given.

@@ -185,6 +185,14 @@ void check_twoarm(const RobotConfig& c, std::vector<FieldIssue>& out) {
     out.push_back({"twoarm.avoidance_activation_m", "must be within (0, 0.3]"});
   if (!(t.max_target_jump_m() > 0 && t.max_target_jump_m() <= 2))
     out.push_back({"twoarm.max_target_jump_m", "must be within (0, 2]"});
+  if (!(t.reach_margin_m() >= 0 && t.reach_margin_m() <= 0.1))
+    out.push_back({"twoarm.reach_margin_m", "must be within [0, 0.1]"});
+  if (!(t.reach_margin_rad() >= 0 && t.reach_margin_rad() <= 0.5))
+    out.push_back({"twoarm.reach_margin_rad", "must be within [0, 0.5]"});
+  if (!(t.relative_stiffness_ratio() >= 0 && t.relative_stiffness_ratio() <= 1))
+    out.push_back({"twoarm.relative_stiffness_ratio", "must be within [0, 1] (1: independent arms)"});
+  if (!(t.gripper_approach_speed_mps() >= 0 && t.gripper_approach_speed_mps() <= 1))
+    out.push_back({"twoarm.gripper_approach_speed_mps", "must be within [0, 1] (0: not capped)"});
   // The direct mode's twist is held this long from its send time; past the
   // watchdog's time it would carry the arm on through a silence.
   if (!(t.direct_twist_hold_ms() > 0 && t.direct_twist_hold_ms() <= c.safety().watchdog_ms()))

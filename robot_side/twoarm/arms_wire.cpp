@@ -1,6 +1,7 @@
 #include "robot_side/twoarm/arms_wire.h"
 
 #include <cmath>
+#include <cstdio>
 #include <utility>
 
 #include "common/haptics/passivity/tdpa_wire.h"
@@ -23,6 +24,19 @@ bool finite_pose(const proto::Pose3& p) {
 
 ArmsRefusal refusal(wire::ArmsRefusalReason r, uint32_t index, std::string detail) {
   return ArmsRefusal{r, index, std::move(detail)};
+}
+
+// Where a refused target was, against the grasp frame now: what an operator
+// needs to tell a slip of the mapping from a pose at the edge of the reach.
+std::string target_vs_grasp(const Eigen::Isometry3d& T, const Eigen::Isometry3d& G) {
+  const Eigen::Vector3d p = T.translation();
+  const Eigen::Vector3d z = T.linear().col(2);
+  const double d_mm = 1e3 * (p - G.translation()).norm();
+  const double d_rad = Eigen::AngleAxisd(G.linear().transpose() * T.linear()).angle();
+  char buf[200];
+  std::snprintf(buf, sizeof buf, " (target at %.3f %.3f %.3f m in A, z_G %.2f %.2f %.2f; %.0f mm and %.2f rad from G now)",
+                p.x(), p.y(), p.z(), z.x(), z.y(), z.z(), d_mm, d_rad);
+  return buf;
 }
 
 void vec(const Eigen::Vector3d& v, proto::Vec3* out) {
@@ -88,11 +102,23 @@ std::optional<ArmsRefusal> validate_arms_command(const TwoArmModel& model, const
     Eigen::Isometry3d T;
     if (!a.has_t_a_g()) return refusal(wire::ARMS_REFUSAL_BAD_POSE, a.index(), "arm target without a pose");
     if (auto e = mapping::pose3_from_wire(a.t_a_g(), &T)) return refusal(wire::ARMS_REFUSAL_BAD_POSE, a.index(), *e);
-    const Eigen::Vector3d here = grasp_pose_A(model.arms[i], readings[i].q).translation();
-    if ((T.translation() - here).norm() > limits.max_target_jump_m)
-      return refusal(wire::ARMS_REFUSAL_OUT_OF_REACH, a.index(), "target more than max_target_jump_m from the grasp frame");
-    if (!grasp_inverse_kinematics(model.arms[i], T, readings[i].q))
-      return refusal(wire::ARMS_REFUSAL_OUT_OF_REACH, a.index(), "no joint angles within the limits reach the target");
+    const Eigen::Isometry3d G = grasp_pose_A(model.arms[i], readings[i].q);
+    if ((T.translation() - G.translation()).norm() > limits.max_target_jump_m)
+      return refusal(wire::ARMS_REFUSAL_OUT_OF_REACH, a.index(),
+                     "target more than max_target_jump_m from the grasp frame" + target_vs_grasp(T, G));
+    const GraspReach reach = grasp_closest_reach(model.arms[i], T, readings[i].q);
+    if (!reach.reached) {
+      if (!(reach.position_error_m <= limits.reach_margin_m && reach.orientation_error_rad <= limits.reach_margin_rad)) {
+        char far[96];
+        std::snprintf(far, sizeof far, "; the closest within the limits %.0f mm and %.2f rad off", 1e3 * reach.position_error_m,
+                      reach.orientation_error_rad);
+        return refusal(wire::ARMS_REFUSAL_OUT_OF_REACH, a.index(),
+                       "no joint angles within the limits reach the target" + target_vs_grasp(T, G) + far);
+      }
+      v.at_reach_edge[i] = true;
+      v.reach_error_m[i] = reach.position_error_m;
+      v.reach_error_rad[i] = reach.orientation_error_rad;
+    }
     v.named.T_A_G[i] = T;
   }
   *out = v;

@@ -27,6 +27,12 @@ struct ArmsCommandLimits {
   // A target farther than this from where G is now is refused (out of
   // reach in one step: the operator's indexing is broken, or it is hostile).
   double max_target_jump_m = 0.5;
+  // A target the joint limits leave G this close to (or closer) is taken:
+  // the impedance pulls G as near as the limits let it, with at most the
+  // stiffness times this. Farther, it is refused as out of reach. 0 takes
+  // only targets the inverse kinematics reaches (1 mm, 0.01 rad).
+  double reach_margin_m = 0.02;
+  double reach_margin_rad = 0.1;
 };
 
 // The targets `cmd` asks for on top of `current` (arms and grippers it does
@@ -61,6 +67,10 @@ struct ValidatedArmsCommand {
   std::array<haptics::tdpa::Vec6, kArms> peer_energy_in_J{haptics::tdpa::Vec6::Zero(), haptics::tdpa::Vec6::Zero()};
   bool deadman = false;
   wire::Mode mode = wire::MODE_UNSPECIFIED;
+  // Per arm: its target was taken within the reach margin, not reached by
+  // any joint angles within the limits (how far: the errors).
+  std::array<bool, kArms> at_reach_edge{};
+  std::array<double, kArms> reach_error_m{}, reach_error_rad{};
 };
 std::optional<ArmsRefusal> validate_arms_command(const TwoArmModel& model, const ArmsCommandLimits& limits,
                                                  const wire::ArmsCommand& cmd,

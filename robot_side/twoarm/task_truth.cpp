@@ -204,11 +204,18 @@ void task_truth_tick(const TaskTruthModel& tm, const WorkbenchSim& sim, TaskTrut
     if (unsupported && s.pads_on_object[a] == 2) data.carried[a] = true;
     if (!s.gripper_in_contact[a]) continue;
     const double f = s.gripper_force_A[a].norm();
-    data.wrist_peak_N[a] = std::max(data.wrist_peak_N[a], f);
+    if (f > data.wrist_peak_N[a]) {
+      data.wrist_peak_N[a] = f;
+      data.wrist_peak_t_s[a] = s.t_s;
+      data.wrist_peak_force_A[a] = s.gripper_force_A[a];
+    }
     data.wrist_sum_sq[a] += f * f;
     ++data.wrist_contact_ticks[a];
   }
-  data.object_env_peak_N = std::max(data.object_env_peak_N, s.object_env_force_N);
+  if (s.object_env_force_N > data.object_env_peak_N) {
+    data.object_env_peak_N = s.object_env_force_N;
+    data.object_env_peak_t_s = s.t_s;
+  }
   data.squeeze_peak_N = std::max(data.squeeze_peak_N, s.squeeze_N);
   data.last = s;
 }
@@ -220,6 +227,9 @@ TaskVerdict task_truth_verdict(const TaskTruthModel& tm, const TaskTruthData& da
   v.dropped = data.dropped;
   v.completion_s = v.goal ? data.goal_since_s : -1.0;
   v.wrist_peak_N = data.wrist_peak_N;
+  v.wrist_peak_t_s = data.wrist_peak_t_s;
+  v.wrist_peak_force_A = data.wrist_peak_force_A;
+  v.object_env_peak_t_s = data.object_env_peak_t_s;
   for (std::size_t a = 0; a < kArms; ++a) {
     const long n = data.wrist_contact_ticks[a];
     v.wrist_rms_N[a] = n > 0 ? std::sqrt(data.wrist_sum_sq[a] / static_cast<double>(n)) : 0.0;

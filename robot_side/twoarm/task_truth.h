@@ -111,9 +111,12 @@ struct TaskTruthData {
   double unsupported_since_s = -1.0;
   double goal_since_s = -1.0;  // < 0: the end condition does not hold now
   std::array<double, kArms> wrist_peak_N{};
+  std::array<double, kArms> wrist_peak_t_s{};  // when each peak was (simulation time)
+  std::array<Eigen::Vector3d, kArms> wrist_peak_force_A{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
   std::array<double, kArms> wrist_sum_sq{};
   std::array<long, kArms> wrist_contact_ticks{};
   double object_env_peak_N = 0.0;
+  double object_env_peak_t_s = 0.0;
   double squeeze_peak_N = 0.0;
   std::array<double, kArms> hand_squeeze_peak_N{};
   std::array<bool, kArms> carried{};  // both pads of that gripper on the object, off every support
@@ -132,8 +135,11 @@ struct TaskVerdict {
   bool forces_ok = false;
   double completion_s = -1.0;  // when the end condition began to hold for good; < 0: it does not
   std::array<double, kArms> wrist_peak_N{};
+  std::array<double, kArms> wrist_peak_t_s{};  // when (simulation time): which step it was in
+  std::array<Eigen::Vector3d, kArms> wrist_peak_force_A{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};  // its direction
   std::array<double, kArms> wrist_rms_N{};  // over that gripper's contact ticks
   double object_env_peak_N = 0.0;
+  double object_env_peak_t_s = 0.0;
   double squeeze_peak_N = 0.0;
   std::array<double, kArms> hand_squeeze_peak_N{};
   std::array<bool, kArms> carried{};

@@ -1,5 +1,8 @@
 #include "robot_side/twoarm/twoarm_control.h"
 
+#include <algorithm>
+#include <cmath>
+
 namespace hemm::twoarm {
 
 namespace hk = hemm::kinematics;
@@ -20,6 +23,11 @@ hk::Wrench6 external_wrench_A(const ArmMount& mount, const hk::Arm7Frames& f, co
   return out;
 }
 
+bool holding(const TwoArmModel& model, const TwoArmParams& p, const std::array<ArmReading, kArms>& in,
+             const TwoArmTargets& targets, std::size_t a) {
+  return gripper_holding(model.arms[a].gripper, p.gripper, targets.gripper[a], in[a].gripper);
+}
+
 }  // namespace
 
 void twoarm_control(const TwoArmModel& model, const TwoArmParams& p, const std::array<ArmReading, kArms>& in,
@@ -35,13 +43,27 @@ void twoarm_control(const TwoArmModel& model, const TwoArmParams& p, const std::
   if (!p.avoid) {
     for (auto& t : out.avoidance.tau) t.setZero();
   }
+  // One object in both hands: the hands' mismatch at a share of the stiffness.
+  std::array<Eigen::Isometry3d, kArms> T_d = targets.T_A_G;
+  out.coupled = p.relative_stiffness_ratio < 1.0 && holding(model, p, in, targets, 0) && holding(model, p, in, targets, 1);
+  if (out.coupled) {
+    std::array<Eigen::Vector3d, kArms> pos, e;
+    for (std::size_t a = 0; a < kArms; ++a) {
+      const ArmMount& mount = model.arms[a];
+      pos[a] = (mount.T_A_Ar * frames[a].joint(hk::kArm7Flange) * mount.T_J7_G).translation();
+      e[a] = T_d[a].translation() - pos[a];
+    }
+    const Eigen::Vector3d e_c = 0.5 * (e[0] + e[1]);
+    const double r = std::max(0.0, p.relative_stiffness_ratio);
+    for (std::size_t a = 0; a < kArms; ++a) T_d[a].translation() = pos[a] + e_c + r * (e[a] - e_c);
+  }
   for (std::size_t a = 0; a < kArms; ++a) {
     const Side s = static_cast<Side>(a);
     const ArmMount& mount = model.arms[a];
     ImpedanceInput ii;
     ii.q = in[a].q;
     ii.qd = in[a].qd;
-    ii.T_A_G_d = targets.T_A_G[a];
+    ii.T_A_G_d = T_d[a];
     ii.tau_extra = out.avoidance.tau[a];
     arm_impedance(mount, model.gravity_Ar(s), p.arm[a], ii, frames[a], out.arm[a]);
     gripper_control(mount.gripper, p.gripper, targets.gripper[a], in[a].gripper, out.gripper[a]);

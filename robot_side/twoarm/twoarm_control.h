@@ -42,6 +42,14 @@ struct TwoArmParams {
   AvoidanceParams avoidance{};
   bool avoid = true;
   GripperGains gripper{};
+  // Both grippers holding (taken as one object in both hands, as in the
+  // bench's tasks): each arm's position error e_a = p_d,a - p_a is split
+  // into the common part e_c = (e_0 + e_1) / 2 and what differs, and the
+  // arm works to e_c + relative_stiffness_ratio (e_a - e_c). The object
+  // still follows the hands' mean at the full stiffness, but a mismatch
+  // between the two hands (one moving first, a hand's tremor through the
+  // mapping) squeezes or shears it at that share of it. 1: independent arms.
+  double relative_stiffness_ratio = 1.0;
 };
 
 struct TwoArmOutput {
@@ -52,6 +60,7 @@ struct TwoArmOutput {
   // The external wrench at G in A from the wrist sensor, the gripper's own
   // weight taken out (dynamics of the gripper neglected).
   std::array<kinematics::Wrench6, kArms> wrench_ext_A{};
+  bool coupled = false;  // this tick's position errors were coupled (relative_stiffness_ratio)
 };
 
 void twoarm_control(const TwoArmModel& model, const TwoArmParams& p, const std::array<ArmReading, kArms>& in,

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include "common/kinematics/arm7_ik.h"
 
@@ -65,22 +66,42 @@ hk::Arm7Jacobian grasp_jacobian_A(const ArmMount& mount, const hk::Arm7Frames& f
   return J;
 }
 
-std::optional<hk::Arm7Vector> grasp_inverse_kinematics(const ArmMount& mount, const Eigen::Isometry3d& T_A_G,
-                                                       const hk::Arm7Vector& q_seed) {
-  if (!rigid(T_A_G) || !q_seed.allFinite()) return std::nullopt;
+GraspReach grasp_closest_reach(const ArmMount& mount, const Eigen::Isometry3d& T_A_G, const hk::Arm7Vector& q_seed) {
+  GraspReach best;
+  best.position_error_m = best.orientation_error_rad = std::numeric_limits<double>::infinity();
+  if (!rigid(T_A_G) || !q_seed.allFinite()) return best;
   // The flange pose that puts G there, in Ar.
   const Eigen::Isometry3d T_Ar_J7 = mount.T_A_Ar.inverse() * T_A_G * mount.T_J7_G.inverse();
   hk::Arm7IkOptions o;
   o.max_iterations = 100;
   o.position_tolerance_m = 1e-3;
   o.orientation_tolerance_rad = 1e-2;
-  const hk::Arm7IkResult first = hk::inverse_kinematics(mount.arm, T_Ar_J7, q_seed, o);
-  if (first.converged) return first.q;
+  double best_cost = std::numeric_limits<double>::infinity();
+  // The errors at G, not at the flange the solver works on (an orientation
+  // error moves G by the flange-to-G lever as well).
+  const auto consider = [&](const hk::Arm7IkResult& r) {
+    const Eigen::Isometry3d G = grasp_pose_A(mount, r.q);
+    const double dp = (G.translation() - T_A_G.translation()).norm();
+    const double dr = Eigen::AngleAxisd(G.linear().transpose() * T_A_G.linear()).angle();
+    const double cost = dp + o.rotation_weight_m * dr;
+    if (r.converged || cost < best_cost) {
+      best_cost = cost;
+      best = GraspReach{r.q, r.converged, dp, dr};
+    }
+    return r.converged;
+  };
+  if (consider(hk::inverse_kinematics(mount.arm, T_Ar_J7, q_seed, o))) return best;
   for (const hk::Arm7Vector& seed : hk::ik_seed_postures(mount.arm)) {
-    const hk::Arm7IkResult r = hk::inverse_kinematics(mount.arm, T_Ar_J7, seed, o);
-    if (r.converged) return r.q;
+    if (consider(hk::inverse_kinematics(mount.arm, T_Ar_J7, seed, o))) return best;
   }
-  return std::nullopt;
+  return best;
+}
+
+std::optional<hk::Arm7Vector> grasp_inverse_kinematics(const ArmMount& mount, const Eigen::Isometry3d& T_A_G,
+                                                       const hk::Arm7Vector& q_seed) {
+  const GraspReach r = grasp_closest_reach(mount, T_A_G, q_seed);
+  if (!r.reached) return std::nullopt;
+  return r.q;
 }
 
 Eigen::Isometry3d downward_grasp(const Eigen::Vector3d& p_A) {

@@ -87,6 +87,19 @@ kinematics::Arm7Jacobian grasp_jacobian_A(const ArmMount& mount, const kinematic
 std::optional<kinematics::Arm7Vector> grasp_inverse_kinematics(const ArmMount& mount, const Eigen::Isometry3d& T_A_G,
                                                                const kinematics::Arm7Vector& q_seed);
 
+// The joint angles within the limits that come closest to putting G at
+// T_A_G (the same seeds, the first that reaches it, else the smallest
+// residual at G: position plus 0.2 m per radian) and how far they leave G
+// from it. reached: the solver converged (the flange within 1 mm and 0.01 rad). A T_A_G that is not a finite rigid
+// transform gives reached false and infinite errors.
+struct GraspReach {
+  kinematics::Arm7Vector q = kinematics::Arm7Vector::Zero();
+  bool reached = false;
+  double position_error_m = 0.0;
+  double orientation_error_rad = 0.0;
+};
+GraspReach grasp_closest_reach(const ArmMount& mount, const Eigen::Isometry3d& T_A_G, const kinematics::Arm7Vector& q_seed);
+
 // The grasp frame pointing down at p_A (z_G = -z_A), its fingers' axis
 // y_G along x_A: how the arms take the bench's objects from above.
 Eigen::Isometry3d downward_grasp(const Eigen::Vector3d& p_A);

@@ -45,6 +45,29 @@ wire::SessionFrame twoarm_ack(uint64_t request_id, bool ok, const std::string& r
 constexpr int kTwoArmMaxGeoms = 1024;
 constexpr int64_t kStatePollNs = 1'000'000;  // the network thread looks for a new snapshot this often
 
+// SIMULATION ONLY: one truth-trace row from the judge's sample and the robot.
+void fill_truth_row(const TaskTruthSample& s, const TwoArmRobot& robot, TruthTraceRow& row) noexcept {
+  row.t_s = s.t_s;
+  for (std::size_t a = 0; a < kArms; ++a) {
+    const Eigen::Isometry3d G = robot.sim().grasp_site_A(a == 0 ? Side::kRight : Side::kLeft);
+    const Eigen::Isometry3d& T = robot.active_targets().T_A_G[a];
+    row.G_A[a] = G.translation();
+    row.target_A[a] = T.translation();
+    row.G_rot_A[a] = rotation_vector(G.linear());
+    row.target_rot_A[a] = rotation_vector(T.linear());
+    row.force_A[a] = s.gripper_force_A[a];
+    row.squeeze_N[a] = s.hand_squeeze_N[a];
+    row.pads_on_object[a] = s.pads_on_object[a];
+  }
+  row.object_env_N = s.object_env_force_N;
+  row.on_start = s.on_start_support;
+  row.on_goal = s.on_goal_support;
+  row.on_other = s.on_other;
+  row.goal_xy_err_m = s.goal_xy_err_m;
+  row.goal_z_err_m = s.goal_z_err_m;
+  row.tilt_rad = s.tilt_rad;
+}
+
 }  // namespace
 
 TwoArmRobotOptions two_arm_robot_options(const config::RobotConfig& c) {
@@ -65,6 +88,10 @@ TwoArmRobotOptions two_arm_robot_options(const config::RobotConfig& c) {
   o.control.avoidance.activation_m = t.avoidance_activation_m();
   o.control.avoidance.stiffness_N_per_m = t.avoidance_stiffness_n_per_m();
   o.limits.max_target_jump_m = t.max_target_jump_m();
+  o.limits.reach_margin_m = t.reach_margin_m();
+  o.limits.reach_margin_rad = t.reach_margin_rad();
+  o.control.gripper.max_speed_mps = t.gripper_approach_speed_mps();
+  o.control.relative_stiffness_ratio = t.relative_stiffness_ratio();
   o.watchdog_ns = static_cast<int64_t>(c.safety().watchdog_ms()) * 1'000'000;
   o.pc_mode = haptics::tdpa::pc_mode_from(t.passivity());
   o.direct_feedback_measured = t.direct_feedback_measured();
@@ -136,6 +163,8 @@ struct TwoArmStation::Shared {
   std::atomic<uint32_t> last_refused_index{0};
   mutable std::mutex detail_mu;
   std::string last_refusal_detail;  // guarded by detail_mu (network thread writes, statistics() reads)
+  uint64_t targets_at_reach_edge = 0;                         // guarded by detail_mu
+  double max_reach_error_m = 0.0, max_reach_error_rad = 0.0;  // guarded by detail_mu
   std::atomic<uint64_t> states_sent{0}, send_failures{0};
   std::atomic<uint64_t> depth_frames_sent{0}, depth_chunks_sent{0}, depth_bytes_sent{0};
   std::atomic<uint64_t> mode_changes{0}, estop_changes{0}, requests_refused{0};
@@ -341,6 +370,15 @@ void twoarm_on_command(TwoArmStation::Shared& sh, const net::DatagramHeader& h, 
     sh.last_refusal_detail = std::move(r->detail);
     return;
   }
+  if (const ValidatedArmsCommand& v = tc.command; v.at_reach_edge[0] || v.at_reach_edge[1]) {
+    std::lock_guard<std::mutex> lk(sh.detail_mu);
+    for (std::size_t i = 0; i < kArms; ++i) {
+      if (!v.at_reach_edge[i]) continue;
+      ++sh.targets_at_reach_edge;
+      sh.max_reach_error_m = std::max(sh.max_reach_error_m, v.reach_error_m[i]);
+      sh.max_reach_error_rad = std::max(sh.max_reach_error_rad, v.reach_error_rad[i]);
+    }
+  }
   if (newest) {
     note_energy(tc.command, &sh.energy_record);
     sh.energy_seq = h.seq;
@@ -376,6 +414,9 @@ report::TwoArmStation to_report(const TwoArmStationStatistics& s) {
   r.set_last_refused_seq(s.last_refused_seq);
   r.set_last_refused_index(s.last_refused_index);
   r.set_last_refusal_detail(s.last_refusal_detail);
+  r.set_targets_at_reach_edge(s.targets_at_reach_edge);
+  r.set_max_reach_error_m(s.max_reach_error_m);
+  r.set_max_reach_error_rad(s.max_reach_error_rad);
   rt::fill(r.mutable_validate(), s.validate);
   rt::fill(r.mutable_control_compute(), s.control_compute);
   rt::fill(r.mutable_control_timing(), s.control_timing);
@@ -423,11 +464,13 @@ report::TwoArmStation to_report(const TwoArmStationStatistics& s) {
     t->set_completion_s(v.completion_s);
     for (std::size_t a = 0; a < kArms; ++a) {
       t->add_wrist_peak_n(v.wrist_peak_N[a]);
+      t->add_wrist_peak_t_s(v.wrist_peak_t_s[a]);
       t->add_wrist_rms_n(v.wrist_rms_N[a]);
       t->add_hand_squeeze_peak_n(v.hand_squeeze_peak_N[a]);
       t->add_carried(v.carried[a]);
     }
     t->set_object_env_peak_n(v.object_env_peak_N);
+    t->set_object_env_peak_t_s(v.object_env_peak_t_s);
     t->set_squeeze_peak_n(v.squeeze_peak_N);
     t->set_goal_xy_err_m(v.end.goal_xy_err_m);
     t->set_goal_z_err_m(v.end.goal_z_err_m);
@@ -490,8 +533,11 @@ std::string to_summary(const TwoArmStationStatistics& s) {
     const TaskVerdict& v = s.task_verdict;
     os << "  task " << to_string(s.task) << " (SIMULATION ONLY, MuJoCo truth): " << (v.success ? "success" : "FAILED")
        << (v.success ? "" : " - " + v.why) << "; completion " << v.completion_s << " s, wrist peak right / left "
-       << v.wrist_peak_N[0] << " / " << v.wrist_peak_N[1] << " N, RMS " << v.wrist_rms_N[0] << " / " << v.wrist_rms_N[1]
-       << " N, squeeze peak " << v.squeeze_peak_N << " N, object contact peak " << v.object_env_peak_N << " N\n";
+       << v.wrist_peak_N[0] << " / " << v.wrist_peak_N[1] << " N (at " << v.wrist_peak_t_s[0] << " / "
+       << v.wrist_peak_t_s[1] << " s; in A " << v.wrist_peak_force_A[0].transpose() << " / "
+       << v.wrist_peak_force_A[1].transpose() << " N), RMS " << v.wrist_rms_N[0] << " / " << v.wrist_rms_N[1] << " N, squeeze peak "
+       << v.squeeze_peak_N << " N, object contact peak " << v.object_env_peak_N << " N (at " << v.object_env_peak_t_s
+       << " s)\n";
   }
   return os.str();
 }
@@ -640,6 +686,11 @@ bool TwoArmStation::start(std::string* error) {
   shared_->next_poll_ns = steady_now_ns();
   asio::post(io_, [sh] { twoarm_arm_poll(sh); });
 
+  // The truth trace's rows, allocated here so the control thread never does.
+  trace_rows_ = 0;
+  trace_.clear();
+  if (task_model_ && o_.truth_trace_s > 0.0) trace_.resize(static_cast<std::size_t>(o_.truth_trace_s * 100.0) + 1);
+
   shared_->stop.store(false, std::memory_order_release);
   robot::start_control_thread(thread_, [this] { run(); }, o_.control_thread, &shared_->rt_status, &wake_latency_fd_,
                        "twoarm");
@@ -657,7 +708,10 @@ void TwoArmStation::local_estop(bool engaged, const std::string& reason) {
 
 void TwoArmStation::stop() {
   shared_->stop.store(true, std::memory_order_release);
-  if (thread_.joinable()) thread_.join();
+  if (thread_.joinable()) {
+    thread_.join();
+    trace_.resize(trace_rows_);  // shrinking: the rows written
+  }
   if (depth_) depth_->halt();
   rt::release_cpu_wake_latency(wake_latency_fd_);
   wake_latency_fd_ = -1;
@@ -673,6 +727,32 @@ bool TwoArmStation::truth_sim(TwoArmTruthSim* out) const {
   if (!sh.have_truth) return false;
   *out = sh.truth_latest;
   return true;
+}
+
+const std::vector<TruthTraceRow>& TwoArmStation::truth_trace() const {
+  static const std::vector<TruthTraceRow> kNone;
+  return running() ? kNone : trace_;
+}
+
+std::string truth_trace_csv(const std::vector<TruthTraceRow>& rows) {
+  std::ostringstream os;
+  os << "t_s";
+  for (const char* arm : {"right", "left"})
+    for (const char* what : {"G", "target", "force", "G_rot", "target_rot"})
+      for (const char* axis : {"x", "y", "z"}) os << ',' << arm << '_' << what << '_' << axis;
+  os << ",right_squeeze_N,left_squeeze_N,right_pads,left_pads,object_env_N,on_start,on_goal,on_other,goal_xy_err_m,"
+        "goal_z_err_m,tilt_rad\n";
+  os.precision(6);
+  for (const TruthTraceRow& r : rows) {
+    os << r.t_s;
+    for (std::size_t a = 0; a < kArms; ++a)
+      for (const Eigen::Vector3d* v : {&r.G_A[a], &r.target_A[a], &r.force_A[a], &r.G_rot_A[a], &r.target_rot_A[a]})
+        os << ',' << v->x() << ',' << v->y() << ',' << v->z();
+    os << ',' << r.squeeze_N[0] << ',' << r.squeeze_N[1] << ',' << r.pads_on_object[0] << ',' << r.pads_on_object[1]
+       << ',' << r.object_env_N << ',' << r.on_start << ',' << r.on_goal << ',' << r.on_other << ',' << r.goal_xy_err_m
+       << ',' << r.goal_z_err_m << ',' << r.tilt_rad << '\n';
+  }
+  return os.str();
 }
 
 TwoArmStationStatistics TwoArmStation::statistics() const {
@@ -691,6 +771,12 @@ TwoArmStationStatistics TwoArmStation::statistics() const {
   for (std::size_t i = 0; i < s.refused_by_reason.size(); ++i) s.refused_by_reason[i] = sh.refused_by_reason[i].load();
   s.commands_accepted = sh.commands_accepted.load();
   s.commands_applied = sh.commands_applied.load();
+  {
+    std::lock_guard<std::mutex> lk(sh.detail_mu);
+    s.targets_at_reach_edge = sh.targets_at_reach_edge;
+    s.max_reach_error_m = sh.max_reach_error_m;
+    s.max_reach_error_rad = sh.max_reach_error_rad;
+  }
   s.last_refusal = sh.last_refusal.load();
   s.last_refused_seq = sh.last_refused_seq.load();
   s.last_refused_index = sh.last_refused_index.load();
@@ -816,7 +902,10 @@ void TwoArmStation::run() {
     }
 
     robot.step();
-    if (judge != nullptr) task_truth_tick(*judge, robot.sim(), judged);
+    if (judge != nullptr) {
+      task_truth_tick(*judge, robot.sim(), judged);
+      if (trace_rows_ < trace_.size() && steps % 10 == 0) fill_truth_row(judged.last, robot, trace_[trace_rows_++]);
+    }
     pacer.stepped();
     ++steps;
     sh.sim_steps.fetch_add(1, std::memory_order_relaxed);

@@ -52,6 +52,7 @@
 #include <optional>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "common/kinematics/arm7.h"
 #include "common/realtime/realtime_setup.h"
@@ -79,7 +80,28 @@ struct TwoArmStationOptions {
   // Called on the control thread with true before its loop and false after
   // it (e.g. a test counting that thread's heap allocations); may be empty.
   std::function<void(bool)> control_thread_hook;
+  // SIMULATION ONLY: keep the task judge's look at the truth every 10 ms of
+  // robot time, for up to this many seconds (0: none; memory reserved at
+  // start(), about 25 kB per second; see truth_trace()).
+  double truth_trace_s = 0.0;
 };
+
+// SIMULATION ONLY: one row of the truth trace (robot time; A = W here).
+struct TruthTraceRow {
+  double t_s = 0.0;
+  std::array<Eigen::Vector3d, kArms> G_A{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};       // the grasp sites
+  std::array<Eigen::Vector3d, kArms> G_rot_A{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};   // their orientation (rotation vector)
+  std::array<Eigen::Vector3d, kArms> target_rot_A{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
+  std::array<Eigen::Vector3d, kArms> target_A{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};  // the targets worked to
+  std::array<Eigen::Vector3d, kArms> force_A{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};   // contact on each gripper
+  std::array<double, kArms> squeeze_N{};  // each gripper's two pads
+  std::array<int, kArms> pads_on_object{};
+  double object_env_N = 0.0;
+  bool on_start = false, on_goal = false, on_other = false;
+  double goal_xy_err_m = 0.0, goal_z_err_m = 0.0, tilt_rad = 0.0;
+};
+// The trace as CSV, a header line first.
+std::string truth_trace_csv(const std::vector<TruthTraceRow>& rows);
 
 // The robot's options from config: twoarm (impedance, limits, avoidance,
 // jump) and safety.watchdog_ms. The config is validated already
@@ -102,6 +124,10 @@ struct TwoArmStationStatistics {
   std::array<uint64_t, kArmsRefusalReasons> refused_by_reason{};  // index: wire::ArmsRefusalReason
   uint64_t commands_accepted = 0;  // valid, offered to the robot (watchdog, re-arm gate)
   uint64_t commands_applied = 0;   // their targets followed (armed, dead-man pressed)
+  // Arm targets taken within the reach margin (ArmsCommandLimits), not
+  // reached within the joint limits, and the largest such errors.
+  uint64_t targets_at_reach_edge = 0;
+  double max_reach_error_m = 0.0, max_reach_error_rad = 0.0;
   int last_refusal = 0;            // wire::ArmsRefusalReason
   uint64_t last_refused_seq = 0;
   uint32_t last_refused_index = 0;
@@ -172,6 +198,9 @@ class TwoArmStation {
   TwoArmStationStatistics statistics() const;  // any thread
   // SIMULATION ONLY: the newest truth (any thread; false before the first).
   bool truth_sim(TwoArmTruthSim* out) const;
+  // SIMULATION ONLY: the truth trace (options().truth_trace_s), complete
+  // once stop() returned; empty while running, without a task or with it off.
+  const std::vector<TruthTraceRow>& truth_trace() const;
 
   bool depth_camera_enabled() const { return depth_on_; }
   int64_t timestep_ns() const;
@@ -190,6 +219,10 @@ class TwoArmStation {
   TwoArmStationOptions o_;
   std::unique_ptr<TwoArmRobot> robot_;
   std::unique_ptr<const TaskTruthModel> task_model_;  // SIMULATION ONLY: the judge, if a task is set
+  // Sized at start(), filled by the control thread only (no allocation
+  // there), cut to the rows written when it has stopped.
+  std::vector<TruthTraceRow> trace_;
+  std::size_t trace_rows_ = 0;
   bool depth_on_ = false;
   int depth_period_steps_ = 0;
   std::shared_ptr<Shared> shared_;

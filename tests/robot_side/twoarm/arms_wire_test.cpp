@@ -118,6 +118,62 @@ TEST(ArmsWire, BadCommandsAreRefusedWithTheirReason) {
   }
 }
 
+// A target a few millimetres past what the joint limits reach (found by
+// walking the left grasp frame out along the line from its shoulder) is
+// taken within the reach margin and flagged as at the edge, with the error
+// the closest pose leaves; with the margin at 0 it is refused as out of
+// reach; well past the margin it is refused with how far the closest is.
+TEST(ArmsWire, TargetJustPastTheReachIsTakenWithinTheMarginAndFlagged) {
+  Fixture f;
+  const ht::ArmMount& arm = f.sim.model().arms[1];
+  const Eigen::Isometry3d G = ht::grasp_pose_A(arm, f.readings[1].q);
+  const Eigen::Vector3d shoulder = arm.T_A_Ar.translation();
+  const Eigen::Vector3d out = (G.translation() - shoulder).normalized();
+  Eigen::Isometry3d T = G;
+  double step_out = 0.0;
+  for (; step_out < 0.45; step_out += 0.002) {
+    T.translation() = G.translation() + step_out * out;
+    if (!ht::grasp_closest_reach(arm, T, f.readings[1].q).reached) break;
+  }
+  ASSERT_LT(step_out, 0.45) << "the walk never left the reach";
+  const ht::GraspReach edge = ht::grasp_closest_reach(arm, T, f.readings[1].q);
+  ASSERT_FALSE(edge.reached);
+  ASSERT_LT(edge.position_error_m, f.limits.reach_margin_m) << "the first unreached step is past the margin";
+  // The closest pose is within the joint limits and puts G where it says.
+  for (int j = 0; j < 7; ++j) {
+    EXPECT_GE(edge.q[j], arm.arm.q_min[j] - 1e-9);
+    EXPECT_LE(edge.q[j], arm.arm.q_max[j] + 1e-9);
+  }
+  EXPECT_NEAR((ht::grasp_pose_A(arm, edge.q).translation() - T.translation()).norm(), edge.position_error_m, 1e-9);
+
+  ht::TwoArmTargets t = f.current;
+  t.T_A_G[1] = T;
+  hw::ArmsCommand c;
+  ht::to_wire(t, true, &c);
+  ht::ValidatedArmsCommand v;
+  ASSERT_FALSE(ht::validate_arms_command(f.sim.model(), f.limits, c, f.readings, &v));
+  EXPECT_TRUE(v.at_reach_edge[1]);
+  EXPECT_FALSE(v.at_reach_edge[0]);
+  EXPECT_NEAR(v.reach_error_m[1], edge.position_error_m, 1e-6);  // T went through the wire
+  EXPECT_TRUE(v.named.T_A_G[1].isApprox(T, 1e-12));
+
+  ht::ArmsCommandLimits strict = f.limits;
+  strict.reach_margin_m = 0.0;
+  strict.reach_margin_rad = 0.0;
+  const auto r = ht::apply_arms_command(f.sim.model(), strict, c, f.current, f.readings);
+  EXPECT_FALSE(r.targets);
+  EXPECT_EQ(r.refusal.reason, hw::ARMS_REFUSAL_OUT_OF_REACH);
+  EXPECT_EQ(r.refusal.index, 1u);
+
+  // 10 cm farther out: past the margin, refused, and the detail says how far.
+  t.T_A_G[1].translation() += 0.10 * out;
+  ht::to_wire(t, true, &c);
+  const auto far = f.apply(c);
+  EXPECT_FALSE(far.targets);
+  EXPECT_EQ(far.refusal.reason, hw::ARMS_REFUSAL_OUT_OF_REACH);
+  EXPECT_NE(far.refusal.detail.find("the closest within the limits"), std::string::npos) << far.refusal.detail;
+}
+
 TEST(ArmsWire, StateRoundTrips) {
   Fixture f;
   ht::TwoArmParams p;

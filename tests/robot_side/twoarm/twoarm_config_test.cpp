@@ -42,6 +42,12 @@ TEST(TwoArmConfig, BadValuesAreRefusedByField) {
       {"twoarm { joint_limit_margin_rad: 1 }", "twoarm.joint_limit_margin_rad: "},
       {"twoarm { avoidance_activation_m: 0 }", "twoarm.avoidance_activation_m: "},
       {"twoarm { max_target_jump_m: 3 }", "twoarm.max_target_jump_m: "},
+      {"twoarm { reach_margin_m: -0.01 }", "twoarm.reach_margin_m: "},
+      {"twoarm { reach_margin_m: nan }", "twoarm.reach_margin_m: "},
+      {"twoarm { reach_margin_rad: 1 }", "twoarm.reach_margin_rad: "},
+      {"twoarm { gripper_approach_speed_mps: -0.1 }", "twoarm.gripper_approach_speed_mps: "},
+      {"twoarm { relative_stiffness_ratio: 1.5 }", "twoarm.relative_stiffness_ratio: "},
+      {"twoarm { relative_stiffness_ratio: nan }", "twoarm.relative_stiffness_ratio: "},
       {"twoarm { direct_twist_hold_ms: 0 }", "twoarm.direct_twist_hold_ms: "},
       {"twoarm { direct_twist_hold_ms: nan }", "twoarm.direct_twist_hold_ms: "},
       {"twoarm { direct_twist_hold_ms: 400 }", "twoarm.direct_twist_hold_ms: "},
@@ -73,6 +79,10 @@ TEST(TwoArmConfig, ShippedTwoArmConfigLoads) {
   EXPECT_EQ(o.control.arm[0].stiffness_N_per_m, c.twoarm().stiffness_n_per_m());
   EXPECT_EQ(o.control.arm[1].force_limit_N, c.twoarm().force_limit_n());
   EXPECT_EQ(o.limits.max_target_jump_m, c.twoarm().max_target_jump_m());
+  EXPECT_EQ(o.limits.reach_margin_m, c.twoarm().reach_margin_m());
+  EXPECT_EQ(o.limits.reach_margin_rad, c.twoarm().reach_margin_rad());
+  EXPECT_EQ(o.control.gripper.max_speed_mps, c.twoarm().gripper_approach_speed_mps());
+  EXPECT_EQ(o.control.relative_stiffness_ratio, c.twoarm().relative_stiffness_ratio());
   EXPECT_EQ(o.watchdog_ns, int64_t{c.safety().watchdog_ms()} * 1'000'000);
 }
 

@@ -16,6 +16,8 @@
 #include <map>
 #include <mutex>
 #include <optional>
+#include <sstream>
+#include <string>
 #include <thread>
 #include <vector>
 
@@ -74,9 +76,11 @@ struct TwoArmSide : hemm::test::StationIo {
   std::unique_ptr<hemm::robot::RobotServer> server;
   std::unique_ptr<ht::TwoArmStation> station;
 
-  explicit TwoArmSide(const hemm::config::RobotConfig& cfg, std::function<void(bool)> control_thread_hook = {}) {
+  explicit TwoArmSide(const hemm::config::RobotConfig& cfg, std::function<void(bool)> control_thread_hook = {},
+                      double truth_trace_s = 0.0) {
     server = std::make_unique<hemm::robot::RobotServer>(io, hemm::test::loopback_server_options(cfg, twoarm_test_key()));
     ht::TwoArmStationOptions so;
+    so.truth_trace_s = truth_trace_s;
     so.state_rate_hz = cfg.net().state_rate_hz();
     so.control_thread_hook = std::move(control_thread_hook);
     station = std::make_unique<ht::TwoArmStation>(io, *server, so);
@@ -745,11 +749,14 @@ TEST(TwoArmStationLoopback, ControlThreadDoesNotAllocate) {
   std::atomic<std::thread::id> hooked_thread{};
   hemm::config::RobotConfig cfg = twoarm_test_config(true);
   cfg.mutable_twoarm()->set_task("bar");
-  TwoArmSide robot(cfg, [&](bool on) {
-    ++hook_calls;
-    hooked_thread = std::this_thread::get_id();
-    hemm::test::count_allocations_on_this_thread(on);
-  });
+  TwoArmSide robot(
+      cfg,
+      [&](bool on) {
+        ++hook_calls;
+        hooked_thread = std::this_thread::get_id();
+        hemm::test::count_allocations_on_this_thread(on);
+      },
+      0.5);  // a truth trace shorter than the run (1.3 s): its rows stop at 0.5 s
   FakeArmsOperator op(robot.server->session_port(), true);
   const auto held = connected_hold(op);
   ASSERT_TRUE(held);
@@ -795,6 +802,58 @@ TEST(TwoArmStationLoopback, ControlThreadDoesNotAllocate) {
   ASSERT_EQ(rep.task().wrist_peak_n_size(), 2);
   EXPECT_EQ(rep.task().ticks(), st.task_ticks);
   EXPECT_LT(rep.task().completion_s(), 0.0);
+  // The truth trace (filled on the control thread with the rest): every
+  // 10 ms of robot time up to its 0.5 s, the grasp sites where the truth has
+  // them, the targets the arms worked to; one CSV line per row after a header.
+  const std::vector<ht::TruthTraceRow>& trace = robot.station->truth_trace();
+  ASSERT_EQ(trace.size(), 51u);
+  for (std::size_t i = 1; i < trace.size(); ++i) EXPECT_NEAR(trace[i].t_s - trace[i - 1].t_s, 0.010, 1e-9);
+  EXPECT_LE(trace.back().t_s, 0.51);
+  for (const ht::TruthTraceRow& r : trace) {
+    EXPECT_TRUE(r.G_A[0].allFinite() && r.G_A[1].allFinite());
+    EXPECT_LT((r.G_A[1] - r.G_A[0]).norm(), 1.5);  // both arms at the bench
+  }
+  const std::string csv = ht::truth_trace_csv(trace);
+  EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 52);
+  EXPECT_EQ(csv.rfind("t_s,right_G_x,", 0), 0u);
+}
+
+// The truth trace's CSV: a header naming each column, then the rows, the
+// values as given.
+TEST(TwoArmTruthTrace, CsvHasAHeaderAndOneLinePerRow) {
+  std::vector<ht::TruthTraceRow> rows(2);
+  rows[1].t_s = 0.25;
+  rows[1].G_A[1] = Eigen::Vector3d(0.5, -0.25, 1.125);
+  rows[1].object_env_N = 19.5;
+  rows[1].on_goal = true;
+  const std::string csv = ht::truth_trace_csv(rows);
+  std::istringstream in(csv);
+  std::string header, r0, r1, extra;
+  ASSERT_TRUE(std::getline(in, header));
+  ASSERT_TRUE(std::getline(in, r0));
+  ASSERT_TRUE(std::getline(in, r1));
+  EXPECT_FALSE(std::getline(in, extra));
+  const auto fields = [](const std::string& line) {
+    std::vector<std::string> f;
+    std::istringstream s(line);
+    for (std::string x; std::getline(s, x, ',');) f.push_back(x);
+    return f;
+  };
+  const std::vector<std::string> h = fields(header), v = fields(r1);
+  ASSERT_EQ(h.size(), v.size());
+  ASSERT_EQ(fields(r0).size(), h.size());
+  const auto col = [&](const std::string& name) {
+    const auto it = std::find(h.begin(), h.end(), name);
+    EXPECT_NE(it, h.end()) << name;
+    return v.at(static_cast<std::size_t>(it - h.begin()));
+  };
+  EXPECT_EQ(col("t_s"), "0.25");
+  EXPECT_EQ(col("left_G_x"), "0.5");
+  EXPECT_EQ(col("left_G_y"), "-0.25");
+  EXPECT_EQ(col("left_G_z"), "1.125");
+  EXPECT_EQ(col("object_env_N"), "19.5");
+  EXPECT_EQ(col("on_goal"), "1");
+  EXPECT_EQ(col("on_start"), "0");
 }
 
 // The direct force-feedback mode over the link: a fake operator sends arm 0
