@@ -64,6 +64,8 @@ struct ScriptParams {
   // box: each hand's grasp frame this far in from its end of the box: the
   // left reaches across to the shelf, so it takes its end nearer the edge.
   std::array<double, kArms> box_end_inset_m{0.05, 0.005};
+  // box: the opening closes on it at this rate (ScriptStep::grip_speed_mps).
+  double box_grip_speed_mps = 0.05;
   // Each arm's grasps from above are turned by this about the fingers'
   // closing axis (which stays along x_A): straight down, the right and left
   // arms stop short at a wrist joint's limit (j6) from their rest postures.
@@ -80,6 +82,9 @@ struct ScriptStep {
   // The pose is this arm's own target moved by this offset (a retreat).
   std::array<std::optional<Eigen::Vector3d>, kArms> delta{};
   std::array<std::optional<twoarm::GripperTarget>, kArms> grip{};
+  // The opening goes to grip's at this rate [m/s] (0: at once): a hand
+  // squeezing the lever slowly, so the pads meet a heavy object gently.
+  double grip_speed_mps = 0.0;
   double speed_mps = 0.0;  // 0: ScriptParams::speed_mps
   double tol_m = 0.0;      // 0: ScriptParams::pos_tol_m
   std::array<bool, kArms> wait_reach{}, wait_grasped{}, wait_opened{}, wait_unloaded{};
@@ -126,6 +131,7 @@ struct ScriptState {
   std::array<Eigen::Isometry3d, kArms> from{Eigen::Isometry3d::Identity(), Eigen::Isometry3d::Identity()};
   std::array<Eigen::Isometry3d, kArms> to{Eigen::Isometry3d::Identity(), Eigen::Isometry3d::Identity()};
   twoarm::TwoArmTargets targets;
+  std::array<double, kArms> grip_from_m{0.0, 0.0};  // the opening at the step's start (grip_speed_mps)
   // Guarded insertion.
   enum class Insert { kDescend, kSearch, kIn } insert = Insert::kDescend;
   double insert_z = 0.0, insert_z0 = 0.0, insert_t0 = 0.0, search_t0 = 0.0, search_z = 0.0;

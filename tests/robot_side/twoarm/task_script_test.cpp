@@ -96,3 +96,45 @@ TEST(TaskScript, UnreadableBelievedStateMovesNothing) {
   EXPECT_EQ(st.step, 0u);
   EXPECT_TRUE(out.send);
 }
+
+// A slow squeeze (ScriptStep::grip_speed_mps): the opening goes from where
+// it was to the step's at that rate, not at once; the step ends when the
+// gripper holds, and then the opening is the step's (the full grip force).
+// The box's plan closes so.
+TEST(TaskScript, SlowSqueezeRampsTheOpeningUntilTheGripperHolds) {
+  hs::ScriptStep close;
+  close.name = "close slowly";
+  close.grip[0] = hemm::twoarm::GripperTarget{0.0, 30.0};
+  close.grip_speed_mps = 0.05;
+  close.wait_grasped[0] = true;
+  const hs::TaskScript sc{"test", hs::ScriptParams{}, {close}};
+  const Eigen::Isometry3d rest_r = Eigen::Translation3d(0.73, -0.25, 1.0) * Eigen::Isometry3d::Identity();
+  const Eigen::Isometry3d rest_l = Eigen::Translation3d(0.73, 0.25, 1.0) * Eigen::Isometry3d::Identity();
+  hw::ArmsState open = hemm::test::believed_arms_state({rest_r, rest_l});
+  open.mutable_gripper(0)->set_target_opening_m(0.2);
+  hs::ScriptState st;
+  hs::ScriptOutput out = hs::script_step(sc, st, &open, 0.0);
+  EXPECT_DOUBLE_EQ(out.targets.gripper[0].opening_m, 0.2);
+  const double t0 = sc.p.deadman_delay_s;  // the step begins with the dead-man
+  out = hs::script_step(sc, st, &open, t0);
+  EXPECT_NEAR(out.targets.gripper[0].opening_m, 0.2, 1e-12);
+  out = hs::script_step(sc, st, &open, t0 + 1.0);
+  EXPECT_NEAR(out.targets.gripper[0].opening_m, 0.15, 1e-9);
+  EXPECT_DOUBLE_EQ(out.targets.gripper[0].force_N, 30.0);
+  out = hs::script_step(sc, st, &open, t0 + 2.0);
+  EXPECT_NEAR(out.targets.gripper[0].opening_m, 0.10, 1e-9);
+  EXPECT_EQ(st.step, 0u);  // not holding yet
+  const hw::ArmsState holding = hemm::test::believed_arms_state({rest_r, rest_l}, {true, false});
+  out = hs::script_step(sc, st, &holding, t0 + 2.5);
+  EXPECT_EQ(st.step, 1u);
+  EXPECT_DOUBLE_EQ(out.targets.gripper[0].opening_m, 0.0);
+  // The left gripper, not named, kept its target all along.
+  EXPECT_DOUBLE_EQ(out.targets.gripper[1].opening_m, 0.0);
+  // The box's plan closes on the box so.
+  const hs::TaskSceneResult r = hs::load_task_scene(hemm::test::kWorkbenchScene);
+  ASSERT_TRUE(r.scene) << r.error;
+  bool slow = false;
+  for (const hs::ScriptStep& s : hs::box_script(*r.scene).steps)
+    if (s.wait_grasped[0] && s.wait_grasped[1]) slow = s.grip_speed_mps > 0.0;
+  EXPECT_TRUE(slow);
+}
