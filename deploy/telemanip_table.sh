@@ -20,7 +20,7 @@
 #
 # Usage: deploy/telemanip_table.sh BUILD_DIR [--out DIR] [--tasks box,peg,bar]
 #          [--rtts 0,300,1000,3000] [--seeds N] [--seeds-3000 N] [--modes model[,direct]]
-#          [--outage] [--outage-at S] [--duration S] [--port-base P]
+#          [--outage] [--outage-at S] [--duration S] [--port-base P] [--truth-trace]
 #   --seeds N       seeds per cell (default 3)
 #   --seeds-3000 N  seeds per model-mediated cell at 3000 ms (default: --seeds)
 #   --modes         model (default) and/or direct (needs hemm-operator --telemanip-mode)
@@ -28,18 +28,21 @@
 #   --outage-at S   when the outage starts after the relay does (default 14 s)
 #   --duration S    the operator's time limit per run (default 90 s + 30 s per second of round trip)
 #   --port-base P   ports P+4k .. P+4k+3 for run k (default 47800)
+#   --truth-trace   each run's SIMULATION ONLY truth every 10 ms into its folder (truth.csv,
+#                   hemm-robot --truth-trace: grasp sites and targets, contact force on each
+#                   gripper, squeezes, object contacts, goal errors)
 # The default OUT is out/telemanip-table-<UTC time>. Runs are sequential; a run
 # takes about 20-60 s of wall time (more at 3000 ms).
 set -euo pipefail
 
-usage() { sed -n '2,30p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; }
+usage() { sed -n '2,/^set -euo/p' "${BASH_SOURCE[0]}" | sed -e '$d' -e 's/^# \{0,1\}//'; }
 [[ "${1:-}" == "-h" || "${1:-}" == "--help" ]] && { usage; exit 0; }
 build="${1:-}"
 [[ -n "$build" && "$build" != -* ]] || { usage >&2; echo "telemanip_table: BUILD_DIR first" >&2; exit 2; }
 shift
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 out="$root/out/telemanip-table-$(date -u +%Y%m%dT%H%M%SZ)"
-tasks="box,peg,bar" rtts="0,300,1000,3000" seeds=3 seeds3000="" modes="model" outage=0 outage_at=14 base=47800 limit=""
+tasks="box,peg,bar" rtts="0,300,1000,3000" seeds=3 seeds3000="" modes="model" outage=0 outage_at=14 base=47800 limit="" trace=0
 while (($#)); do
   case "$1" in
     --out) out="${2:?--out needs a directory}"; shift 2 ;;
@@ -52,6 +55,7 @@ while (($#)); do
     --outage-at) outage_at="${2:?--outage-at needs seconds}"; shift 2 ;;
     --port-base) base="${2:?--port-base needs a port}"; shift 2 ;;
     --duration) limit="${2:?--duration needs seconds}"; shift 2 ;;
+    --truth-trace) trace=1; shift ;;
     -h|--help) usage; exit 0 ;;
     *) echo "telemanip_table: unknown argument '$1' (--help)" >&2; exit 2 ;;
   esac
@@ -131,8 +135,10 @@ for run in "${runs[@]}"; do
   op_s=$((90 + 30 * rtt / 1000))
   if [[ -n "$limit" ]]; then op_s=$limit; fi
   echo "== [$((SECONDS - t0)) s] run $k/${#runs[@]}: $name (ports $p..$((p + 3)), operator at most $op_s s)"
+  trace_args=()
+  ((trace)) && trace_args=(--truth-trace "$dir/truth.csv")
   "$bin/hemm-robot" --config "$dir/robot.pbtxt" --session-port "$p" --stream-port $((p + 1)) --duration $((op_s + 30)) \
-    --log-level warn --stats-json "$dir/robot.json" >"$dir/robot.txt" 2>"$dir/robot.log" &
+    "${trace_args[@]}" --log-level warn --stats-json "$dir/robot.json" >"$dir/robot.txt" 2>"$dir/robot.log" &
   robot=$!
   pids+=("$robot")
   port=$p stream=$((p + 1)) relay=""
