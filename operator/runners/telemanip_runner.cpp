@@ -65,6 +65,17 @@ void telemanip_mode_report(const config::OperatorConfig& cfg, const tele::Telema
 }  // namespace
 
 int run_telemanip(const config::OperatorConfig& cfg, const OperatorArgs& a) {
+  // The networked station's outputs this runner does not have yet: said,
+  // not silently skipped (a session the user thinks recorded is lost).
+  if (!a.record_path.empty()) {
+    std::cerr << "hemm-operator: --record: telemanip sessions are not recorded yet (the HEMM station's are); "
+                 "hemm-robot --truth-trace records the two-arm robot's SIMULATION ONLY truth\n";
+    return net::kExitUsage;
+  }
+  if (!a.servo_log.empty()) {
+    std::cerr << "hemm-operator: --log: the telemanip servo writes no CSV log; --stats-json reports its ticks\n";
+    return net::kExitUsage;
+  }
   if (cfg.device().type() != "sim-bimanual") {
     std::cerr << "hemm-operator: bad config: telemanip needs device.type \"sim-bimanual\"\n";
     return net::kExitUsage;

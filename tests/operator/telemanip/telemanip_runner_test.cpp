@@ -127,6 +127,9 @@ TEST(TelemanipRunner, TaskArgumentsAreRefusedWithAReason) {
       {{"--task", "peg"}, "needs telemanip.task_scene"},
       {{"--task-scene", scene}, "needs telemanip.task"},
       {{"--task", "peg", "--task-scene", dir + "/no_such_scene.xml"}, "no_such_scene.xml"},
+      // Outputs this runner does not write are refused, not skipped.
+      {{"--record", dir + "/session.rec"}, "--record: telemanip sessions are not recorded yet"},
+      {{"--log", dir + "/servo.csv"}, "--log: the telemanip servo writes no CSV log"},
   };
   for (const auto& c : cases) {
     std::vector<std::string> argv = {bin, "--config", cfg + "operator_telemanip.pbtxt", "--key", cfg + "demo.key",
