@@ -265,11 +265,11 @@ int run(int argc, char** argv) {
     std::cerr << "hemm-robot: --start is the mobile robot's start pose; kind twoarm stands at its workbench\n";
     return net::kExitUsage;
   }
-#ifdef HEMM_WITH_VIEW
   if (cfg.kind() != "twoarm" && !truth_trace.empty()) {
     std::cerr << "hemm-robot: --truth-trace is the two-arm station's (kind twoarm with a task)\n";
     return net::kExitUsage;
   }
+#ifdef HEMM_WITH_VIEW
   if (cfg.kind() == "twoarm" && view_opts.enabled()) {
     std::cerr << "hemm-robot: the live view shows the mobile robot only (kind twoarm has none yet)\n";
     return net::kExitUsage;

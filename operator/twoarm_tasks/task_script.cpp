@@ -45,10 +45,6 @@ std::optional<std::string> script_read(const wire::ArmsState& s, std::array<Beli
   return std::nullopt;
 }
 
-double script_angle(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
-  return Eigen::AngleAxisd(a.transpose() * b).angle();
-}
-
 Eigen::Isometry3d script_blend(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, double s) {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
   T.translation() = (1.0 - s) * a.translation() + s * b.translation();
@@ -289,14 +285,14 @@ ScriptOutput script_step(const TaskScript& sc, ScriptState& st, const wire::Arms
         // approach axis: take the turn nearer to where the arm is (the other
         // may lie beyond a wrist joint's limit).
         const Eigen::Matrix3d flipped = st.to[a].linear() * Eigen::AngleAxisd(std::numbers::pi, Eigen::Vector3d::UnitZ()).toRotationMatrix();
-        if ((script_angle(st.from[a].linear(), flipped) < script_angle(st.from[a].linear(), st.to[a].linear())) != false) st.to[a].linear() = flipped;
+        if ((twoarm::rotation_angle(st.from[a].linear(), flipped) < twoarm::rotation_angle(st.from[a].linear(), st.to[a].linear())) != false) st.to[a].linear() = flipped;
       }
       if (step.delta[a]) st.to[a].translation() += *step.delta[a];
       st.grip_from_m[a] = st.targets.gripper[a].opening_m;
       if (step.grip[a]) st.targets.gripper[a] = *step.grip[a];
       if (step.insert_arm == static_cast<int>(a)) continue;  // its own motion
       const double d = (st.to[a].translation() - st.from[a].translation()).norm();
-      st.move_s = std::max({st.move_s, d / speed, script_angle(st.from[a].linear(), st.to[a].linear()) / p.rot_speed_radps});
+      st.move_s = std::max({st.move_s, d / speed, twoarm::rotation_angle(st.from[a].linear(), st.to[a].linear()) / p.rot_speed_radps});
     }
     st.lower_stopped = false;
     st.lower_dz = 0.0;
@@ -322,7 +318,7 @@ ScriptOutput script_step(const TaskScript& sc, ScriptState& st, const wire::Arms
   for (std::size_t a = 0; a < kArms; ++a) {
     const bool waits = step.wait_reach[a] && have;
     st.wait_pos_m[a] = waits ? (b[a].T_A_G.translation() - st.to[a].translation()).norm() : 0.0;
-    st.wait_rot_rad[a] = waits ? script_angle(b[a].T_A_G.linear(), st.to[a].linear()) : 0.0;
+    st.wait_rot_rad[a] = waits ? twoarm::rotation_angle(b[a].T_A_G.linear(), st.to[a].linear()) : 0.0;
     st.wait_speed_mps[a] = waits ? b[a].v_A.norm() : 0.0;
   }
   for (std::size_t a = 0; a < kArms && confirmed; ++a) {

@@ -32,7 +32,7 @@ std::string target_vs_grasp(const Eigen::Isometry3d& T, const Eigen::Isometry3d&
   const Eigen::Vector3d p = T.translation();
   const Eigen::Vector3d z = T.linear().col(2);
   const double d_mm = 1e3 * (p - G.translation()).norm();
-  const double d_rad = Eigen::AngleAxisd(G.linear().transpose() * T.linear()).angle();
+  const double d_rad = rotation_angle(G.linear(), T.linear());
   char buf[200];
   std::snprintf(buf, sizeof buf, " (target at %.3f %.3f %.3f m in A, z_G %.2f %.2f %.2f; %.0f mm and %.2f rad from G now)",
                 p.x(), p.y(), p.z(), z.x(), z.y(), z.z(), d_mm, d_rad);

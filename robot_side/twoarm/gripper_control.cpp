@@ -13,10 +13,19 @@ std::optional<std::string> check_target(const GripperSpec& spec, const GripperTa
   return std::nullopt;
 }
 
+namespace {
+
+// The most each finger may press: the target's, within the gripper's range (0 if not finite).
+double grip_force_limit(const GripperSpec& spec, const GripperTarget& t) noexcept {
+  return std::clamp(std::isfinite(t.force_N) ? t.force_N : 0.0, 0.0, spec.max_force_N);
+}
+
+}  // namespace
+
 void gripper_control(const GripperSpec& spec, const GripperGains& g, const GripperTarget& t, const GripperSense& s,
                      GripperState& out) noexcept {
   const double x_d = 0.5 * std::clamp(std::isfinite(t.opening_m) ? t.opening_m : 0.0, 0.0, 2.0 * spec.finger_stroke_m);
-  const double f_max = std::clamp(std::isfinite(t.force_N) ? t.force_N : 0.0, 0.0, spec.max_force_N);
+  const double f_max = grip_force_limit(spec, t);
   // Approach speed: until both pads touch, each finger sees at most the
   // error whose P force the damping balances at max_speed, so it moves at
   // most that fast and one pad pushes the object with at most that force;
@@ -41,7 +50,7 @@ void gripper_control(const GripperSpec& spec, const GripperGains& g, const Gripp
 
 bool gripper_holding(const GripperSpec& spec, const GripperGains& g, const GripperTarget& t,
                      const GripperSense& s) noexcept {
-  const double f_max = std::clamp(std::isfinite(t.force_N) ? t.force_N : 0.0, 0.0, spec.max_force_N);
+  const double f_max = grip_force_limit(spec, t);
   return f_max > 0.0 && std::min(s.pad_force_N[0], s.pad_force_N[1]) >= g.grasp_fraction * f_max;
 }
 

@@ -49,8 +49,7 @@ void twoarm_control(const TwoArmModel& model, const TwoArmParams& p, const std::
   if (out.coupled) {
     std::array<Eigen::Vector3d, kArms> pos, e;
     for (std::size_t a = 0; a < kArms; ++a) {
-      const ArmMount& mount = model.arms[a];
-      pos[a] = (mount.T_A_Ar * frames[a].joint(hk::kArm7Flange) * mount.T_J7_G).translation();
+      pos[a] = grasp_pose_A(model.arms[a], frames[a]).translation();
       e[a] = T_d[a].translation() - pos[a];
     }
     const Eigen::Vector3d e_c = 0.5 * (e[0] + e[1]);

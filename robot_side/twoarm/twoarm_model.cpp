@@ -66,6 +66,10 @@ hk::Arm7Jacobian grasp_jacobian_A(const ArmMount& mount, const hk::Arm7Frames& f
   return J;
 }
 
+double rotation_angle(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b) {
+  return Eigen::AngleAxisd(a.transpose() * b).angle();
+}
+
 GraspReach grasp_closest_reach(const ArmMount& mount, const Eigen::Isometry3d& T_A_G, const hk::Arm7Vector& q_seed) {
   GraspReach best;
   best.position_error_m = best.orientation_error_rad = std::numeric_limits<double>::infinity();
@@ -82,7 +86,7 @@ GraspReach grasp_closest_reach(const ArmMount& mount, const Eigen::Isometry3d& T
   const auto consider = [&](const hk::Arm7IkResult& r) {
     const Eigen::Isometry3d G = grasp_pose_A(mount, r.q);
     const double dp = (G.translation() - T_A_G.translation()).norm();
-    const double dr = Eigen::AngleAxisd(G.linear().transpose() * T_A_G.linear()).angle();
+    const double dr = rotation_angle(G.linear(), T_A_G.linear());
     const double cost = dp + o.rotation_weight_m * dr;
     if (r.converged || cost < best_cost) {
       best_cost = cost;

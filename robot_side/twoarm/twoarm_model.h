@@ -73,6 +73,9 @@ struct TwoArmModel {
 // stroke and force, positive radii, rest postures within the limits.
 std::optional<std::string> validate(const TwoArmModel& model);
 
+// The angle of the rotation that takes orientation a to b [rad, 0..pi].
+double rotation_angle(const Eigen::Matrix3d& a, const Eigen::Matrix3d& b);
+
 // The grasp frame in A for joint angles q (frames: forward_kinematics(q) in Ar).
 Eigen::Isometry3d grasp_pose_A(const ArmMount& mount, const kinematics::Arm7Frames& frames_Ar);
 Eigen::Isometry3d grasp_pose_A(const ArmMount& mount, const kinematics::Arm7Vector& q);

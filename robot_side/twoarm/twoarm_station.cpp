@@ -690,6 +690,7 @@ bool TwoArmStation::start(std::string* error) {
   trace_rows_ = 0;
   trace_.clear();
   if (task_model_ && o_.truth_trace_s > 0.0) trace_.resize(static_cast<std::size_t>(o_.truth_trace_s * 100.0) + 1);
+  trace_period_steps_ = static_cast<uint64_t>(std::max<int64_t>(1, std::llround(1e7 / static_cast<double>(timestep_ns()))));
 
   shared_->stop.store(false, std::memory_order_release);
   robot::start_control_thread(thread_, [this] { run(); }, o_.control_thread, &shared_->rt_status, &wake_latency_fd_,
@@ -904,7 +905,7 @@ void TwoArmStation::run() {
     robot.step();
     if (judge != nullptr) {
       task_truth_tick(*judge, robot.sim(), judged);
-      if (trace_rows_ < trace_.size() && steps % 10 == 0) fill_truth_row(judged.last, robot, trace_[trace_rows_++]);
+      if (trace_rows_ < trace_.size() && steps % trace_period_steps_ == 0) fill_truth_row(judged.last, robot, trace_[trace_rows_++]);
     }
     pacer.stepped();
     ++steps;

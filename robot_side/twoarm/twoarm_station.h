@@ -223,6 +223,7 @@ class TwoArmStation {
   // there), cut to the rows written when it has stopped.
   std::vector<TruthTraceRow> trace_;
   std::size_t trace_rows_ = 0;
+  uint64_t trace_period_steps_ = 10;  // 10 ms of robot time in simulation steps
   bool depth_on_ = false;
   int depth_period_steps_ = 0;
   std::shared_ptr<Shared> shared_;
