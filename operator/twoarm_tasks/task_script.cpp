@@ -395,9 +395,13 @@ ScriptOutput script_step(const TaskScript& sc, ScriptState& st, const wire::Arms
     if (!st.lower_stopped) {
       st.lower_dz = -std::min(step.lower_max_m, p.place_speed_mps * in_step);
       if (unloaded) {
+        // To where G was believed, less the press: back up when the descent
+        // ran on (a round trip late), further down when the arms sag under
+        // what they still carry (at 0 ms the targets stayed 4-11 mm above G
+        // and the wrists let go of 8 N: the box dropped onto the board, 85 N).
         st.lower_stopped = true;
         st.lower_stop_t = t;
-        st.lower_dz = std::max(st.lower_dz, dz_seen - p.place_press_m);
+        st.lower_dz = dz_seen - p.place_press_m;
       }
     }
     confirmed = st.lower_stopped && unloaded && v <= p.settle_speed_mps && t - st.lower_stop_t >= step.dwell_s;

@@ -96,7 +96,8 @@ struct ScriptStep {
   // Guarded set-down with both arms: from the step's pose both targets go
   // down together (ScriptParams::place_speed_mps, at most lower_max_m) until
   // the two wrists' vertical forces sum to within unloaded_N - the support
-  // carries the load - then back up to the believed G less place_press_m;
+  // carries the load - then to the believed G less place_press_m (up if
+  // the descent ran on, down if the arms sag);
   // the step ends unloaded and slow after dwell_s there.
   bool lower_until_unloaded = false;
   double lower_max_m = 0.0;

@@ -138,3 +138,49 @@ TEST(TaskScript, SlowSqueezeRampsTheOpeningUntilTheGripperHolds) {
     if (s.wait_grasped[0] && s.wait_grasped[1]) slow = s.grip_speed_mps > 0.0;
   EXPECT_TRUE(slow);
 }
+
+// The guarded set-down (ScriptStep::lower_until_unloaded): both targets go
+// down together at place_speed_mps while the wrists carry the load; once
+// they carry less than unloaded_N together, both go to where G is believed,
+// less place_press_m - down when the arms sag above it (G below the
+// target), up when the descent ran on (G above it).
+TEST(TaskScript, SetDownGoesToTheBelievedGLessThePressOnceUnloaded) {
+  for (const double g_off : {-0.008, +0.012}) {  // G below (sagging) / above (ran on) the target at the stop
+    hs::ScriptStep place;
+    place.name = "set down";
+    place.lower_until_unloaded = true;
+    place.lower_max_m = 0.08;
+    place.dwell_s = 0.3;
+    const hs::TaskScript sc{"test", hs::ScriptParams{}, {place}};
+    const hs::ScriptParams& p = sc.p;
+    const Eigen::Isometry3d rest_r = Eigen::Translation3d(0.73, -0.25, 1.0) * Eigen::Isometry3d::Identity();
+    const Eigen::Isometry3d rest_l = Eigen::Translation3d(0.73, 0.25, 1.0) * Eigen::Isometry3d::Identity();
+    hw::ArmsState loaded = hemm::test::believed_arms_state({rest_r, rest_l}, {true, true});
+    for (int a = 0; a < 2; ++a) loaded.mutable_arm(a)->mutable_force_a()->set_z(-9.81);
+    hs::ScriptState st;
+    hs::script_step(sc, st, &loaded, 0.0);
+    const double t0 = p.deadman_delay_s;
+    hs::ScriptOutput out = hs::script_step(sc, st, &loaded, t0);
+    out = hs::script_step(sc, st, &loaded, t0 + 2.0);
+    for (int a = 0; a < 2; ++a)  // 2 s down at place_speed_mps
+      EXPECT_NEAR(out.targets.T_A_G[a].translation().z(), 1.0 - 2.0 * p.place_speed_mps, 1e-9) << a;
+    // The board takes the load: the wrists carry 3 N each; G is believed g_off from the target.
+    const double target_z = 1.0 - 2.5 * p.place_speed_mps;
+    const double g_z = target_z + g_off;
+    hw::ArmsState rests = hemm::test::believed_arms_state(
+        {Eigen::Translation3d(0.73, -0.25, g_z) * Eigen::Isometry3d::Identity(),
+         Eigen::Translation3d(0.73, 0.25, g_z) * Eigen::Isometry3d::Identity()},
+        {true, true});
+    for (int a = 0; a < 2; ++a) rests.mutable_arm(a)->mutable_force_a()->set_z(-3.0);
+    out = hs::script_step(sc, st, &rests, t0 + 2.5);
+    EXPECT_TRUE(st.lower_stopped);
+    for (int a = 0; a < 2; ++a)
+      EXPECT_NEAR(out.targets.T_A_G[a].translation().z(), g_z - p.place_press_m, 1e-9) << "G off " << g_off << ", arm " << a;
+    // Held there (no further descent), and done after the dwell.
+    out = hs::script_step(sc, st, &rests, t0 + 2.7);
+    EXPECT_NEAR(out.targets.T_A_G[0].translation().z(), g_z - p.place_press_m, 1e-9);
+    EXPECT_EQ(st.step, 0u);
+    out = hs::script_step(sc, st, &rests, t0 + 2.85);
+    EXPECT_EQ(st.step, 1u);
+  }
+}
