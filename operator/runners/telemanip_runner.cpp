@@ -269,7 +269,7 @@ int run_telemanip(const config::OperatorConfig& cfg, const OperatorArgs& a) {
     tele::fill_task_report(p, r.mutable_task());
     std::cout << "telemanip: task " << p.task << " (SIMULATED human): " << (p.done ? "script done" : "script NOT done")
               << " after " << p.done_s << " s, step " << p.steps_done << " of " << p.steps << " (" << p.last_step
-              << "), searches " << p.searches << ", clutch presses " << p.clutch_presses << (p.error.empty() ? "" : ", error: " + p.error) << "\n";
+              << "), searches " << p.searches << ", clutch presses " << p.clutch_presses << " (the plan waited " << p.indexing_pause_s << " s)" << (p.error.empty() ? "" : ", error: " + p.error) << "\n";
   }
   telemanip_mode_report(cfg, *task, client.statistics(), &r);
   const hb::BimanualDeviceCounters& dc = device->counters();  // the plant's thread has stopped

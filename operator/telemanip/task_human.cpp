@@ -36,7 +36,17 @@ TaskHumanBrain::~TaskHumanBrain() { stop(); }
 void TaskHumanBrain::tick(double t_s) {
   const wire::ArmsState* b = believed_.take();
   if (b == nullptr) b = believed_.latest();
-  const twoarm_tasks::ScriptOutput out = twoarm_tasks::script_step(script_, st_, b, t_s);
+  // The plan's clock stops while the clutch is held and resume_s after.
+  const bool indexing = indexing_.held[0].load(std::memory_order_relaxed) || indexing_.held[1].load(std::memory_order_relaxed);
+  if (indexing) last_index_t_ = t_s;
+  const bool paused = last_index_t_ >= 0.0 && t_s - last_index_t_ <= indexing_.p.resume_s;
+  if (paused && last_t_ >= 0.0) paused_s_ += std::max(0.0, t_s - last_t_);
+  last_t_ = t_s;
+  const bool was_started = st_.started, was_done = st_.done;
+  const twoarm_tasks::ScriptOutput out = twoarm_tasks::script_step(script_, st_, b, t_s - paused_s_);
+  if (!was_started && st_.started) start_t_ = t_s;
+  while (step_end_t_.size() < st_.step_end_t.size()) step_end_t_.push_back(t_s);
+  if (!was_done && st_.done) done_t_ = t_s;
   ++ticks_;
   if (out.send) {
     for (std::size_t k = 0; k < 2; ++k) {
@@ -52,7 +62,7 @@ void TaskHumanBrain::tick(double t_s) {
   std::lock_guard<std::mutex> lk(mu_);
   progress_.started = st_.started;
   progress_.done = st_.done;
-  progress_.done_s = st_.done ? st_.done_t - st_.start_t : -1.0;
+  progress_.done_s = st_.done ? done_t_ - start_t_ : -1.0;
   progress_.steps_done = st_.step;
   progress_.last_step = st_.step < script_.steps.size() ? script_.steps[st_.step].name : "done";
   progress_.searches = st_.searches;
@@ -61,8 +71,9 @@ void TaskHumanBrain::tick(double t_s) {
   progress_.wait_pos_m = st_.wait_pos_m;
   progress_.wait_rot_rad = st_.wait_rot_rad;
   progress_.wait_speed_mps = st_.wait_speed_mps;
-  progress_.step_done_s.resize(st_.step_end_t.size());
-  for (std::size_t i = 0; i < st_.step_end_t.size(); ++i) progress_.step_done_s[i] = st_.step_end_t[i] - st_.start_t;
+  progress_.step_done_s.resize(step_end_t_.size());
+  for (std::size_t i = 0; i < step_end_t_.size(); ++i) progress_.step_done_s[i] = step_end_t_[i] - start_t_;
+  progress_.indexing_pause_s = paused_s_;
   progress_.clutch_presses = indexing_.presses[0].load(std::memory_order_relaxed) + indexing_.presses[1].load(std::memory_order_relaxed);
 }
 
@@ -118,8 +129,9 @@ TaskHumanHand::TaskHumanHand(const device::bimanual::HumanTarget& rest, const Ar
   if (indexing != nullptr) {
     const TaskIndexingParams& q = indexing->p;
     if (!(q.reach_m > 0.0 && q.reach_m < 1.0 && q.hold_s > 0.0 && q.hold_s < 10.0 && q.cooldown_s >= 0.0 &&
-          q.cooldown_s < 10.0))
-      throw std::invalid_argument("task human: indexing reach in (0, 1) m, hold in (0, 10) s, cooldown in [0, 10) s");
+          q.cooldown_s < 10.0 && q.resume_s >= 0.0 && q.resume_s < 10.0))
+      throw std::invalid_argument(
+          "task human: indexing reach in (0, 1) m, hold in (0, 10) s, cooldown and resume in [0, 10) s");
   }
 }
 
@@ -129,11 +141,13 @@ bool TaskHumanHand::clutch_step(double t_s) const noexcept {
     if (t_s - clutch_t0_ >= indexing_->p.hold_s) {
       clutch_held_ = false;
       clutch_released_t_ = t_s;
+      indexing_->held[static_cast<std::size_t>(hand_)].store(false, std::memory_order_relaxed);
     }
   } else if (t_s - clutch_released_t_ >= indexing_->p.cooldown_s &&
              (indexing_->wants[0].load(std::memory_order_relaxed) || indexing_->wants[1].load(std::memory_order_relaxed))) {
     clutch_held_ = true;
     clutch_t0_ = t_s;
+    indexing_->held[static_cast<std::size_t>(hand_)].store(true, std::memory_order_relaxed);
     indexing_->presses[static_cast<std::size_t>(hand_)].fetch_add(1, std::memory_order_relaxed);
   }
   return clutch_held_;
@@ -262,6 +276,7 @@ void fill_task_report(const TaskProgress& p, report::TelemanipTaskProgress* out)
   }
   for (double s : p.step_done_s) out->add_step_done_s(s);
   out->set_clutch_presses(p.clutch_presses);
+  out->set_indexing_pause_s(p.indexing_pause_s);
 }
 
 }  // namespace hemm::op::telemanip

@@ -78,6 +78,7 @@ struct TaskProgress {
   std::array<double, 2> wait_pos_m{0.0, 0.0}, wait_rot_rad{0.0, 0.0}, wait_speed_mps{0.0, 0.0};
   std::vector<double> step_done_s;  // each finished step's end, from the script's start
   std::uint32_t clutch_presses = 0;  // the hands' indexing (TaskIndexing::presses, both)
+  double indexing_pause_s = 0.0;     // the plan's time spent waiting on the clutch (resume_s included)
 };
 
 // The SIMULATED human's indexing with the clutch (arm_mapping.h): a hand
@@ -91,10 +92,16 @@ struct TaskIndexingParams {
   double reach_m = 0.09;     // the device's rest leaves ~0.13 m towards the operator (tasks doc)
   double hold_s = 0.8;       // the clutch held this long
   double cooldown_s = 0.5;   // at least this long between releases and the next press
+  // The plan waits while the clutch is held and this long after its release
+  // (the hands settle on the new anchor): a person indexing holds the motion;
+  // the plan running on meanwhile put the hand 2-4 cm behind its target at
+  // the release, a step the remote arm then took in 0.1 s.
+  double resume_s = 0.3;
 };
 struct TaskIndexing {
   TaskIndexingParams p;
   std::array<std::atomic<bool>, 2> wants{};
+  std::array<std::atomic<bool>, 2> held{};  // the clutch pressed, by the hand that holds it
   std::array<std::atomic<std::uint32_t>, 2> presses{};  // the clutch presses by hand (the one that holds it)
 };
 
@@ -128,9 +135,13 @@ class TaskHumanBrain {
   NewestMailbox<wire::ArmsState> believed_;
   std::array<NewestMailbox<TaskHandWish>, 2> wishes_;
   TaskIndexing indexing_;
-  // The brain thread's.
+  // The brain thread's. The script runs on a clock that stops while the
+  // hands index (TaskIndexingParams::resume_s); its step and done times are
+  // kept on the caller's clock.
   twoarm_tasks::ScriptState st_;
   std::uint64_t ticks_ = 0;
+  double last_t_ = -1.0, last_index_t_ = -1.0, paused_s_ = 0.0, start_t_ = 0.0, done_t_ = -1.0;
+  std::vector<double> step_end_t_;
   std::atomic<bool> done_{false}, stop_{false};
   mutable std::mutex mu_;
   TaskProgress progress_;  // guarded by mu_

@@ -99,6 +99,53 @@ TEST(TaskHuman, HandPoseMapsBackToTheScriptsTargetThroughTheMapping) {
   EXPECT_EQ(p.steps, plan.steps.size());
 }
 
+// While the hands index (the clutch held) the plan waits, and resume_s
+// after the release: the wish does not move on, and afterwards it is the
+// script's on a clock without the pause (a person holds the motion while
+// re-centring; a plan that ran on left the hand behind its target).
+TEST(TaskHuman, ThePlanWaitsWhileTheHandsIndex) {
+  const tele::ArmMappingParams m = task_human_test_mapping();
+  const hs::TaskScript plan = tele::task_plan("peg", hemm::test::kWorkbenchScene);
+  tele::TaskHumanBrain brain(plan, {m, m});
+  const double resume = brain.indexing().p.resume_s;
+  ASSERT_GT(resume, 0.0);
+  hs::ScriptState twin;
+  const Eigen::Isometry3d rest_r = Eigen::Translation3d(0.73, -0.25, 1.0) * Eigen::Isometry3d::Identity();
+  const Eigen::Isometry3d rest_l = Eigen::Translation3d(0.73, 0.25, 1.0) * Eigen::Isometry3d::Identity();
+  const hemm::wire::ArmsState believed = hemm::test::believed_arms_state({rest_r, rest_l});
+  brain.believed().publish(believed);
+  Eigen::Vector3d wish = Eigen::Vector3d::Zero();
+  const auto step = [&](double t) {
+    brain.tick(t);
+    // The twin on the brain's plan clock: the caller's less the pause so far.
+    const hs::ScriptOutput out = hs::script_step(plan, twin, &believed, t - brain.progress().indexing_pause_s);
+    const tele::TaskHandWish* w = brain.wishes(1).take();
+    EXPECT_NE(w, nullptr);
+    if (w == nullptr) return;
+    wish = w->T_A_G.translation();
+    EXPECT_LT((wish - out.targets.T_A_G[1].translation()).norm(), 1e-12) << "at t " << t;
+  };
+  double t = 0.0;
+  for (; t < 1.0; t += 0.01) step(t);
+  const Eigen::Vector3d before = wish;
+  EXPECT_GT((before - rest_l.translation()).norm(), 0.02);  // the left arm is on its way
+  brain.indexing().held[1].store(true);
+  const double pressed_t = t;
+  for (; t < pressed_t + 0.8; t += 0.01) {
+    step(t);
+    EXPECT_LT((wish - before).norm(), 2e-3) << "at t " << t;  // at most the tick it took to see the press
+  }
+  brain.indexing().held[1].store(false);
+  const double released_t = t;
+  for (; t < released_t + resume - 0.02; t += 0.01) {
+    step(t);
+    EXPECT_LT((wish - before).norm(), 2e-3) << "resuming, at t " << t;
+  }
+  for (; t < released_t + resume + 0.5; t += 0.01) step(t);
+  EXPECT_GT((wish - before).norm(), 0.02);  // on its way again
+  EXPECT_NEAR(brain.progress().indexing_pause_s, 0.8 + resume, 0.03);
+}
+
 // The human turns its hand further while the commanded G lacks some of the
 // wished turn (integrated: kTurnGain_per_s of the lack, seen in D at 1/k),
 // never more than kTurnBiasMax_rad beyond its spring's target, and starts
@@ -190,6 +237,8 @@ TEST(TaskHuman, TheHandWithTheClutchPressesItWhenEitherHandIsBeyondItsReach) {
   EXPECT_EQ(right.at(0.01).buttons, 0u);  // the right's handle holds no clutch
   EXPECT_EQ(left.at(0.02).buttons, kClutch);
   EXPECT_EQ(indexing.presses[1].load(), 1u);
+  EXPECT_TRUE(indexing.held[1].load());  // the brain's plan waits on it
+  EXPECT_FALSE(indexing.held[0].load());
   // The servo's mapping, clutched, is not engaged: the right hand goes back towards its rest.
   tele::MappingAnchor clutched;
   clutched.engaged = false;
@@ -205,6 +254,7 @@ TEST(TaskHuman, TheHandWithTheClutchPressesItWhenEitherHandIsBeyondItsReach) {
   // Held for hold_s, then released.
   EXPECT_EQ(left.at(0.5).buttons, kClutch);
   EXPECT_EQ(left.at(0.63).buttons, 0u);
+  EXPECT_FALSE(indexing.held[1].load());
   // Far again at once: no press within the cooldown; one after it.
   indexing.wants[0].store(true);
   EXPECT_EQ(left.at(0.9).buttons, 0u);
