@@ -29,7 +29,9 @@
 #   --duration S    the operator's time limit per run (default 90 s + 30 s per second of round trip)
 #   --port-base P   ports P+4k .. P+4k+3 for run k (default 47800)
 #   --truth-trace   each run's SIMULATION ONLY truth every 10 ms into its folder (truth.csv,
-#                   hemm-robot --truth-trace: grasp sites and targets, contact force on each
+#                   hemm-robot --truth-trace) and its hands (hands.csv, hemm-operator --hand-trace:
+#                   commanded and believed G, felt force, the wrist force as believed);
+#                   truth.csv: grasp sites and targets, contact force on each
 #                   gripper, squeezes, object contacts, goal errors)
 # The default OUT is out/telemanip-table-<UTC time>. Runs are sequential; a run
 # takes about 20-60 s of wall time (more at 3000 ms).
@@ -135,8 +137,8 @@ for run in "${runs[@]}"; do
   op_s=$((90 + 30 * rtt / 1000))
   if [[ -n "$limit" ]]; then op_s=$limit; fi
   echo "== [$((SECONDS - t0)) s] run $k/${#runs[@]}: $name (ports $p..$((p + 3)), operator at most $op_s s)"
-  trace_args=()
-  ((trace)) && trace_args=(--truth-trace "$dir/truth.csv")
+  trace_args=() hand_args=()
+  ((trace)) && trace_args=(--truth-trace "$dir/truth.csv") hand_args=(--hand-trace "$dir/hands.csv")
   "$bin/hemm-robot" --config "$dir/robot.pbtxt" --session-port "$p" --stream-port $((p + 1)) --duration $((op_s + 30)) \
     "${trace_args[@]}" --log-level warn --stats-json "$dir/robot.json" >"$dir/robot.txt" 2>"$dir/robot.log" &
   robot=$!
@@ -161,7 +163,7 @@ for run in "${runs[@]}"; do
   if [[ "$mode" == direct ]]; then modeargs=(--telemanip-mode direct); fi
   rc=0
   "$bin/hemm-operator" --config "$dir/operator.pbtxt" --key "$cfg/demo.key" --session-port "$port" \
-    --stream-port "$stream" --task "$task" --task-scene "$scene" "${modeargs[@]}" --duration "$op_s" \
+    --stream-port "$stream" --task "$task" --task-scene "$scene" "${modeargs[@]}" "${hand_args[@]}" --duration "$op_s" \
     --log-level warn --stats-json "$dir/operator.json" >"$dir/operator.txt" 2>"$dir/operator.log" || rc=$?
   echo "$rc" >"$dir/operator.rc"
   kill -INT "$robot" 2>/dev/null || true

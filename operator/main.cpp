@@ -83,7 +83,7 @@ struct RawArgs {
 };
 
 // The two-arm tasks' SIMULATED humans (telemanip; issue 25 part 6).
-void add_task_options(CLI::App* app, RawArgs* raw) {
+void add_task_options(CLI::App* app, RawArgs* raw, OperatorArgs* a) {
   app->add_option("--task", raw->task,
                   "telemanip: the SIMULATED humans do this two-arm task through the link from the believed remote "
                   "state (box, peg or bar; overrides telemanip.task); the run ends telemanip.task_settle_s after the "
@@ -91,11 +91,20 @@ void add_task_options(CLI::App* app, RawArgs* raw) {
   app->add_option("--task-scene", raw->task_scene,
                   "telemanip: the scene whose task: lines give the task's objects (overrides telemanip.task_scene; "
                   "deploy/scenes/workbench.xml, or workbench_box.xml for the box)");
+  app->add_option("--hand-trace", a->hand_trace,
+                  "telemanip: write each hand every 10 ms (commanded and believed remote G, the force the hand was "
+                  "given and its held-object share, the remote wrist force as believed, the grippers) as CSV to this "
+                  "file at exit (the first 20 minutes; deploy/plots/plot_telemanip.py draws it)");
 }
 
 // --task / --task-scene into the config (the scene relative to the working
 // directory): false (said on stderr) when the config is not a telemanip one.
-bool apply_task_args(const RawArgs& raw, config::OperatorConfig* cfg) {
+bool apply_task_args(const RawArgs& raw, const OperatorArgs& a, config::OperatorConfig* cfg) {
+  if (!a.hand_trace.empty() && !cfg->telemanip().enabled()) {
+    std::cerr << "hemm-operator: --hand-trace is telemanipulation's (telemanip { enabled: true }, "
+                 "deploy/configs/operator_telemanip.pbtxt); the HEMM station records with --record\n";
+    return false;
+  }
   if (raw.task.empty() && raw.task_scene.empty()) return true;
   if (!cfg->telemanip().enabled()) {
     std::cerr << "hemm-operator: --task / --task-scene need a telemanip config (telemanip { enabled: true }, "
@@ -464,7 +473,7 @@ int run(int argc, char** argv) {
   OperatorArgs a;
   RawArgs raw;
   add_options(&app, &a, &raw);
-  add_task_options(&app, &raw);
+  add_task_options(&app, &raw, &a);
   add_telemanip_mode_option(&app, &raw);
   try {
     app.parse(argc, argv);
@@ -491,7 +500,7 @@ int run(int argc, char** argv) {
   config::OperatorConfig cfg;
   if (!load_config(&a, &cfg)) return net::kExitUsage;
   apply_hand6_args(raw, &cfg);
-  if (!apply_task_args(raw, &cfg)) return net::kExitUsage;
+  if (!apply_task_args(raw, a, &cfg)) return net::kExitUsage;
   if (raw.print_hand6_route) return print_hand6_route(cfg, a);
   apply_hand3_args(raw, &cfg);
   apply_telemanip_mode(raw, &cfg);

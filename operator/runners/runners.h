@@ -50,6 +50,7 @@ struct OperatorArgs {
   // The live voxmap's switches (empty: the config's probe_3d values).
   std::string shape_completion_3d, unknown_solid, inferred_stiffness;
   std::string station_json, servo_log, replay_file, record_path, replay_json;
+  std::string hand_trace;  // telemanip: --hand-trace FILE.csv
   double replay_speed = 1.0;
   std::vector<std::string> export_mcap;  // REC OUT, or empty
   net::StationControlOptions control_options;

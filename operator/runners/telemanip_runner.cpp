@@ -20,6 +20,7 @@
 #include <limits>
 #include <memory>
 #include <optional>
+#include <vector>
 
 #include "common/clock/steady_clock.h"
 #include "common/config/config.h"
@@ -69,7 +70,8 @@ int run_telemanip(const config::OperatorConfig& cfg, const OperatorArgs& a) {
   // not silently skipped (a session the user thinks recorded is lost).
   if (!a.record_path.empty()) {
     std::cerr << "hemm-operator: --record: telemanip sessions are not recorded yet (the HEMM station's are); "
-                 "hemm-robot --truth-trace records the two-arm robot's SIMULATION ONLY truth\n";
+                 "--hand-trace FILE.csv writes the hands (commanded, believed, felt) and hemm-robot --truth-trace the "
+                 "two-arm robot's SIMULATION ONLY truth\n";
     return net::kExitUsage;
   }
   if (!a.servo_log.empty()) {
@@ -110,6 +112,12 @@ int run_telemanip(const config::OperatorConfig& cfg, const OperatorArgs& a) {
       net::load_station_key("hemm-operator", a.key_path, a.config_path, cfg.link().key_file(), robot_address);
   if (!key) return net::kExitKey;
 
+  // The hand trace's file, tried now (its header): a path that cannot be
+  // written is refused before the run, not found out after it.
+  if (std::string e; !a.hand_trace.empty() && !net::write_text_file(a.hand_trace, tele::hand_trace_csv({}), &e)) {
+    std::cerr << "hemm-operator: --hand-trace: " << e << "\n";
+    return net::kExitUsage;
+  }
   std::string task_scene;
   if (std::string e = tele::check_task_config(cfg.telemanip(), a.config_path, &task_scene); !e.empty()) {
     std::cerr << "hemm-operator: bad config: " << e << "\n";
@@ -144,6 +152,7 @@ int run_telemanip(const config::OperatorConfig& cfg, const OperatorArgs& a) {
   std::atomic<std::uint32_t> robot_safety{tele::kNoRobotState};
   try {
     task = std::make_unique<tele::TelemanipTask>(tp);
+    task->set_trace(!a.hand_trace.empty());
     model = std::make_unique<ModelThread>(channel, mp);
     task->set_roi_out(&model->probe_positions());
     if (plan) {
@@ -187,6 +196,7 @@ int run_telemanip(const config::OperatorConfig& cfg, const OperatorArgs& a) {
   asio::steady_timer duration(io);
   asio::steady_timer clock_timer(io);
   asio::steady_timer task_timer(io);
+  asio::steady_timer trace_timer(io);
   const auto shutdown = [&](const std::string& why) {
     if (stopping) return;
     stopping = true;
@@ -196,6 +206,7 @@ int run_telemanip(const config::OperatorConfig& cfg, const OperatorArgs& a) {
     duration.cancel();
     clock_timer.cancel();
     task_timer.cancel();
+    trace_timer.cancel();
     client.stop(why);
   };
   // The depth chunks' robot stamps on our clock: the link's estimate, to the model thread.
@@ -250,6 +261,22 @@ int run_telemanip(const config::OperatorConfig& cfg, const OperatorArgs& a) {
     brain->start();
     task_tick();
   }
+  // The hand trace: the servo's newest sample every 10 ms (the first 20 minutes).
+  std::vector<tele::HandTraceSample> trace_rows;
+  constexpr std::size_t kTraceRows = 20 * 60 * 100;
+  std::function<void()> trace_tick = [&] {
+    trace_timer.expires_after(std::chrono::milliseconds(10));
+    trace_timer.async_wait([&](const asio::error_code& ec) {
+      if (ec || stopping) return;
+      if (const tele::HandTraceSample* t = task->trace().take(); t != nullptr && trace_rows.size() < kTraceRows)
+        trace_rows.push_back(*t);
+      trace_tick();
+    });
+  };
+  if (!a.hand_trace.empty()) {
+    trace_rows.reserve(kTraceRows);
+    trace_tick();
+  }
   if (a.duration_s > 0) {
     duration.expires_after(std::chrono::milliseconds(static_cast<int64_t>(a.duration_s * 1000)));
     duration.async_wait([&](const asio::error_code& ec) {
@@ -289,12 +316,16 @@ int run_telemanip(const config::OperatorConfig& cfg, const OperatorArgs& a) {
             << r.refusals().refused() << " (last " << r.refusals().last_reason() << ")\n";
   for (const report::TelemanipHand& h : r.hand())
     std::cout << "telemanip: hand " << h.index() << ": presses " << h.presses() << ", engaged ticks "
-              << h.engaged_ticks() << ", clutch ticks " << h.clutch_ticks() << ", contact ticks " << h.contact_ticks() << ", peak force " << h.peak_force_n()
+              << h.engaged_ticks() << ", clutch ticks " << h.clutch_ticks() << ", contact ticks " << h.contact_ticks() << ", grasp ticks (contact not rendered) " << h.grasp_ticks() << ", peak force " << h.peak_force_n()
               << " N; the device's own limits engaged: joint range " << h.device_joint_limit_ticks() << " ticks (peak "
               << h.device_peak_joint_limit_nm() << " N m), walls " << h.device_wall_ticks() << " (peak "
               << h.device_peak_wall_n() << " N), avoidance " << h.device_collision_ticks() << " (peak "
               << h.device_peak_collision_nm() << " N m), elbow stretched " << h.device_stretched_ticks() << "\n";
   std::cout << servo::to_string(timing) << "\n" << net::to_summary(client.statistics()) << std::flush;
+  if (!a.hand_trace.empty() && !net::write_text_file(a.hand_trace, tele::hand_trace_csv(trace_rows), &error)) {
+    std::cerr << "hemm-operator: --hand-trace: " << error << "\n";
+    if (exit_code == net::kExitOk) exit_code = net::kExitInternal;
+  }
   if (!a.stats_json.empty() && !net::write_text_file(a.stats_json, config::to_json(r), &error)) {
     std::cerr << "hemm-operator: " << error << "\n";
     if (exit_code == net::kExitOk) exit_code = net::kExitInternal;

@@ -89,6 +89,7 @@ std::string telemanip_params(const config::TelemanipConfig& c, double period_s, 
   t.held.max_force_n = h.max_force_n();
   t.held.max_torque_nm = h.max_torque_nm();
   t.held.coupling_fade_s = h.coupling_fade_s();
+  t.grasp_palm_contact = h.palm_contact();
   t.held.weight_filter_s = h.weight_filter_s();
   t.held.weight_rate_n_per_s = h.weight_rate_n_per_s();
   t.held.max_weight_n = h.max_weight_n();

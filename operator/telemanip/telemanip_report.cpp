@@ -51,6 +51,7 @@ report::Telemanip make_telemanip_report(const TelemanipLinkStats& link, const Te
     h->set_clutch_ticks(m.clutch_steps);
     h->set_contact_ticks(st.contact_ticks);
     h->set_no_model_ticks(st.no_model_ticks);
+    h->set_grasp_ticks(st.grasp_ticks);
     h->set_peak_force_n(st.peak_force_n);
     h->set_mean_contact_force_n(st.contact_ticks > 0 ? st.sum_force_n / static_cast<double>(st.contact_ticks) : 0.0);
     telereport_vec(st.last_force_D, h->mutable_last_force_d());

@@ -114,15 +114,38 @@ const vps::ProbeTool& TelemanipTask::shell_tool(int i) const noexcept {
   return i >= palm_shell() ? tools_.palm : tools_.tools[static_cast<std::size_t>(i)];
 }
 
-void TelemanipTask::render_hand(int k, const vps::Voxmap* vm, std::uint64_t build, double opening, bool holding,
+bool TelemanipTask::grasp_phase(int k, const RemoteArmsState* remote) noexcept {
+  const std::size_t ki = static_cast<std::size_t>(k);
+  Hand& h = hands_[ki];
+  const ArmCommandOut& c = cmd_[ki];
+  if (c.has_gripper) h.open_ref_m = std::max(h.open_ref_m, c.opening_m);
+  const bool seen = remote != nullptr && remote->valid;
+  const bool holding = seen && remote->gripper[ki].holding;
+  const bool closing = seen && c.has_gripper &&
+                       (c.opening_m < remote->gripper[ki].opening_m - kClosingTol_m ||
+                        c.opening_m < h.open_ref_m - kLeverClosing_m);
+  if (holding || closing) {
+    if (!h.grasp) h.grasp_held = false;
+    h.grasp = true;
+    h.grasp_held = h.grasp_held || holding;
+    h.grasp_p_A = c.T_A_G.translation();
+  } else if (h.grasp && (!h.grasp_held || (c.T_A_G.translation() - h.grasp_p_A).norm() >= kGraspClear_m)) {
+    // Closed on nothing and open again, or gone from what it let go of.
+    h.grasp = false;
+    h.open_ref_m = c.has_gripper ? c.opening_m : 0.0;
+  }
+  return h.grasp;
+}
+
+void TelemanipTask::render_hand(int k, const vps::Voxmap* vm, std::uint64_t build, double opening, bool grasping,
                                 std::int64_t deadline_ns, device::EndEffectorCommand& c) noexcept {
   const std::size_t ki = static_cast<std::size_t>(k);
   Hand& h = hands_[ki];
   const ArmCommandOut& cmd = cmd_[ki];
   HandRenderStats& st = stats_[ki];
-  // The shell of the gripper's opening (the palm's while it holds
+  // The shell of the gripper's opening (the palm's while it grasps
   // something); the coupled body carries over.
-  const int want = holding ? palm_shell() : tools_.nearest(opening);
+  const int want = grasping ? palm_shell() : tools_.nearest(opening);
   if (want != h.shell) {
     vps::ToolState& from = h.states[static_cast<std::size_t>(h.shell)];
     vps::ToolState& to = h.states[static_cast<std::size_t>(want)];
@@ -135,13 +158,16 @@ void TelemanipTask::render_hand(int k, const vps::Voxmap* vm, std::uint64_t buil
   const vps::ProbeTool& tool = shell_tool(h.shell);
   vps::ToolState& s = h.states[static_cast<std::size_t>(h.shell)];
   vps::ToolParams& tp = tool_params_[ki];
-  // Released or clutched: the tool follows the command, nothing displayed.
-  if (!cmd.pressed || cmd.clutched) vm = nullptr;
+  // Released or clutched: the tool follows the command, nothing displayed;
+  // so too in a grasp phase, unless the palm is rendered (step 3).
+  const bool engaged = cmd.pressed && !cmd.clutched;
+  const bool grasp_free = grasping && !p_.grasp_palm_contact;
+  if (!engaged || grasp_free) vm = nullptr;
   if (vm != nullptr && build != h.voxmap_build) s.voxmap = nullptr;  // a new build, maybe at the old address
   if (vm != nullptr) h.voxmap_build = build;
   if (vm == nullptr) {
     vps::probe_tool_tick(tp, tool, nullptr, cmd.T_A_G, &s);
-    if (cmd.pressed && !cmd.clutched) ++st.no_model_ticks;
+    if (engaged) ++(grasp_free ? st.grasp_ticks : st.no_model_ticks);
     st.last_force_D.setZero();
     st.last_torque_D.setZero();
     st.last_work = 0;
@@ -181,7 +207,7 @@ void TelemanipTask::render_held(const RemoteArmsState& remote, device::DeviceCom
     in.T_A_G[k] = cmd_[k].T_A_G;
     in.remote_force_A[k] = remote.arm[k].force_A;
   }
-  HeldObjectWrench w;
+  HeldObjectWrench& w = held_w_;
   held_object_step(p_.held, in, p_.period_s, &held_, &w);
   for (std::size_t k = 0; k < kTeleArms; ++k) {
     // At G (= the E point), into D as the contact's wrench is (F_D = s F_A, tau_D = k tau_A).
@@ -191,6 +217,32 @@ void TelemanipTask::render_held(const RemoteArmsState& remote, device::DeviceCom
     c.force_H += R_D_A * (mp.translation_scale * w.force_A[k]);
     c.torque_H += R_D_A * (mp.rotation_scale * w.torque_A[k]);
   }
+}
+
+void TelemanipTask::publish_trace(const device::DeviceSample& in, const RemoteArmsState* remote,
+                                  const device::DeviceCommand& command) noexcept {
+  HandTraceSample& t = trace_.back();
+  t.t_ns = in.t_ns;
+  const bool seen = remote != nullptr && remote->valid;
+  t.remote_ns = seen ? remote->stamp_ns : 0;
+  t.direct = p_.mode == FeedbackMode::kDirect;
+  t.squeeze_n = held_w_.squeeze_n;
+  for (std::size_t k = 0; k < kTeleArms; ++k) {
+    HandTraceArm& a = t.arm[k];
+    const ArmCommandOut& c = cmd_[k];
+    const ArmMappingParams& mp = p_.mapping[k];
+    a.pressed = c.pressed;
+    a.clutched = c.clutched;
+    a.holding = seen && remote->gripper[k].holding;
+    a.commanded_A = c.T_A_G.translation();
+    a.remote_A = seen ? remote->arm[k].p_A : Eigen::Vector3d::Zero();
+    a.felt_A = mp.R_A_D * command.ee[k].force_H / mp.translation_scale;
+    a.held_A = held_w_.force_A[k];
+    a.remote_force_A = seen ? remote->arm[k].force_A : Eigen::Vector3d::Zero();
+    a.commanded_opening_m = c.opening_m;
+    a.remote_opening_m = seen ? remote->gripper[k].opening_m : 0.0;
+  }
+  trace_.publish();
 }
 
 void TelemanipTask::tick(const device::DeviceSample& in, const servo::ModelSnapshot& model,
@@ -255,8 +307,7 @@ void TelemanipTask::tick(const device::DeviceSample& in, const servo::ModelSnaps
       const double opening = remote != nullptr && remote->valid ? remote->gripper[ki].opening_m
                              : c.has_gripper                    ? c.opening_m
                                                                 : p_.mapping[ki].opening_open_m;
-      const bool holding = remote != nullptr && remote->valid && remote->gripper[ki].holding;
-      render_hand(k, vm, build, opening, holding, out.deadline_ns, out.command.ee[ki]);
+      render_hand(k, vm, build, opening, grasp_phase(k, remote), out.deadline_ns, out.command.ee[ki]);
       work += stats_[ki].last_work;
     }
     a.active = ms.initialized;
@@ -271,8 +322,10 @@ void TelemanipTask::tick(const device::DeviceSample& in, const servo::ModelSnaps
     an.state = ms;
     anchors_[ki].publish();
   }
+  held_w_ = HeldObjectWrench{};
   if (p_.render && remote != nullptr && remote->valid && map_[0].initialized && map_[1].initialized)
     render_held(*remote, out.command);
+  if (trace_on_) publish_trace(in, remote, out.command);
   setpoints_.publish();
   if (roi_out_ != nullptr && map_[0].initialized && map_[1].initialized) {
     ProbePosition& pp = roi_out_->back();

@@ -9,7 +9,9 @@
 //     dead-man and the grip lever into the commanded T_A_G and gripper;
 //  3. while the hand is engaged, the gripper's pointshell at its opening
 //     (the remote one's, or the commanded one before any state; the palm's
-//     alone while the remote gripper holds something) is pulled to
+//     alone, or nothing (grasp_palm_contact), in the grasp phase: from the
+//     lever's closing until the hand has left the object, kGraspClear_m) is
+//     pulled to
 //     the commanded T_A_G by the 6-DoF virtual coupling and rendered with VPS
 //     against the snapshot's live voxmap (frame W; the workbench's A is W);
 //     the coupling's reaction, at E and in D (force times the translation
@@ -45,6 +47,7 @@
 #include "operator/servo/servo_loop.h"
 #include "operator/telemanip/arm_mapping.h"
 #include "operator/telemanip/gripper_tool.h"
+#include "operator/telemanip/hand_trace.h"
 #include "operator/telemanip/held_object.h"
 #include "operator/telemanip/telemanip_link.h"
 
@@ -57,6 +60,9 @@ struct TelemanipTaskParams {
   bool render = true;  // model-mediated forces (false: commands only)
   GripperGeometry gripper;
   HeldObjectParams held;  // the held object's weight and two-hand coupling
+  // In a grasp phase: the palm's shell against the live voxmap (true) or
+  // no contact at all (false; step 3).
+  bool grasp_palm_contact = false;
   double contact_stiffness = 3e7;        // N/m^3 (as the 6-DoF probe tool)
   std::int64_t budget = 4000;            // VPS work units per hand per tick
   std::int64_t tick_budget_ns = 100'000; // VPS time per hand per tick (0: none)
@@ -73,6 +79,7 @@ struct HandRenderStats {
   std::uint64_t engaged_ticks = 0;
   std::uint64_t contact_ticks = 0;   // engaged with VPS contacts
   std::uint64_t no_model_ticks = 0;  // engaged without a voxmap
+  std::uint64_t grasp_ticks = 0;     // engaged in a grasp phase, no contact rendered
   double peak_force_n = 0.0;         // |F| displayed (D)
   double sum_force_n = 0.0;          // over contact ticks
   Eigen::Vector3d last_force_D = Eigen::Vector3d::Zero();
@@ -82,6 +89,25 @@ struct HandRenderStats {
 
 class TelemanipTask final : public servo::ServoTask {
  public:
+  // Step 3's grasp phase, per hand: it begins when the remote gripper
+  // holds, or the lever closes the fingers kClosingTol_m below the remote
+  // opening or kLeverClosing_m below the widest it commanded since the last
+  // grasp; it ends when the lever is open again if nothing was held, else
+  // once the commanded G is kGraspClear_m from where the grasp was last
+  // seen. Meanwhile the fingers are not rendered: what is between them is
+  // the object they close on or let go of, whose voxels (a voxel thicker
+  // than the truth) met the finger shell before the real pads did at the
+  // closing (the hand pushed 2 cm off) and still enclosed it at the release
+  // (25 N on the hand, the arm thrown into the box). Nor, by default, is the
+  // palm: the live voxmap keeps the grasped object's own voxels, and the
+  // left palm, turned 1 rad over the box, sat in its top while carrying
+  // (8-50 N on that hand, the box's wrist peaks 45-60 N; without it 16 N).
+  // The held object's own pointshell against the voxmap less its voxels is
+  // not built: while it is held, its contacts are not felt, only its weight
+  // and the two-hand coupling.
+  static constexpr double kClosingTol_m = 0.003;
+  static constexpr double kLeverClosing_m = 0.01;  // a hand's lever wobbles by millimetres of opening
+  static constexpr double kGraspClear_m = 0.08;
   // Builds the gripper shells, their pair states and the budgets
   // (allocates); throws std::invalid_argument on bad parameters.
   explicit TelemanipTask(const TelemanipTaskParams& p);
@@ -103,6 +129,10 @@ class TelemanipTask final : public servo::ServoTask {
   // thread's probe box: the midpoint of both commanded G, W = A); null: nowhere.
   // Set before the loop starts.
   void set_roi_out(NewestMailbox<ProbePosition>* m) noexcept { roi_out_ = m; }
+  // Each tick's hand trace sample (hand_trace.h) into trace(), for one
+  // consumer (hemm-operator --hand-trace). Set before the loop starts.
+  void set_trace(bool on) noexcept { trace_on_ = on; }
+  NewestMailbox<HandTraceSample>& trace() noexcept { return trace_; }
 
   const TelemanipTaskParams& params() const noexcept { return p_; }
   const GripperToolSet& grippers() const noexcept { return tools_; }
@@ -127,13 +157,21 @@ class TelemanipTask final : public servo::ServoTask {
     std::vector<vps::ToolState> states;  // one per shell (sized at start)
     int shell = 0;                       // the one in use
     std::uint64_t voxmap_build = 0;      // the build its pair state belongs to
+    // The grasp phase (kClosingTol_m, kGraspClear_m).
+    bool grasp = false;
+    bool grasp_held = false;  // the remote gripper held in this grasp phase
+    Eigen::Vector3d grasp_p_A = Eigen::Vector3d::Zero();
+    double open_ref_m = 0.0;  // the widest commanded opening since the last grasp ended
   };
+  // This tick's grasp phase of hand k (updates it).
+  bool grasp_phase(int k, const RemoteArmsState* remote) noexcept;
   // Step 4: the held object's wrench added to both hands' commands.
   void render_held(const RemoteArmsState& remote, device::DeviceCommand& command) noexcept;
+  void publish_trace(const device::DeviceSample& in, const RemoteArmsState* remote, const device::DeviceCommand& command) noexcept;
   // Shell i: the opening's (GripperToolSet::tools), the palm's past them.
   const vps::ProbeTool& shell_tool(int i) const noexcept;
   int palm_shell() const noexcept { return static_cast<int>(tools_.tools.size()); }
-  void render_hand(int k, const vps::Voxmap* vm, std::uint64_t build, double opening, bool holding, std::int64_t deadline_ns,
+  void render_hand(int k, const vps::Voxmap* vm, std::uint64_t build, double opening, bool grasping, std::int64_t deadline_ns,
                    device::EndEffectorCommand& c) noexcept;
 
   TelemanipTaskParams p_;
@@ -146,6 +184,7 @@ class TelemanipTask final : public servo::ServoTask {
   std::array<ArmCommandOut, kTeleArms> cmd_{};
   std::array<HandRenderStats, kTeleArms> stats_{};
   HeldObjectState held_;
+  HeldObjectWrench held_w_;  // this tick's (zero when not rendered)
   std::array<DirectHandState, kTeleArms> direct_{};
   std::uint64_t direct_epoch_ = 0;  // the robot's frame epoch the ports count in
   bool direct_epoch_seen_ = false;
@@ -154,6 +193,8 @@ class TelemanipTask final : public servo::ServoTask {
   NewestMailbox<RemoteArmsState> remote_;
   std::array<NewestMailbox<MappingAnchor>, kTeleArms> anchors_;
   NewestMailbox<ProbePosition>* roi_out_ = nullptr;
+  bool trace_on_ = false;
+  NewestMailbox<HandTraceSample> trace_;
   const vps::Voxmap* override_vm_ = nullptr;
   std::uint64_t override_build_ = 0;
   std::uint64_t ticks_ = 0;

@@ -10,6 +10,7 @@
 #include <functional>
 #include <mutex>
 #include <random>
+#include <iomanip>
 #include <sstream>
 
 #include "common/clock/steady_clock.h"
@@ -48,6 +49,7 @@ constexpr int64_t kStatePollNs = 1'000'000;  // the network thread looks for a n
 // SIMULATION ONLY: one truth-trace row from the judge's sample and the robot.
 void fill_truth_row(const TaskTruthSample& s, const TwoArmRobot& robot, TruthTraceRow& row) noexcept {
   row.t_s = s.t_s;
+  row.clock_s = 1e-9 * static_cast<double>(robot.time_ns());
   for (std::size_t a = 0; a < kArms; ++a) {
     const Eigen::Isometry3d G = robot.sim().grasp_site_A(a == 0 ? Side::kRight : Side::kLeft);
     const Eigen::Isometry3d& T = robot.active_targets().T_A_G[a];
@@ -737,7 +739,7 @@ const std::vector<TruthTraceRow>& TwoArmStation::truth_trace() const {
 
 std::string truth_trace_csv(const std::vector<TruthTraceRow>& rows) {
   std::ostringstream os;
-  os << "t_s";
+  os << "t_s,clock_s";
   for (const char* arm : {"right", "left"})
     for (const char* what : {"G", "target", "force", "G_rot", "target_rot"})
       for (const char* axis : {"x", "y", "z"}) os << ',' << arm << '_' << what << '_' << axis;
@@ -745,7 +747,7 @@ std::string truth_trace_csv(const std::vector<TruthTraceRow>& rows) {
         "goal_z_err_m,tilt_rad\n";
   os.precision(6);
   for (const TruthTraceRow& r : rows) {
-    os << r.t_s;
+    os << r.t_s << ',' << std::fixed << std::setprecision(6) << r.clock_s << std::defaultfloat << std::setprecision(6);
     for (std::size_t a = 0; a < kArms; ++a)
       for (const Eigen::Vector3d* v : {&r.G_A[a], &r.target_A[a], &r.force_A[a], &r.G_rot_A[a], &r.target_rot_A[a]})
         os << ',' << v->x() << ',' << v->y() << ',' << v->z();

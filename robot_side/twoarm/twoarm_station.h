@@ -89,6 +89,9 @@ struct TwoArmStationOptions {
 // SIMULATION ONLY: one row of the truth trace (robot time; A = W here).
 struct TruthTraceRow {
   double t_s = 0.0;
+  // The robot's steady clock then [s] (its state stamps' time base): on one
+  // host it lines up with hemm-operator --hand-trace's clock_s.
+  double clock_s = 0.0;
   std::array<Eigen::Vector3d, kArms> G_A{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};       // the grasp sites
   std::array<Eigen::Vector3d, kArms> G_rot_A{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};   // their orientation (rotation vector)
   std::array<Eigen::Vector3d, kArms> target_rot_A{Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};

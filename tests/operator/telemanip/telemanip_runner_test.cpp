@@ -52,7 +52,7 @@ TEST(TelemanipRunner, DemoRouteDrivesTheFakeRobotAndTheReportSaysSo) {
   config += "/deploy/configs/operator_telemanip.pbtxt";
   const hemm::test::ProcessResult r = hemm::test::run_to_completion(
       {bin, "--config", config, "--key", key_path, "--session-port", std::to_string(robot.server->session_port()),
-       "--duration", "13", "--stats-json", json_path, "--log-level", "warn"},
+       "--duration", "13", "--stats-json", json_path, "--log-level", "warn", "--hand-trace", dir + "/hands.csv"},
       dir, std::chrono::seconds(100));  // under the sanitizers its start alone took 29 s
   ASSERT_EQ(r.rc, 0) << r.err;
   std::printf("%s", r.out.c_str());
@@ -92,8 +92,9 @@ TEST(TelemanipRunner, DemoRouteDrivesTheFakeRobotAndTheReportSaysSo) {
   // Model-mediated: both grippers rest on the top the camera saw, and the hands are pushed up.
   for (int k = 0; k < 2; ++k) {
     const hemm::report::TelemanipHand& h = rep.hand(k);
-    std::printf("hand %d: contact ticks %llu of %llu engaged, peak %.2f N, mean %.2f N, last F_D (%.2f, %.2f, %.2f) N\n", k,
+    std::printf("hand %d: contact ticks %llu of %llu engaged (grasp %llu), peak %.2f N, mean %.2f N, last F_D (%.2f, %.2f, %.2f) N\n", k,
                 static_cast<unsigned long long>(h.contact_ticks()), static_cast<unsigned long long>(h.engaged_ticks()),
+                static_cast<unsigned long long>(h.grasp_ticks()),
                 h.peak_force_n(), h.mean_contact_force_n(), h.last_force_d().x(), h.last_force_d().y(),
                 h.last_force_d().z());
     EXPECT_GT(h.contact_ticks(), hemm::test::kSanitizerBuild ? 100u : 3000u);
@@ -104,6 +105,32 @@ TEST(TelemanipRunner, DemoRouteDrivesTheFakeRobotAndTheReportSaysSo) {
     EXPECT_GT(h.mean_contact_force_n(), 0.1);
     EXPECT_GT(h.last_force_d().z(), 0.1);  // up, out of the top (its size: the hand yields, 300 N/m)
     EXPECT_LT(std::hypot(h.last_force_d().x(), h.last_force_d().y()), 0.5 * h.last_force_d().z());
+  }
+  // The hand trace: a row every 10 ms of the connected part, the right hand's
+  // commanded G going 10 cm towards the bench and back, its dead-man pressed.
+  {
+    std::ifstream in(dir + "/hands.csv");
+    std::string header, line;
+    ASSERT_TRUE(std::getline(in, header));
+    EXPECT_EQ(header.rfind("t_s,clock_s,remote_clock_s,mode,squeeze_N,right_pressed,", 0), 0u);
+    std::size_t rows = 0, pressed = 0;
+    double x_min = 1e9, x_max = -1e9;
+    while (std::getline(in, line)) {
+      std::vector<std::string> f;
+      std::istringstream ls(line);
+      for (std::string x; std::getline(ls, x, ',');) f.push_back(x);
+      ASSERT_GE(f.size(), 9u);
+      ++rows;
+      if (f[5] == "1") {
+        ++pressed;
+        const double x = std::stod(f[8]);  // right_cmd_x
+        x_min = std::min(x_min, x);
+        x_max = std::max(x_max, x);
+      }
+    }
+    EXPECT_GT(rows, hemm::test::kSanitizerBuild ? 300u : 1000u);
+    EXPECT_GT(pressed, rows / 2);
+    EXPECT_GT(x_max - x_min, hemm::test::kSanitizerBuild ? 0.04 : 0.08);
   }
   // The servo clock covered the 13 s: every 1 ms period was ticked or, when a
   // tick overran it, counted as skipped. Under the sanitizers a tick took
@@ -130,6 +157,7 @@ TEST(TelemanipRunner, TaskArgumentsAreRefusedWithAReason) {
       // Outputs this runner does not write are refused, not skipped.
       {{"--record", dir + "/session.rec"}, "--record: telemanip sessions are not recorded yet"},
       {{"--log", dir + "/servo.csv"}, "--log: the telemanip servo writes no CSV log"},
+      {{"--hand-trace", dir + "/no_such_dir/hands.csv"}, "--hand-trace:"},
   };
   for (const auto& c : cases) {
     std::vector<std::string> argv = {bin, "--config", cfg + "operator_telemanip.pbtxt", "--key", cfg + "demo.key",
@@ -163,4 +191,9 @@ TEST(TelemanipRunner, TaskArgumentsAreRefusedWithAReason) {
       std::chrono::seconds(20));
   EXPECT_EQ(r.rc, 2) << r.err;
   EXPECT_NE(r.err.find("need a telemanip config"), std::string::npos) << r.err;
+  const hemm::test::ProcessResult t = hemm::test::run_to_completion(
+      {bin, "--config", cfg + "operator.pbtxt", "--key", cfg + "demo.key", "--hand-trace", dir + "/hands.csv"}, dir,
+      std::chrono::seconds(20));
+  EXPECT_EQ(t.rc, 2) << t.err;
+  EXPECT_NE(t.err.find("--hand-trace is telemanipulation's"), std::string::npos) << t.err;
 }

@@ -170,11 +170,103 @@ TEST(TelemanipTask, GripperPressedIntoTheBenchPushesItsOwnHandBack) {
     run.step(task_test_sample(kTaskTestRightD - Eigen::Vector3d(0, 0, down), kTaskTestLeftD, true));
   EXPECT_LT(run.out.command.ee[0].force_H.norm(), 0.02 * f_expected);
   EXPECT_LE(run.task.render_stats(0).contact_ticks - contacts, 10u);
+  // Let go (not holding, the lever open): still the grasp phase - the
+  // fingers are around what they let go of - until the hand has left by
+  // kGraspClear_m: 10 cm up and back down into the bench, the fingers are
+  // felt again.
+  run.task.remote().publish(task_test_remote(kTaskTestRightA, kTaskTestLeftA));
+  hd::DeviceSample pressed_in = task_test_sample(kTaskTestRightD - Eigen::Vector3d(0, 0, down), kTaskTestLeftD, true);
+  pressed_in.ee[0].handle.has_grip = true;
+  pressed_in.ee[0].handle.grip_position = 0.0;  // open: the commanded opening is the open one, 0.08
+  for (int i = 0; i < 300; ++i) run.step(pressed_in);
+  EXPECT_NEAR(run.task.command(0).opening_m, 0.08, 1e-9);
+  EXPECT_LT(run.out.command.ee[0].force_H.norm(), 0.02 * f_expected);
+  const double s = p.mapping[0].translation_scale, up = 0.10;
+  ASSERT_GT(up, tele::TelemanipTask::kGraspClear_m);
+  for (int i = 0; i <= 2000; ++i) {
+    hd::DeviceSample m = pressed_in;
+    m.ee[0].position_H.z() += up / s * std::sin(std::numbers::pi * std::min(1.0, i / 1000.0));  // up and back
+    run.step(m);
+  }
+  EXPECT_NEAR(run.out.command.ee[0].force_H.z(), f_expected, 0.2 * f_expected);
+  // The lever closes the fingers below the remote opening (0.08): the grasp
+  // phase again, the palm's shell alone.
+  pressed_in.ee[0].handle.grip_position = 0.5 * p.mapping[0].grip_travel_m;
+  for (int i = 0; i < 300; ++i) run.step(pressed_in);
+  EXPECT_LT(run.task.command(0).opening_m, 0.08 - tele::TelemanipTask::kClosingTol_m);
+  EXPECT_LT(run.out.command.ee[0].force_H.norm(), 0.02 * f_expected);
+  // So too from the start when the remote gripper keeps up with the lever:
+  // the opening below the widest commanded tells the closing then. (A fresh
+  // hand: the one above left its grasp phase by moving off, not by opening.)
+  {
+    TaskTestRun fresh(p);
+    fresh.task.set_voxmap_override(&bench, 1);
+    tele::RemoteArmsState following = task_test_remote(kTaskTestRightA, kTaskTestLeftA);
+    fresh.task.remote().publish(following);
+    hd::DeviceSample m = pressed_in;
+    m.ee[0].handle.grip_position = 0.0;
+    for (int i = 0; i <= ramp + hold; ++i) {
+      const double f = std::min(1.0, static_cast<double>(i) / ramp);
+      m.ee[0].position_H = kTaskTestRightD - Eigen::Vector3d(0, 0, down * f);
+      fresh.step(m);
+    }
+    EXPECT_NEAR(fresh.out.command.ee[0].force_H.z(), f_expected, 0.2 * f_expected);
+    m.ee[0].handle.grip_position = 0.5 * p.mapping[0].grip_travel_m;
+    for (int i = 0; i < 300; ++i) {
+      fresh.step(m);
+      following.gripper[0].opening_m = fresh.task.command(0).opening_m;  // at once, as the lever asks
+      fresh.task.remote().publish(following);
+    }
+    EXPECT_LT(fresh.task.command(0).opening_m, 0.08 - tele::TelemanipTask::kClosingTol_m);
+    EXPECT_LT(fresh.out.command.ee[0].force_H.norm(), 0.02 * f_expected);
+    // It closed on nothing (never held): the lever open again ends the
+    // grasp phase where the hand is; the fingers are felt again.
+    m.ee[0].handle.grip_position = 0.0;
+    for (int i = 0; i < 500; ++i) {
+      fresh.step(m);
+      following.gripper[0].opening_m = fresh.task.command(0).opening_m;
+      fresh.task.remote().publish(following);
+    }
+    EXPECT_NEAR(fresh.out.command.ee[0].force_H.z(), f_expected, 0.2 * f_expected);
+  }
   // Dead-man released: nothing pressed, nothing displayed, the command holds.
   run.step(task_test_sample(kTaskTestRightD - Eigen::Vector3d(0, 0, down + 0.05), kTaskTestLeftD, false));
   EXPECT_FALSE(run.task.command(0).pressed);
   EXPECT_LT(run.out.command.ee[0].force_H.norm(), 1e-12);
   EXPECT_TRUE(run.task.command(0).T_A_G.isApprox(G, 1e-12));
+}
+
+// In a grasp phase the palm's shell is rendered only when configured
+// (telemanip.held.palm_contact): held, the hand goes down until the palm
+// (7.5 cm and more above G) would be 1.5 cm into the bench; off (the
+// default), nothing is felt and the ticks count as grasp ticks; on, the
+// bench pushes the hand up.
+TEST(TelemanipTask, InAGraspPhaseThePalmIsFeltOnlyWhenConfigured) {
+  const hemm::vps::Voxmap bench = task_test_bench(0.01);
+  for (const bool palm : {false, true}) {
+    tele::TelemanipTaskParams p = task_test_params();
+    p.grasp_palm_contact = palm;
+    TaskTestRun run(p);
+    run.task.set_voxmap_override(&bench, 1);
+    tele::RemoteArmsState held = task_test_remote(kTaskTestRightA, kTaskTestLeftA);
+    held.gripper[0].holding = true;
+    run.task.remote().publish(held);
+    const double down = kTaskTestRightA.z() - (kTaskTestTopZ - 0.075 - 0.015);
+    for (int i = 0; i <= 1500; ++i) {
+      const double f = std::min(1.0, i / 1000.0);
+      run.step(task_test_sample(kTaskTestRightD - Eigen::Vector3d(0, 0, down * f), kTaskTestLeftD, true));
+    }
+    const Eigen::Vector3d F = run.out.command.ee[0].force_H;
+    if (palm) {
+      EXPECT_GT(F.z(), 5.0);
+      EXPECT_GT(run.task.render_stats(0).contact_ticks, 100u);
+      EXPECT_EQ(run.task.render_stats(0).grasp_ticks, 0u);
+    } else {
+      EXPECT_LT(F.norm(), 1e-9);
+      EXPECT_EQ(run.task.render_stats(0).contact_ticks, 0u);
+      EXPECT_GT(run.task.render_stats(0).grasp_ticks, 1400u);
+    }
+  }
 }
 
 // Both remote grippers report holding one object, each wrist 9.81 N of its

@@ -807,7 +807,11 @@ TEST(TwoArmStationLoopback, ControlThreadDoesNotAllocate) {
   // them, the targets the arms worked to; one CSV line per row after a header.
   const std::vector<ht::TruthTraceRow>& trace = robot.station->truth_trace();
   ASSERT_EQ(trace.size(), 51u);
-  for (std::size_t i = 1; i < trace.size(); ++i) EXPECT_NEAR(trace[i].t_s - trace[i - 1].t_s, 0.010, 1e-9);
+  for (std::size_t i = 1; i < trace.size(); ++i) {
+    EXPECT_NEAR(trace[i].t_s - trace[i - 1].t_s, 0.010, 1e-9);
+    // The steady clock of the state stamps runs with the simulation's time.
+    EXPECT_NEAR(trace[i].clock_s - trace[i - 1].clock_s, 0.010, 1e-6);
+  }
   EXPECT_LE(trace.back().t_s, 0.51);
   for (const ht::TruthTraceRow& r : trace) {
     EXPECT_TRUE(r.G_A[0].allFinite() && r.G_A[1].allFinite());
@@ -815,7 +819,7 @@ TEST(TwoArmStationLoopback, ControlThreadDoesNotAllocate) {
   }
   const std::string csv = ht::truth_trace_csv(trace);
   EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 52);
-  EXPECT_EQ(csv.rfind("t_s,right_G_x,", 0), 0u);
+  EXPECT_EQ(csv.rfind("t_s,clock_s,right_G_x,", 0), 0u);
 }
 
 // The truth trace's CSV: a header naming each column, then the rows, the
@@ -823,6 +827,7 @@ TEST(TwoArmStationLoopback, ControlThreadDoesNotAllocate) {
 TEST(TwoArmTruthTrace, CsvHasAHeaderAndOneLinePerRow) {
   std::vector<ht::TruthTraceRow> rows(2);
   rows[1].t_s = 0.25;
+  rows[1].clock_s = 86400.125;  // a day of uptime: microseconds still show
   rows[1].G_A[1] = Eigen::Vector3d(0.5, -0.25, 1.125);
   rows[1].object_env_N = 19.5;
   rows[1].on_goal = true;
@@ -848,6 +853,7 @@ TEST(TwoArmTruthTrace, CsvHasAHeaderAndOneLinePerRow) {
     return v.at(static_cast<std::size_t>(it - h.begin()));
   };
   EXPECT_EQ(col("t_s"), "0.25");
+  EXPECT_EQ(col("clock_s"), "86400.125000");
   EXPECT_EQ(col("left_G_x"), "0.5");
   EXPECT_EQ(col("left_G_y"), "-0.25");
   EXPECT_EQ(col("left_G_z"), "1.125");
