@@ -8,6 +8,7 @@
 //
 //   twoarm_task_table [--seeds N] [--tasks box,peg,bar] [--rtt-ms 0,300,1000,3000]
 //                     [--csv FILE] [--markdown FILE]
+#include "tests/csv_fields.h"
 #include "tests/robot_side/twoarm/task_feasibility_run.h"
 
 #include <chrono>
@@ -21,13 +22,6 @@ namespace tf = hemm::test::twoarm_feasibility;
 namespace ht = hemm::twoarm;
 
 namespace {
-
-std::vector<std::string> table_split(const std::string& s) {
-  std::vector<std::string> out;
-  std::stringstream ss(s);
-  for (std::string item; std::getline(ss, item, ',');) out.push_back(item);
-  return out;
-}
 
 int table_usage(const std::string& why) {
   std::fprintf(stderr, "twoarm_task_table: %s\nusage: twoarm_task_table [--seeds N] [--tasks box,peg,bar] [--rtt-ms 0,300,1000,3000] [--csv FILE] [--markdown FILE]\n",
@@ -53,7 +47,7 @@ int main(int argc, char** argv) {
       seeds = static_cast<int>(n);
     } else if (a == "--tasks") {
       tasks.clear();
-      for (const std::string& t : table_split(v)) {
+      for (const std::string& t : hemm::test::csv_fields(v)) {
         if (t == "box") tasks.push_back(ht::Task::kBox);
         else if (t == "peg") tasks.push_back(ht::Task::kPeg);
         else if (t == "bar") tasks.push_back(ht::Task::kBar);
@@ -61,7 +55,7 @@ int main(int argc, char** argv) {
       }
     } else if (a == "--rtt-ms") {
       rtts_ms.clear();
-      for (const std::string& t : table_split(v)) {
+      for (const std::string& t : hemm::test::csv_fields(v)) {
         char* end = nullptr;
         const double r = std::strtod(t.c_str(), &end);
         if (end == t.c_str() || *end != '\0' || !(r >= 0.0 && r <= 10000.0)) return table_usage("--rtt-ms wants 0-10000 ms, got '" + t + "'");

@@ -30,6 +30,7 @@
 #include "report.pb.h"
 #include "tests/operator/servo/alloc_counter.h"
 #include "tests/operator/servo/two_hand_device.h"
+#include "tests/csv_fields.h"
 #include "tests/temp_dir.h"
 
 namespace hemm::servo {
@@ -393,13 +394,6 @@ class TwoHandTask final : public ServoTask {
   std::uint64_t n = 0, nan_ticks = 0, wrong_count = 0;
 };
 
-std::vector<std::string> split_csv(const std::string& s) {
-  std::vector<std::string> out;
-  std::stringstream ss(s);
-  for (std::string f; std::getline(ss, f, ',');) out.push_back(f);
-  return out;
-}
-
 TEST(ServoLoop, TwoEndEffectorsBothWrenchesReachTheDeviceAndTheLog) {
   using test::TwoHandDevice;
   const std::string log_path = hemm::test::make_temp_dir() + "/servo_loop_two_hands.csv";
@@ -461,12 +455,12 @@ TEST(ServoLoop, TwoEndEffectorsBothWrenchesReachTheDeviceAndTheLog) {
   std::string line;
   std::getline(f, line);
   ASSERT_EQ(line, servo_log_header(2));
-  const auto h = split_csv(line);
+  const auto h = hemm::test::csv_fields(line);
   std::map<std::string, std::size_t> col;
   for (std::size_t i = 0; i < h.size(); ++i) col[h[i]] = i;
   std::uint64_t rows = 0;
   while (std::getline(f, line)) {
-    const auto v = split_csv(line);
+    const auto v = hemm::test::csv_fields(line);
     ASSERT_EQ(v.size(), h.size());
     auto num = [&](const char* name) { return std::stod(v.at(col.at(name))); };
     const auto i = static_cast<std::uint64_t>(num("tick"));

@@ -10,18 +10,9 @@
 #include <string>
 #include <vector>
 
+#include "tests/csv_fields.h"
+
 namespace tele = hemm::op::telemanip;
-
-namespace {
-
-std::vector<std::string> hand_trace_fields(const std::string& line) {
-  std::vector<std::string> f;
-  std::istringstream s(line);
-  for (std::string x; std::getline(s, x, ',');) f.push_back(x);
-  return f;
-}
-
-}  // namespace
 
 TEST(HandTrace, CsvHasAHeaderAndOneLinePerSample) {
   std::vector<tele::HandTraceSample> rows(2);
@@ -41,7 +32,7 @@ TEST(HandTrace, CsvHasAHeaderAndOneLinePerSample) {
   std::istringstream in(csv);
   std::string header, r0, r1;
   ASSERT_TRUE(std::getline(in, header) && std::getline(in, r0) && std::getline(in, r1));
-  const std::vector<std::string> h = hand_trace_fields(header), v0 = hand_trace_fields(r0), v = hand_trace_fields(r1);
+  const std::vector<std::string> h = hemm::test::csv_fields(header), v0 = hemm::test::csv_fields(r0), v = hemm::test::csv_fields(r1);
   ASSERT_EQ(h.size(), 5u + 2u * 20u);  // per arm: 3 flags, 5 vectors, 2 openings
   ASSERT_EQ(v0.size(), h.size());
   ASSERT_EQ(v.size(), h.size());

@@ -19,6 +19,7 @@
 #include "config_operator.pb.h"
 #include "report.pb.h"
 #include "tests/common/config/report_json.h"
+#include "tests/csv_fields.h"
 #include "tests/integration/link/child_process.h"
 #include "tests/operator/telemanip/fake_twoarm_robot.h"
 #include "tests/sanitizer_build.h"
@@ -116,9 +117,7 @@ TEST(TelemanipRunner, DemoRouteDrivesTheFakeRobotAndTheReportSaysSo) {
     std::size_t rows = 0, pressed = 0;
     double x_min = 1e9, x_max = -1e9;
     while (std::getline(in, line)) {
-      std::vector<std::string> f;
-      std::istringstream ls(line);
-      for (std::string x; std::getline(ls, x, ',');) f.push_back(x);
+      const std::vector<std::string> f = hemm::test::csv_fields(line);
       ASSERT_GE(f.size(), 9u);
       ++rows;
       if (f[5] == "1") {

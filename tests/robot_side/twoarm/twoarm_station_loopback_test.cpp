@@ -33,6 +33,7 @@
 #include "robot_side/twoarm/arms_wire.h"
 #include "robot_side/twoarm/twoarm_station.h"
 #include "tests/common/net/udp_forwarder.h"
+#include "tests/csv_fields.h"
 #include "tests/operator/servo/alloc_counter.h"
 #include "tests/robot_side/station/station_io.h"
 #include "tests/robot_side/twoarm/workbench_scene.h"
@@ -838,15 +839,9 @@ TEST(TwoArmTruthTrace, CsvHasAHeaderAndOneLinePerRow) {
   ASSERT_TRUE(std::getline(in, r0));
   ASSERT_TRUE(std::getline(in, r1));
   EXPECT_FALSE(std::getline(in, extra));
-  const auto fields = [](const std::string& line) {
-    std::vector<std::string> f;
-    std::istringstream s(line);
-    for (std::string x; std::getline(s, x, ',');) f.push_back(x);
-    return f;
-  };
-  const std::vector<std::string> h = fields(header), v = fields(r1);
+  const std::vector<std::string> h = hemm::test::csv_fields(header), v = hemm::test::csv_fields(r1);
   ASSERT_EQ(h.size(), v.size());
-  ASSERT_EQ(fields(r0).size(), h.size());
+  ASSERT_EQ(hemm::test::csv_fields(r0).size(), h.size());
   const auto col = [&](const std::string& name) {
     const auto it = std::find(h.begin(), h.end(), name);
     EXPECT_NE(it, h.end()) << name;
