@@ -330,6 +330,7 @@ TEST(TelemanipTask, TickAllocatesNothingWithBothHandsRendering) {
   const hemm::vps::Voxmap bench = task_test_bench(0.01);
   TaskTestRun run(p);
   run.task.set_voxmap_override(&bench, 1);
+  run.task.set_trace(true);  // the hand trace's sample too (--hand-trace)
   run.task.remote().publish(task_test_remote(kTaskTestRightA, kTaskTestLeftA));
   // Both down to 1 cm into the bench first (and the grippers' shells chosen).
   for (int i = 0; i < 600; ++i) {
@@ -359,6 +360,12 @@ TEST(TelemanipTask, TickAllocatesNothingWithBothHandsRendering) {
   EXPECT_EQ(after - before, 0u);
   EXPECT_GT(run.task.render_stats(0).contact_ticks, 2000u);
   EXPECT_GT(run.task.render_stats(1).contact_ticks, 2000u);
+  // The trace's newest sample is the last tick's: its felt force, as in A, the force sent.
+  const tele::HandTraceSample* t = run.task.trace().take();
+  ASSERT_NE(t, nullptr);
+  const tele::ArmMappingParams& m0 = p.mapping[0];
+  EXPECT_LT((t->arm[0].felt_A - m0.R_A_D * run.out.command.ee[0].force_H / m0.translation_scale).norm(), 1e-12);
+  EXPECT_GT(t->arm[0].felt_A.norm(), 0.1);
   std::sort(ns.begin(), ns.end());
   std::sort(cpu.begin(), cpu.end());
   std::printf("tick compute, both hands in contact (beside other builds): wall median %.1f us, p99 %.1f us, max %.1f us; "
