@@ -24,7 +24,7 @@
 #   --seeds N       seeds per cell (default 3)
 #   --seeds-3000 N  seeds per model-mediated cell at 3000 ms (default: --seeds)
 #   --modes         model (default) and/or direct (needs hemm-operator --telemanip-mode)
-#   --outage        also one run per task at 1000 ms with a 1 s outage mid-task (model mode)
+#   --outage        also one run per task and mode at 1000 ms with a 1 s outage mid-task
 #   --outage-at S   when the outage starts after the relay does (default 14 s)
 #   --duration S    the operator's time limit per run (default 90 s + 30 s per second of round trip)
 #   --port-base P   ports P+4k .. P+4k+3 for run k (default 47800)
@@ -110,7 +110,9 @@ for m in "${mode_list[@]}"; do
     done
   done
 done
-if ((outage)); then for t in "${task_list[@]}"; do runs+=("$t 1000 model 1 1"); done; fi
+if ((outage)); then
+  for m in "${mode_list[@]}"; do for t in "${task_list[@]}"; do runs+=("$t 1000 $m 1 1"); done; done
+fi
 echo "telemanip_table: ${#runs[@]} runs into $out"
 
 k=0
