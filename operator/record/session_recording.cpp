@@ -95,6 +95,7 @@ void to_proto(const ServoTickRecord& r, rec::ServoTick* out) {
   out->set_model_version(r.model_version);
   out->set_view_presses(r.view_presses);
   out->set_mode(r.mode);
+  out->set_remote_seq(r.remote_seq);
   for (int k = 0; k < r.in.end_effectors && k < device::kMaxEndEffectors; ++k) {
     const device::EndEffectorSample& s = r.in.ee[static_cast<std::size_t>(k)];
     rec::EndEffectorSample* e = out->add_ee();
@@ -143,6 +144,7 @@ std::optional<std::string> from_proto(const rec::ServoTick& t, int end_effectors
   r.model_version = t.model_version();
   r.view_presses = t.view_presses();
   r.mode = t.mode();
+  r.remote_seq = t.remote_seq();
   for (int k = 0; k < end_effectors; ++k) {
     const rec::EndEffectorSample& e = t.ee(k);
     device::EndEffectorSample& s = r.in.ee[static_cast<std::size_t>(k)];
@@ -242,10 +244,11 @@ void SessionRecorder::model_step(const ModelThread::StepInputs& in, std::uint64_
   enqueue(r);
 }
 
-void SessionRecorder::stream(std::int64_t t_ns, bool outgoing, const wire::StreamMessage& m) {
+void SessionRecorder::stream(std::int64_t t_ns, bool outgoing, const wire::StreamMessage& m, std::uint64_t seq) {
   rec::Record r;
   r.mutable_stream()->set_t_ns(t_ns);
   r.mutable_stream()->set_outgoing(outgoing);
+  r.mutable_stream()->set_seq(seq);
   *r.mutable_stream()->mutable_message() = m;
   enqueue(r);
 }

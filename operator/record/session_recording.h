@@ -72,7 +72,9 @@ class SessionRecorder {
   // ---- model thread (ModelThread::set_step_tap) ----
   void model_step(const ModelThread::StepInputs& in, std::uint64_t version);
   // ---- network thread ----
-  void stream(std::int64_t t_ns, bool outgoing, const wire::StreamMessage& m);
+  // seq: a received message's datagram sequence (telemanip's replay hands
+  // each tick the ArmsState it took by it), 0 if not kept.
+  void stream(std::int64_t t_ns, bool outgoing, const wire::StreamMessage& m, std::uint64_t seq = 0);
   void session(std::int64_t t_ns, bool outgoing, const wire::SessionFrame& f);
 
   // ---- any thread ----

@@ -121,6 +121,8 @@ report::SessionReplay to_report(const SessionReplayResult& r) {
   j.set_wall_s(r.wall_s);
   j.set_complete(r.stopped.empty());
   j.set_stopped(r.stopped);
+  j.set_ticks_not_compared(r.ticks_not_compared);
+  j.set_remote_states(r.remote_states);
   return j;
 }
 

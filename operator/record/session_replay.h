@@ -51,6 +51,10 @@ struct SessionReplayResult {
   double recorded_s = 0.0;           // recorded time spanned by the replayed ticks
   double wall_s = 0.0;               // the replay's own time
   std::string stopped;               // why it stopped before the last tick, if it did
+  // Telemanipulation (telemanip_replay.h): ticks replayed that rendered
+  // against the live voxmap, not compared; the ArmsStates handed over.
+  std::uint64_t ticks_not_compared = 0;
+  std::uint64_t remote_states = 0;
   // What the replay does not rebuild, when the recording needs it: a 3D
   // session's live voxmap (its depth chunks are recorded, the voxmap's build
   // times are not), so its 3D forces differ from the recorded ones.

@@ -37,6 +37,16 @@ int replay_recording(const OperatorArgs& a) {
   Recording rec;
   bool broke = false;
   if (!load_session(a.replay_file, "replaying", &rec, &broke)) return net::kExitUsage;
+  if (!rec.header.telemanip_mode().empty()) {
+#ifdef HEMM_OPERATOR_HAVE_TELEMANIP
+    if (a.view_opts.enabled()) std::cerr << "hemm-operator: --replay --view: a telemanip session has no live view yet\n";
+    const int rc = replay_telemanip_recording(rec, a);
+    return broke && rc == net::kExitOk ? net::kExitUsage : rc;
+#else
+    std::cerr << "hemm-operator: --replay: a telemanip session; this build has no telemanipulation\n";
+    return net::kExitUsage;
+#endif
+  }
   SessionReplayOptions ro;
   ro.speed = a.replay_speed;
 #ifdef HEMM_WITH_VIEW

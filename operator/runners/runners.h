@@ -33,6 +33,7 @@
 
 namespace hemm::op {
 struct OperatorClientOptions;  // operator/client/operator_client.h
+struct Recording;              // operator/record/session_recording.h
 }  // namespace hemm::op
 
 namespace hemm::op::runner {
@@ -71,6 +72,8 @@ int run_vps(const config::OperatorConfig& cfg, const OperatorArgs& a);
 int run_bimanual(const config::OperatorConfig& cfg, const OperatorArgs& a);
 #ifdef HEMM_OPERATOR_HAVE_TELEMANIP
 int run_telemanip(const config::OperatorConfig& cfg, const OperatorArgs& a);
+// --replay of a telemanip session's recording (replay_recording hands it on).
+int replay_telemanip_recording(const Recording& rec, const OperatorArgs& a);
 #endif
 int replay_recording(const OperatorArgs& a);
 int export_recording_as_mcap(const std::string& in, const std::string& out);

@@ -13,6 +13,7 @@
 #include <spdlog/spdlog.h>
 
 #include <asio.hpp>
+#include <google/protobuf/text_format.h>
 #include <chrono>
 #include <csignal>
 #include <functional>
@@ -31,10 +32,12 @@
 #include "operator/device/bimanual/handles.h"
 #include "operator/device/bimanual/simulated_bimanual_device.h"
 #include "operator/model/model_thread.h"
+#include "operator/record/session_recording.h"
 #include "operator/runners/runners.h"
 #include "operator/telemanip/telemanip_config.h"
 #include "operator/telemanip/telemanip_human.h"
 #include "operator/telemanip/telemanip_link.h"
+#include "operator/telemanip/telemanip_replay.h"
 #include "operator/telemanip/telemanip_report.h"
 #include "operator/telemanip/telemanip_task.h"
 #include "operator/telemanip/task_human.h"
@@ -63,49 +66,87 @@ void telemanip_mode_report(const config::OperatorConfig& cfg, const tele::Telema
                 << task.direct_hand(k).stats.max_remote_travel_m << " m\n";
 }
 
+// The device, the servo task's and the link's parameters from a telemanip
+// config with servo period period_ns: "" or the reason it is refused.
+std::string telemanip_setup(const config::OperatorConfig& cfg, std::int64_t period_ns, BimanualSetup* setup,
+                            tele::TelemanipTaskParams* tp, tele::TelemanipLinkParams* lp) {
+  if (cfg.device().type() != "sim-bimanual") return "telemanip needs device.type \"sim-bimanual\"";
+  if (const auto issues = validate_bimanual_config(cfg.device().bimanual()); !issues.empty())
+    return issues.front().field + ": " + issues.front().message;
+  const double period_s = static_cast<double>(period_ns) * 1e-9;
+  *setup = bimanual_setup(cfg.device().bimanual());
+  setup->sim.plant.control_period_s = period_s;
+  if (std::string e = tele::telemanip_params(cfg.telemanip(), period_s, hb::bimanual_limits(setup->sim), tp, lp,
+                                             &cfg.passivity());
+      !e.empty())
+    return e;
+  for (int k = 0; k < hb::kArms; ++k) {
+    const tele::ArmMappingParams& m = tp->mapping[static_cast<std::size_t>(k)];
+    const hb::HandleKind gate = setup->sim.plant.handles[static_cast<std::size_t>(m.deadman_ee)];
+    if (m.clutch_button > 0 && !hb::has_input(gate, hb::HandleInput::kButtons))
+      return std::string("telemanip.") + (k == 0 ? "right" : "left") + ".clutch_button: the " + hb::to_string(gate) +
+             " handle of end-effector " + std::to_string(m.deadman_ee) + " (deadman_ee) has no buttons";
+  }
+  return {};
+}
+
 }  // namespace
 
-int run_telemanip(const config::OperatorConfig& cfg, const OperatorArgs& a) {
-  // The networked station's outputs this runner does not have yet: said,
-  // not silently skipped (a session the user thinks recorded is lost).
-  if (!a.record_path.empty()) {
-    std::cerr << "hemm-operator: --record: telemanip sessions are not recorded yet (the HEMM station's are); "
-                 "--hand-trace FILE.csv writes the hands (commanded, believed, felt) and hemm-robot --truth-trace the "
-                 "two-arm robot's SIMULATION ONLY truth\n";
+int replay_telemanip_recording(const Recording& rec, const OperatorArgs& a) {
+  config::OperatorConfig cfg;
+  if (!google::protobuf::TextFormat::ParseFromString(rec.header.config_text(), &cfg)) {
+    std::cerr << "hemm-operator: --replay: the recording's config does not parse\n";
     return net::kExitUsage;
   }
+  BimanualSetup setup;
+  tele::TelemanipTaskParams tp;
+  tele::TelemanipLinkParams lp;
+  if (std::string e = telemanip_setup(cfg, rec.header.servo_period_ns(), &setup, &tp, &lp); !e.empty()) {
+    std::cerr << "hemm-operator: --replay: the recording's config: " << e << "\n";
+    return net::kExitUsage;
+  }
+  // Its voxmap is not rebuilt (telemanip_replay.h): no work-rate calibration.
+  tp.tick_budget_ns = 0;
+  std::unique_ptr<tele::TelemanipTask> task;
+  try {
+    task = std::make_unique<tele::TelemanipTask>(tp);
+  } catch (const std::exception& e) {
+    std::cerr << "hemm-operator: --replay: " << e.what() << "\n";
+    return net::kExitUsage;
+  }
+  asio::io_context io;  // never run: the link's state checks only
+  tele::TelemanipLink link(io, task->setpoints(), task->remote(), [](const wire::StreamMessage&) { return true; },
+                           &steady_now_ns, lp);
+  const SessionReplayResult r = tele::replay_telemanip(rec, *task, link);
+  if (!r.warning.empty()) std::cerr << "hemm-operator: --replay: " << r.warning << "\n";
+  std::cout << "replay (telemanip, " << rec.header.telemanip_mode() << "): ticks=" << r.ticks
+            << " remote_states=" << r.remote_states << " ticks_missing=" << r.ticks_missing
+            << " ticks_not_compared=" << r.ticks_not_compared << " force_mismatches=" << r.force_mismatches
+            << " max_force_error_N=" << r.max_force_error_N << " mode_mismatches=" << r.mode_mismatches
+            << " recorded_s=" << r.recorded_s << " wall_s=" << r.wall_s
+            << (r.stopped.empty() ? "" : " stopped=\"" + r.stopped + "\"") << "\n";
+  std::string error;
+  if (!a.replay_json.empty() && !net::write_text_file(a.replay_json, to_json(r), &error)) {
+    std::cerr << "hemm-operator: " << error << "\n";
+    return net::kExitInternal;
+  }
+  return r.stopped.empty() ? net::kExitOk : net::kExitUsage;
+}
+
+int run_telemanip(const config::OperatorConfig& cfg, const OperatorArgs& a) {
+  // The networked station's output this runner does not have: said, not
+  // silently skipped.
   if (!a.servo_log.empty()) {
     std::cerr << "hemm-operator: --log: the telemanip servo writes no CSV log; --stats-json reports its ticks\n";
     return net::kExitUsage;
   }
-  if (cfg.device().type() != "sim-bimanual") {
-    std::cerr << "hemm-operator: bad config: telemanip needs device.type \"sim-bimanual\"\n";
-    return net::kExitUsage;
-  }
-  if (const auto issues = validate_bimanual_config(cfg.device().bimanual()); !issues.empty()) {
-    std::cerr << "hemm-operator: bad config: " << issues.front().field << ": " << issues.front().message << "\n";
-    return net::kExitUsage;
-  }
   const servo::ServoConfig sc = servo_config(cfg);
-  const double period_s = static_cast<double>(sc.period_ns) * 1e-9;
-  BimanualSetup setup = bimanual_setup(cfg.device().bimanual());
-  setup.sim.plant.control_period_s = period_s;
+  BimanualSetup setup;
   tele::TelemanipTaskParams tp;
   tele::TelemanipLinkParams lp;
-  if (std::string e = tele::telemanip_params(cfg.telemanip(), period_s, hb::bimanual_limits(setup.sim), &tp, &lp,
-                                             &cfg.passivity());
-      !e.empty()) {
+  if (std::string e = telemanip_setup(cfg, sc.period_ns, &setup, &tp, &lp); !e.empty()) {
     std::cerr << "hemm-operator: bad config: " << e << "\n";
     return net::kExitUsage;
-  }
-  for (int k = 0; k < hb::kArms; ++k) {
-    const tele::ArmMappingParams& m = tp.mapping[static_cast<std::size_t>(k)];
-    const hb::HandleKind gate = setup.sim.plant.handles[static_cast<std::size_t>(m.deadman_ee)];
-    if (m.clutch_button > 0 && !hb::has_input(gate, hb::HandleInput::kButtons)) {
-      std::cerr << "hemm-operator: bad config: telemanip." << (k == 0 ? "right" : "left") << ".clutch_button: the "
-                << hb::to_string(gate) << " handle of end-effector " << m.deadman_ee << " (deadman_ee) has no buttons\n";
-      return net::kExitUsage;
-    }
   }
   const std::string robot_address = a.robot.empty() ? cfg.net().robot_address() : a.robot;
   const auto key =
@@ -117,6 +158,26 @@ int run_telemanip(const config::OperatorConfig& cfg, const OperatorArgs& a) {
   if (std::string e; !a.hand_trace.empty() && !net::write_text_file(a.hand_trace, tele::hand_trace_csv({}), &e)) {
     std::cerr << "hemm-operator: --hand-trace: " << e << "\n";
     return net::kExitUsage;
+  }
+  // --record: the session (ticks of both hands, every stream message and
+  // session frame) into one file, as the HEMM station records its own;
+  // opened now, so a path that cannot be written is refused before the run.
+  std::unique_ptr<SessionRecorder> recorder;
+  if (!a.record_path.empty()) {
+    rec::Header h;
+    h.set_start_ns(steady_now_ns());
+    h.set_servo_period_ns(sc.period_ns);
+    h.set_initial_mode(2);  // manipulation
+    h.set_script(cfg.telemanip().task().empty() ? cfg.telemanip().human_script() : "task " + cfg.telemanip().task());
+    h.set_end_effectors(hb::kArms);
+    h.set_telemanip_mode(tele::to_string(tp.mode));
+    google::protobuf::TextFormat::PrintToString(cfg, h.mutable_config_text());
+    try {
+      recorder = std::make_unique<SessionRecorder>(a.record_path, h);
+    } catch (const std::exception& e) {
+      std::cerr << "hemm-operator: --record: " << e.what() << "\n";
+      return net::kExitUsage;
+    }
   }
   std::string task_scene;
   if (std::string e = tele::check_task_config(cfg.telemanip(), a.config_path, &task_scene); !e.empty()) {
@@ -157,6 +218,13 @@ int run_telemanip(const config::OperatorConfig& cfg, const OperatorArgs& a) {
     task->set_roi_out(&model->probe_positions());
     if (plan) {
       brain = std::make_unique<tele::TaskHumanBrain>(std::move(*plan), tp.mapping);
+      if (tp.mode == tele::FeedbackMode::kDirect) {
+        // The direct mode: the human corrects the drift it sees (task_human.h).
+        tele::DriftCorrectionParams d;
+        d.gain_per_s = 0.25;
+        d.wait_s = cfg.link().rtt_ms() / 1000.0 + 0.5;
+        brain->set_drift_correction(d);
+      }
       device = std::make_unique<hb::SimulatedBimanualDevice>(
           setup.sim, tele::task_hands(setup.sim, tp.mapping, {&task->anchors(0), &task->anchors(1)}, *brain, &robot_safety));
     }
@@ -176,20 +244,38 @@ int run_telemanip(const config::OperatorConfig& cfg, const OperatorArgs& a) {
     spdlog::error("event=station_failed error=\"{}\"", e.what());
     return net::kExitUsage;
   }
+  if (recorder) {
+    task->set_tick_tap(&recorder->ticks());
+    recorder->start();
+  }
+  SessionRecorder* const rec_out = recorder.get();
   servo::ServoLoop loop(*device, *task, channel, sc);
 
   asio::io_context io;
   OperatorClient client(io, client_options(cfg, a, robot_address, *key));
   tele::TelemanipLink link(
-      io, task->setpoints(), task->remote(), [&client](const wire::StreamMessage& m) { return client.streams().send(m); },
+      io, task->setpoints(), task->remote(),
+      [&client, rec_out](const wire::StreamMessage& m) {
+        if (rec_out != nullptr) rec_out->stream(steady_now_ns(), true, m);
+        return client.streams().send(m);
+      },
       &steady_now_ns, lp, [&client] { return client.link_up(); });
   link.set_safety_out(&robot_safety);
-  link.attach(client.streams());
-  if (brain) tele::attach_task_believed(client.streams(), link, *brain);
+  tele::TelemanipLink::ReceivedTap state_tap;
+  if (rec_out != nullptr)
+    state_tap = [rec_out](std::uint64_t seq, std::int64_t recv_ns, const wire::StreamMessage& m) {
+      rec_out->stream(recv_ns, false, m, seq);
+    };
+  tele::TelemanipLink::Accepted believe;
+  if (brain) believe = [b = brain.get()](const wire::ArmsState& s) { b->believed().publish(s); };
+  link.attach(client.streams(), std::move(state_tap), std::move(believe));
   client.streams().on(wire::StreamMessage::kDepthChunk,
-                      [&model](const net::DatagramHeader&, std::int64_t, const wire::StreamMessage& m) {
+                      [&model, rec_out](const net::DatagramHeader& dh, std::int64_t recv_ns, const wire::StreamMessage& m) {
+                        if (rec_out != nullptr) rec_out->stream(recv_ns, false, m, dh.seq);
                         model->submit_depth_chunk(std::make_shared<const wire::DepthChunk>(m.depth_chunk()));
                       });
+  if (rec_out != nullptr)
+    client.set_session_frame_tap([rec_out](const wire::SessionFrame& f) { rec_out->session(steady_now_ns(), false, f); });
   int exit_code = net::kExitOk;
   bool stopping = false;
   asio::signal_set signals(io, SIGINT, SIGTERM);
@@ -287,6 +373,18 @@ int run_telemanip(const config::OperatorConfig& cfg, const OperatorArgs& a) {
   if (brain) brain->stop();
   loop.stop();
   model->stop();
+  if (recorder) {
+    client.set_session_frame_tap(nullptr);
+    recorder->stop();
+    spdlog::info("event=recorded file=\"{}\" records={} ticks_dropped={} write_failed={}", a.record_path,
+                 recorder->records(), recorder->ticks_dropped(), recorder->write_failed());
+    std::cout << "telemanip: recorded " << recorder->records() << " records to " << a.record_path << " ("
+              << recorder->ticks_dropped() << " ticks dropped)\n";
+    if (recorder->write_failed()) {
+      std::cerr << "hemm-operator: writing " << a.record_path << " failed\n";
+      exit_code = net::kExitInternal;
+    }
+  }
 
   const servo::TimingSummary timing = loop.summary();
   report::Telemanip r = tele::make_telemanip_report(link.stats(), *task, task->latest_remote(), &timing);
@@ -296,7 +394,9 @@ int run_telemanip(const config::OperatorConfig& cfg, const OperatorArgs& a) {
     tele::fill_task_report(p, r.mutable_task());
     std::cout << "telemanip: task " << p.task << " (SIMULATED human): " << (p.done ? "script done" : "script NOT done")
               << " after " << p.done_s << " s, step " << p.steps_done << " of " << p.steps << " (" << p.last_step
-              << "), searches " << p.searches << ", clutch presses " << p.clutch_presses << " (the plan waited " << p.indexing_pause_s << " s)" << (p.error.empty() ? "" : ", error: " + p.error) << "\n";
+              << "), searches " << p.searches << ", clutch presses " << p.clutch_presses << " (the plan waited " << p.indexing_pause_s << " s)"
+              << (tp.mode == tele::FeedbackMode::kDirect ? ", drift corrected up to " + std::to_string(p.drift_offset_max_m[0]) + " / " + std::to_string(p.drift_offset_max_m[1]) + " m" : "")
+              << (p.error.empty() ? "" : ", error: " + p.error) << "\n";
   }
   telemanip_mode_report(cfg, *task, client.statistics(), &r);
   const hb::BimanualDeviceCounters& dc = device->counters();  // the plant's thread has stopped

@@ -82,6 +82,7 @@
 #include "operator/servo/csv_logger.h"
 #include "common/concurrency/newest_mailbox.h"
 #include "operator/servo/servo_loop.h"
+#include "operator/servo/servo_tick_tap.h"
 #include "operator/servo/spsc_ring.h"
 #include "operator/station/tool6_explorer.h"
 #include "wire.pb.h"
@@ -161,27 +162,6 @@ inline StationLogger make_station_logger(std::size_t capacity = 8192) {
   return StationLogger(capacity, station_log_header(), &format_station_log_record);
 }
 
-// One servo tick as the session recorder keeps it (operator/record): what
-// the task read, the snapshot version it rendered with, the wrench it
-// commanded, the view's key presses it took. Fixed size: copied into a
-// preallocated ring on the servo thread.
-struct ServoTickRecord {
-  std::uint64_t tick = 0;
-  device::DeviceSample in;
-  std::uint64_t model_version = 0;
-  device::DeviceCommand command;
-  std::uint32_t view_presses = 0;
-  std::uint32_t mode = 0;
-};
-// The servo thread's side of the recorder: a full ring drops the record and counts it.
-struct ServoTickTap {
-  explicit ServoTickTap(std::size_t capacity) : ring(capacity) {}
-  void push(const ServoTickRecord& r) noexcept {
-    if (!ring.try_push(r)) dropped.fetch_add(1, std::memory_order_relaxed);
-  }
-  servo::SpscRing<ServoTickRecord> ring;
-  std::atomic<std::uint64_t> dropped{0};
-};
 
 // What the operator sees on the station's display, for a SIMULATED operator
 // that closes the loop (the "nav-to-goal" hand, demo_scripts.h): the robot

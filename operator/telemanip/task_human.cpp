@@ -6,11 +6,9 @@
 #include <stdexcept>
 
 #include "common/config/config.h"
-#include "common/net/stream_link.h"
 #include "config_operator.pb.h"
 #include "operator/device/bimanual/handles.h"
 #include "operator/device/bimanual/simulation.h"
-#include "operator/telemanip/telemanip_link.h"
 #include "report.pb.h"
 
 namespace hemm::op::telemanip {
@@ -19,6 +17,40 @@ double lever_for_gripper(const ArmMappingParams& p, const twoarm::GripperTarget&
   const double span = p.opening_open_m - p.opening_closed_m;
   if (!(std::abs(span) > 1e-9) || !std::isfinite(g.opening_m)) return 0.0;
   return std::clamp((p.opening_open_m - g.opening_m) / span, 0.0, 1.0);
+}
+
+std::string validate(const DriftCorrectionParams& p) {
+  const auto ok = [](double v, double lo, double hi) { return std::isfinite(v) && v >= lo && v <= hi; };
+  if (!ok(p.gain_per_s, 0.0, 5.0)) return "drift correction: gain must be in [0, 5] per second";
+  if (!ok(p.wait_s, 0.0, 60.0)) return "drift correction: wait must be in [0, 60] s";
+  if (!ok(p.max_m, 0.0, 1.0) || !ok(p.max_rad, 0.0, 3.0))
+    return "drift correction: bounds must be in [0, 1] m and [0, 3] rad";
+  if (!ok(p.contact_N, 0.0, 1000.0) || !ok(p.contact_Nm, 0.0, 100.0))
+    return "drift correction: contact thresholds must be >= 0 (and finite)";
+  return {};
+}
+
+void integrate_drift(const DriftCorrectionParams& p, const Eigen::Isometry3d& target,
+                     const twoarm_tasks::BelievedArm& b, double dt, DriftOffset* o) noexcept {
+  if (!(p.gain_per_s > 0.0 && dt > 0.0)) return;
+  const Eigen::Vector3d lack_p = target.translation() - b.T_A_G.translation();
+  const Eigen::AngleAxisd lack_R(target.linear() * b.T_A_G.linear().transpose());
+  const Eigen::Vector3d lack_r = lack_R.angle() * lack_R.axis();
+  for (int i = 0; i < 3; ++i) {
+    // The environment's force on the gripper against the lack: a contact.
+    if (!(b.force_A[i] * (lack_p[i] > 0.0 ? 1.0 : -1.0) < -p.contact_N)) o->p_A[i] += p.gain_per_s * dt * lack_p[i];
+    if (!(b.torque_A[i] * (lack_r[i] > 0.0 ? 1.0 : -1.0) < -p.contact_Nm)) o->r_A[i] += p.gain_per_s * dt * lack_r[i];
+  }
+  if (const double n = o->p_A.norm(); n > p.max_m) o->p_A *= p.max_m / n;
+  if (const double n = o->r_A.norm(); n > p.max_rad) o->r_A *= p.max_rad / n;
+  if (!o->p_A.allFinite() || !o->r_A.allFinite()) *o = DriftOffset{};
+}
+
+Eigen::Isometry3d offset_target(const Eigen::Isometry3d& target, const DriftOffset& o) noexcept {
+  Eigen::Isometry3d T = target;
+  T.translation() += o.p_A;
+  if (const double a = o.r_A.norm(); a > 0.0) T.linear() = Eigen::AngleAxisd(a, o.r_A / a).toRotationMatrix() * target.linear();
+  return T;
 }
 
 TaskHumanBrain::TaskHumanBrain(twoarm_tasks::TaskScript script, const std::array<ArmMappingParams, 2>& mapping)
@@ -33,6 +65,11 @@ TaskHumanBrain::TaskHumanBrain(twoarm_tasks::TaskScript script, const std::array
 
 TaskHumanBrain::~TaskHumanBrain() { stop(); }
 
+void TaskHumanBrain::set_drift_correction(const DriftCorrectionParams& p) {
+  if (std::string e = validate(p); !e.empty()) throw std::invalid_argument("task human: " + e);
+  drift_ = p;
+}
+
 void TaskHumanBrain::tick(double t_s) {
   const wire::ArmsState* b = believed_.take();
   if (b == nullptr) b = believed_.latest();
@@ -41,6 +78,7 @@ void TaskHumanBrain::tick(double t_s) {
   if (indexing) last_index_t_ = t_s;
   const bool paused = last_index_t_ >= 0.0 && t_s - last_index_t_ <= indexing_.p.resume_s;
   if (paused && last_t_ >= 0.0) paused_s_ += std::max(0.0, t_s - last_t_);
+  const double prev_t = last_t_;
   last_t_ = t_s;
   const bool was_started = st_.started, was_done = st_.done;
   const twoarm_tasks::ScriptOutput out = twoarm_tasks::script_step(script_, st_, b, t_s - paused_s_);
@@ -48,11 +86,25 @@ void TaskHumanBrain::tick(double t_s) {
   while (step_end_t_.size() < st_.step_end_t.size()) step_end_t_.push_back(t_s);
   if (!was_done && st_.done) done_t_ = t_s;
   ++ticks_;
+  const double dt = ticks_ > 0 && prev_t >= 0.0 ? std::clamp(t_s - prev_t, 0.0, 0.1) : 0.0;
+  if (out.send && drift_.gain_per_s > 0.0) {
+    std::array<twoarm_tasks::BelievedArm, 2> seen;
+    const bool have = b != nullptr && !twoarm_tasks::read_believed(*b, &seen);
+    for (std::size_t k = 0; k < 2; ++k) {
+      const Eigen::Isometry3d& T = out.targets.T_A_G[k];
+      if (!T.isApprox(last_target_[k], 1e-9)) last_move_t_[k] = t_s;
+      last_target_[k] = T;
+      if (have && !paused && t_s - last_move_t_[k] >= drift_.wait_s) {
+        integrate_drift(drift_, T, seen[k], dt, &drift_offset_[k]);
+        drift_max_m_[k] = std::max(drift_max_m_[k], drift_offset_[k].p_A.norm());
+      }
+    }
+  }
   if (out.send) {
     for (std::size_t k = 0; k < 2; ++k) {
       TaskHandWish& w = wishes_[k].back();
       w.active = true;
-      w.T_A_G = out.targets.T_A_G[k];
+      w.T_A_G = offset_target(out.targets.T_A_G[k], drift_offset_[k]);
       w.lever = lever_for_gripper(mapping_[k], out.targets.gripper[k]);
       w.deadman = out.deadman;
       wishes_[k].publish();
@@ -74,6 +126,7 @@ void TaskHumanBrain::tick(double t_s) {
   progress_.step_done_s.resize(step_end_t_.size());
   for (std::size_t i = 0; i < step_end_t_.size(); ++i) progress_.step_done_s[i] = step_end_t_[i] - start_t_;
   progress_.indexing_pause_s = paused_s_;
+  progress_.drift_offset_max_m = drift_max_m_;
   progress_.clutch_presses = indexing_.presses[0].load(std::memory_order_relaxed) + indexing_.presses[1].load(std::memory_order_relaxed);
 }
 
@@ -250,15 +303,6 @@ std::array<std::shared_ptr<const device::bimanual::HumanScript>, 2> task_hands(
   return hands;
 }
 
-void attach_task_believed(net::StreamLink& streams, TelemanipLink& link, TaskHumanBrain& brain) {
-  streams.on(wire::StreamMessage::kArmsState,
-             [&link, &brain](const net::DatagramHeader& h, std::int64_t recv_ns, const wire::StreamMessage& m) {
-               const std::uint64_t before = link.stats().states_in;
-               link.on_arms_state(h.seq, recv_ns, m.arms_state());
-               if (link.stats().states_in != before) brain.believed().publish(m.arms_state());
-             });
-}
-
 void fill_task_report(const TaskProgress& p, report::TelemanipTaskProgress* out) {
   out->set_task(p.task);
   out->set_done(p.done);
@@ -277,6 +321,7 @@ void fill_task_report(const TaskProgress& p, report::TelemanipTaskProgress* out)
   for (double s : p.step_done_s) out->add_step_done_s(s);
   out->set_clutch_presses(p.clutch_presses);
   out->set_indexing_pause_s(p.indexing_pause_s);
+  for (double d : p.drift_offset_max_m) out->add_drift_offset_max_m(d);
 }
 
 }  // namespace hemm::op::telemanip

@@ -43,9 +43,6 @@ class TelemanipConfig;
 namespace hemm::report {
 class TelemanipTaskProgress;
 }
-namespace hemm::net {
-class StreamLink;
-}
 namespace hemm::device::bimanual {
 struct SimulationConfig;
 }
@@ -79,6 +76,7 @@ struct TaskProgress {
   std::vector<double> step_done_s;  // each finished step's end, from the script's start
   std::uint32_t clutch_presses = 0;  // the hands' indexing (TaskIndexing::presses, both)
   double indexing_pause_s = 0.0;     // the plan's time spent waiting on the clutch (resume_s included)
+  std::array<double, 2> drift_offset_max_m{0.0, 0.0};  // the direct mode's drift correction, largest |offset|
 };
 
 // The SIMULATED human's indexing with the clutch (arm_mapping.h): a hand
@@ -105,6 +103,45 @@ struct TaskIndexing {
   std::array<std::atomic<std::uint32_t>, 2> presses{};  // the clutch presses by hand (the one that holds it)
 };
 
+// The SIMULATED human's eye on the remote arms in the direct mode. There the
+// hands move the remote targets by velocity, so whatever the passivity
+// controller withholds, and every twist the link loses, leaves the remote G
+// short of where the hand's mapping puts it (TDPA's position drift); at 0 ms
+// round trip the first move of the bar ended 2.5 cm short and the plan
+// waited on it for 90 s. A person watching the display moves the hand on
+// until the gripper is where they want it. Per arm, the brain integrates what
+// the believed G lacks of the plan's target into an offset of the target it
+// gives the hand:
+//  * only once the target has stood still for wait_s (the believed state is
+//    a round trip late: a moving target's lack is the delay's, not drift)
+//    and not while the hands index;
+//  * slowly: the loop closes through the round trip, and gain x round trip
+//    well under pi/2 keeps it from ringing (0.25/s: 0.75 rad at 3 s);
+//  * not against a contact: an axis of A whose wrist force (torque) pushes
+//    back against its lack by more than contact_N (contact_Nm) is not
+//    integrated - a press, a held load's weight, is the plan's;
+//  * bounded (max_m, max_rad).
+// Off (gain 0) in the model-mediated mode, where the mapping is a position
+// map and the remote G sits where the hand puts it.
+struct DriftCorrectionParams {
+  double gain_per_s = 0.0;
+  double wait_s = 0.5;  // the runner: the link's round trip + 0.5 s
+  double max_m = 0.15, max_rad = 1.5;
+  double contact_N = 3.0, contact_Nm = 0.3;
+};
+// Empty when usable.
+std::string validate(const DriftCorrectionParams& p);
+struct DriftOffset {
+  Eigen::Vector3d p_A = Eigen::Vector3d::Zero();  // added to the target's position
+  Eigen::Vector3d r_A = Eigen::Vector3d::Zero();  // rotation vector, applied before the target's orientation (in A)
+};
+// One integration step of dt for one arm (pure): the lack of the believed
+// arm b against the plan's target, per axis unless its contact resists it.
+void integrate_drift(const DriftCorrectionParams& p, const Eigen::Isometry3d& target,
+                     const twoarm_tasks::BelievedArm& b, double dt, DriftOffset* o) noexcept;
+// The target the hand is given: translated by o.p_A, turned by exp(o.r_A) in A.
+Eigen::Isometry3d offset_target(const Eigen::Isometry3d& target, const DriftOffset& o) noexcept;
+
 class TaskHumanBrain {
  public:
   // Throws std::invalid_argument on bad mapping parameters or an empty plan.
@@ -119,6 +156,9 @@ class TaskHumanBrain {
   NewestMailbox<TaskHandWish>& wishes(int k) noexcept { return wishes_[static_cast<std::size_t>(k)]; }
   // Both hands' indexing (task_hands hands it to them).
   TaskIndexing& indexing() noexcept { return indexing_; }
+  // The direct mode's drift correction (before start(); throws
+  // std::invalid_argument on bad parameters).
+  void set_drift_correction(const DriftCorrectionParams& p);
 
   // One step of the plan at t_s (seconds, any monotonic clock): the brain
   // thread's, or a test's (then do not start()).
@@ -142,6 +182,10 @@ class TaskHumanBrain {
   std::uint64_t ticks_ = 0;
   double last_t_ = -1.0, last_index_t_ = -1.0, paused_s_ = 0.0, start_t_ = 0.0, done_t_ = -1.0;
   std::vector<double> step_end_t_;
+  DriftCorrectionParams drift_;
+  std::array<DriftOffset, 2> drift_offset_{};
+  std::array<Eigen::Isometry3d, 2> last_target_{Eigen::Isometry3d::Identity(), Eigen::Isometry3d::Identity()};
+  std::array<double, 2> last_move_t_{0.0, 0.0}, drift_max_m_{0.0, 0.0};
   std::atomic<bool> done_{false}, stop_{false};
   mutable std::mutex mu_;
   TaskProgress progress_;  // guarded by mu_
@@ -211,8 +255,6 @@ std::string check_task_config(const config::TelemanipConfig& c, const std::strin
 // file:line: reason (task_scene.h) or an unknown task.
 twoarm_tasks::TaskScript task_plan(const std::string& task, const std::string& scene_path);
 
-class TelemanipLink;
-
 // The runner's pieces (telemanip_runner.cpp). Both hands of the task human
 // for the SIMULATED device `sim` (rest poses; a grip-force handle's lever
 // travel, else its joystick stands in for the lever), each on its arm's
@@ -221,9 +263,6 @@ std::array<std::shared_ptr<const device::bimanual::HumanScript>, 2> task_hands(
     const device::bimanual::SimulationConfig& sim, const std::array<ArmMappingParams, 2>& mapping,
     const std::array<NewestMailbox<MappingAnchor>*, 2>& anchors, TaskHumanBrain& brain,
     const std::atomic<std::uint32_t>* robot_safety);
-// Replaces the link's ArmsState handler (TelemanipLink::attach first) by one
-// that also hands each state the link accepted to the brain (network thread).
-void attach_task_believed(net::StreamLink& streams, TelemanipLink& link, TaskHumanBrain& brain);
 void fill_task_report(const TaskProgress& p, report::TelemanipTaskProgress* out);
 
 }  // namespace hemm::op::telemanip

@@ -201,11 +201,15 @@ TelemanipLink::TelemanipLink(asio::io_context& io, NewestMailbox<TelemanipSetpoi
   if (!send_ || !clock_) throw std::invalid_argument("TelemanipLink: send and clock are required");
 }
 
-void TelemanipLink::attach(net::StreamLink& streams) {
-  streams.on(wire::StreamMessage::kArmsState,
-             [this](const net::DatagramHeader& h, std::int64_t recv_ns, const wire::StreamMessage& m) {
-               on_arms_state(h.seq, recv_ns, m.arms_state());
-             });
+void TelemanipLink::attach(net::StreamLink& streams, ReceivedTap tap, Accepted accepted) {
+  streams.on(wire::StreamMessage::kArmsState, [this, tap = std::move(tap), accepted = std::move(accepted)](
+                                                   const net::DatagramHeader& h, std::int64_t recv_ns,
+                                                   const wire::StreamMessage& m) {
+    if (tap) tap(h.seq, recv_ns, m);
+    const std::uint64_t before = stats_.states_in;
+    on_arms_state(h.seq, recv_ns, m.arms_state());
+    if (accepted && stats_.states_in != before) accepted(m.arms_state());
+  });
 }
 
 void TelemanipLink::start() {

@@ -172,8 +172,12 @@ class TelemanipLink {
   TelemanipLink(asio::io_context& io, NewestMailbox<TelemanipSetpoint>& setpoints,
                 NewestMailbox<RemoteArmsState>& remote, SendStream send, Clock clock, const TelemanipLinkParams& p,
                 LinkUp link_up = nullptr);
+  // Every ArmsState received, before its checks (the session recorder).
+  using ReceivedTap = std::function<void(std::uint64_t seq, std::int64_t recv_ns, const wire::StreamMessage&)>;
+  // Each ArmsState the link took (the SIMULATED task human's belief).
+  using Accepted = std::function<void(const wire::ArmsState&)>;
   // Registers the ArmsState handler on the link (network thread).
-  void attach(net::StreamLink& streams);
+  void attach(net::StreamLink& streams, ReceivedTap tap = nullptr, Accepted accepted = nullptr);
   void start();
   void stop();
   // One period's work (the timer's; tests may call it on the io thread).

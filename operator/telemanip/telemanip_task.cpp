@@ -326,6 +326,16 @@ void TelemanipTask::tick(const device::DeviceSample& in, const servo::ModelSnaps
   if (p_.render && remote != nullptr && remote->valid && map_[0].initialized && map_[1].initialized)
     render_held(*remote, out.command);
   if (trace_on_) publish_trace(in, remote, out.command);
+  if (tick_tap_ != nullptr) {
+    tap_record_.tick = out.setpoint.tick;
+    tap_record_.in = in;
+    tap_record_.model_version = vm != nullptr ? build : 0;
+    tap_record_.command = out.command;
+    tap_record_.view_presses = 0;
+    tap_record_.mode = p_.mode == FeedbackMode::kDirect ? 1u : 0u;
+    tap_record_.remote_seq = remote != nullptr ? remote->seq : 0;
+    tick_tap_->push(tap_record_);
+  }
   setpoints_.publish();
   if (roi_out_ != nullptr && map_[0].initialized && map_[1].initialized) {
     ProbePosition& pp = roi_out_->back();

@@ -44,6 +44,7 @@
 #include "common/haptics/vps/work_budget.h"
 #include "operator/device/haptic_device.h"
 #include "operator/model/model_thread.h"
+#include "operator/servo/servo_tick_tap.h"
 #include "operator/servo/servo_loop.h"
 #include "operator/telemanip/arm_mapping.h"
 #include "operator/telemanip/gripper_tool.h"
@@ -106,7 +107,12 @@ class TelemanipTask final : public servo::ServoTask {
   // not built: while it is held, its contacts are not felt, only its weight
   // and the two-hand coupling.
   static constexpr double kClosingTol_m = 0.003;
-  static constexpr double kLeverClosing_m = 0.01;  // a hand's lever wobbles by millimetres of opening
+  // At 0 ms the remote gripper keeps up with the lever, so only this tells
+  // the closing: at 1 cm the box's finger shell met its voxels 6 mm into the
+  // closing (the hand pushed 2 cm, a pad on the box, wrist peaks 47-52 N in
+  // 3 of 3 runs). A lever wobbling by more costs finger contact until it
+  // is open again (nothing held).
+  static constexpr double kLeverClosing_m = 0.003;
   static constexpr double kGraspClear_m = 0.08;
   // Builds the gripper shells, their pair states and the budgets
   // (allocates); throws std::invalid_argument on bad parameters.
@@ -132,6 +138,10 @@ class TelemanipTask final : public servo::ServoTask {
   // Each tick's hand trace sample (hand_trace.h) into trace(), for one
   // consumer (hemm-operator --hand-trace). Set before the loop starts.
   void set_trace(bool on) noexcept { trace_on_ = on; }
+  // Each tick into the session recorder's ring (hemm-operator --record):
+  // the sample, the voxmap build rendered with, the wrench commanded, the
+  // feedback mode (0 model, 1 direct). Set before the loop starts.
+  void set_tick_tap(ServoTickTap* tap) noexcept { tick_tap_ = tap; }
   NewestMailbox<HandTraceSample>& trace() noexcept { return trace_; }
 
   const TelemanipTaskParams& params() const noexcept { return p_; }
@@ -193,6 +203,8 @@ class TelemanipTask final : public servo::ServoTask {
   NewestMailbox<RemoteArmsState> remote_;
   std::array<NewestMailbox<MappingAnchor>, kTeleArms> anchors_;
   NewestMailbox<ProbePosition>* roi_out_ = nullptr;
+  ServoTickTap* tick_tap_ = nullptr;
+  ServoTickRecord tap_record_;
   bool trace_on_ = false;
   NewestMailbox<HandTraceSample> trace_;
   const vps::Voxmap* override_vm_ = nullptr;

@@ -15,35 +15,6 @@ namespace {
 using twoarm::downward_grasp;
 using twoarm::GripperTarget;
 
-// What the script reads of a believed state.
-struct BelievedArm {
-  Eigen::Isometry3d T_A_G = Eigen::Isometry3d::Identity();
-  Eigen::Vector3d v_A = Eigen::Vector3d::Zero();
-  Eigen::Vector3d force_A = Eigen::Vector3d::Zero();
-  double opening_m = 0.0;
-  bool holding = false;
-  GripperTarget grip_target;
-};
-
-std::optional<std::string> script_read(const wire::ArmsState& s, std::array<BelievedArm, kArms>* out) {
-  if (auto e = twoarm::check_arms_state(s)) return e;
-  if (s.arm_size() != kArms || s.gripper_size() != kArms) return "the believed state has not two arms and two grippers";
-  for (const wire::ArmState& a : s.arm()) {
-    if (a.index() >= static_cast<uint32_t>(kArms)) return "an arm index beyond the two";
-    BelievedArm& b = (*out)[a.index()];
-    if (auto e = mapping::pose3_from_wire(a.t_a_g(), &b.T_A_G)) return e;
-    b.v_A = Eigen::Vector3d(a.v_a().x(), a.v_a().y(), a.v_a().z());
-    b.force_A = Eigen::Vector3d(a.force_a().x(), a.force_a().y(), a.force_a().z());
-  }
-  for (const wire::GripperState& g : s.gripper()) {
-    if (g.index() >= static_cast<uint32_t>(kArms)) return "a gripper index beyond the two";
-    BelievedArm& b = (*out)[g.index()];
-    b.opening_m = g.opening_m();
-    b.holding = g.holding();
-    b.grip_target = {g.target_opening_m(), g.target_force_n()};
-  }
-  return std::nullopt;
-}
 
 Eigen::Isometry3d script_blend(const Eigen::Isometry3d& a, const Eigen::Isometry3d& b, double s) {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
@@ -116,6 +87,27 @@ ScriptStep script_move_both(const std::string& name, const ScriptParams& p, cons
 }
 
 }  // namespace
+
+std::optional<std::string> read_believed(const wire::ArmsState& s, std::array<BelievedArm, kArms>* out) {
+  if (auto e = twoarm::check_arms_state(s)) return e;
+  if (s.arm_size() != kArms || s.gripper_size() != kArms) return "the believed state has not two arms and two grippers";
+  for (const wire::ArmState& a : s.arm()) {
+    if (a.index() >= static_cast<uint32_t>(kArms)) return "an arm index beyond the two";
+    BelievedArm& b = (*out)[a.index()];
+    if (auto e = mapping::pose3_from_wire(a.t_a_g(), &b.T_A_G)) return e;
+    b.v_A = Eigen::Vector3d(a.v_a().x(), a.v_a().y(), a.v_a().z());
+    b.force_A = Eigen::Vector3d(a.force_a().x(), a.force_a().y(), a.force_a().z());
+    b.torque_A = Eigen::Vector3d(a.torque_a().x(), a.torque_a().y(), a.torque_a().z());
+  }
+  for (const wire::GripperState& g : s.gripper()) {
+    if (g.index() >= static_cast<uint32_t>(kArms)) return "a gripper index beyond the two";
+    BelievedArm& b = (*out)[g.index()];
+    b.opening_m = g.opening_m();
+    b.holding = g.holding();
+    b.grip_target = {g.target_opening_m(), g.target_force_n()};
+  }
+  return std::nullopt;
+}
 
 TaskScript box_script(const TaskScene& sc, const ScriptParams& params) {
   // The left hand reaches across to the box's and the shelf's right-hand
@@ -242,7 +234,7 @@ ScriptOutput script_step(const TaskScript& sc, ScriptState& st, const wire::Arms
   std::array<BelievedArm, kArms> b;
   bool have = false;
   if (believed != nullptr) {
-    if (auto e = script_read(*believed, &b)) {
+    if (auto e = read_believed(*believed, &b)) {
       st.error = *e;  // hold: nothing it cannot read moves the plan on
     } else {
       have = true;

@@ -156,6 +156,20 @@ struct ScriptState {
   std::string error;  // a believed state it cannot read (it then holds its targets)
 };
 
+// What a script (and the SIMULATED human's eye) reads of a believed state.
+struct BelievedArm {
+  Eigen::Isometry3d T_A_G = Eigen::Isometry3d::Identity();
+  Eigen::Vector3d v_A = Eigen::Vector3d::Zero();
+  Eigen::Vector3d force_A = Eigen::Vector3d::Zero();   // the environment's on the gripper (wrist sensor)
+  Eigen::Vector3d torque_A = Eigen::Vector3d::Zero();
+  double opening_m = 0.0;
+  bool holding = false;
+  twoarm::GripperTarget grip_target;
+};
+// Both arms and grippers of a believed state (check_arms_state first); an
+// error when it is not a two-arm state, *out then partly filled.
+std::optional<std::string> read_believed(const wire::ArmsState& s, std::array<BelievedArm, kArms>* out);
+
 struct ScriptOutput {
   bool send = false;  // false until a first believed state has come
   twoarm::TwoArmTargets targets;

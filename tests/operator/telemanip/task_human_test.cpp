@@ -298,3 +298,120 @@ TEST(TaskHuman, TaskSettingsAreRefusedWithAReason) {
   EXPECT_THROW(tele::task_plan("peg", "/nonexistent/workbench.xml"), std::invalid_argument);
   EXPECT_THROW(tele::task_plan("ball", hemm::test::kWorkbenchScene), std::invalid_argument);
 }
+
+// The direct mode's drift correction, one arm (closed forms): a constant
+// lack integrates at the gain; an axis whose wrist force pushes back against
+// its lack by more than contact_N is held (a press is the plan's); the
+// offset is bounded; the target handed on is translated and turned by it.
+TEST(TaskHuman, DriftCorrectionIntegratesTheLackExceptAgainstAContact) {
+  tele::DriftCorrectionParams p;
+  p.gain_per_s = 0.25;
+  EXPECT_EQ(tele::validate(p), "");
+  const Eigen::Isometry3d target =
+      Eigen::Translation3d(0.5, 0.1, 0.9) * Eigen::AngleAxisd(0.4, Eigen::Vector3d::UnitY());
+  hs::BelievedArm b;
+  // 2 cm short in x, 1 cm too high in z, 0.1 rad short about z.
+  b.T_A_G = Eigen::Translation3d(0.48, 0.1, 0.91) * Eigen::AngleAxisd(-0.1, Eigen::Vector3d::UnitZ()) *
+            Eigen::AngleAxisd(0.4, Eigen::Vector3d::UnitY());
+  tele::DriftOffset o;
+  for (int i = 0; i < 100; ++i) tele::integrate_drift(p, target, b, 0.01, &o);
+  EXPECT_NEAR(o.p_A.x(), 0.25 * 0.02, 1e-12);
+  EXPECT_NEAR(o.p_A.y(), 0.0, 1e-12);
+  EXPECT_NEAR(o.p_A.z(), 0.25 * -0.01, 1e-12);
+  EXPECT_NEAR(o.r_A.z(), 0.25 * 0.1, 1e-9);
+  EXPECT_NEAR(o.r_A.head<2>().norm(), 0.0, 1e-9);
+  // The bench pushes the gripper up (10 N) where the target is lower: z is a
+  // press and is held; x goes on. 2 N is below the threshold: z integrates.
+  b.force_A = Eigen::Vector3d(0.0, 0.0, 10.0);
+  tele::DriftOffset pressed;
+  for (int i = 0; i < 100; ++i) tele::integrate_drift(p, target, b, 0.01, &pressed);
+  EXPECT_NEAR(pressed.p_A.z(), 0.0, 1e-15);
+  EXPECT_NEAR(pressed.p_A.x(), 0.25 * 0.02, 1e-12);
+  b.force_A = Eigen::Vector3d(0.0, 0.0, 2.0);
+  tele::DriftOffset light;
+  tele::integrate_drift(p, target, b, 0.01, &light);
+  EXPECT_NEAR(light.p_A.z(), 0.25 * 0.01 * -0.01, 1e-12);
+  // A force along the lack (the load pulls the way it should go) is no contact.
+  b.force_A = Eigen::Vector3d(0.0, 0.0, -20.0);
+  tele::DriftOffset load;
+  tele::integrate_drift(p, target, b, 0.01, &load);
+  EXPECT_NEAR(load.p_A.z(), 0.25 * 0.01 * -0.01, 1e-12);
+  // A torque against the turn's lack holds the turn alone.
+  b.force_A.setZero();
+  b.torque_A = Eigen::Vector3d(0.0, 0.0, -1.0);
+  tele::DriftOffset twisted;
+  tele::integrate_drift(p, target, b, 0.01, &twisted);
+  EXPECT_NEAR(twisted.r_A.z(), 0.0, 1e-15);
+  EXPECT_GT(twisted.p_A.x(), 0.0);
+  // Bounded.
+  b.torque_A.setZero();
+  p.max_m = 0.004;
+  p.max_rad = 0.01;
+  tele::DriftOffset big;
+  for (int i = 0; i < 10000; ++i) tele::integrate_drift(p, target, b, 0.01, &big);
+  EXPECT_NEAR(big.p_A.norm(), 0.004, 1e-12);
+  EXPECT_NEAR(big.r_A.norm(), 0.01, 1e-12);
+  // Off (gain 0) or no time: nothing.
+  p.gain_per_s = 0.0;
+  tele::DriftOffset off;
+  tele::integrate_drift(p, target, b, 0.01, &off);
+  EXPECT_EQ(off.p_A.norm() + off.r_A.norm(), 0.0);
+  // The target handed on.
+  tele::DriftOffset d;
+  d.p_A = Eigen::Vector3d(0.01, -0.02, 0.005);
+  d.r_A = Eigen::Vector3d(0.0, 0.0, 0.3);
+  const Eigen::Isometry3d T = tele::offset_target(target, d);
+  EXPECT_LT((T.translation() - target.translation() - d.p_A).norm(), 1e-15);
+  EXPECT_LT((T.linear() - Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitZ()).toRotationMatrix() * target.linear()).norm(), 1e-12);
+  // Bad parameters are refused, with a reason.
+  tele::DriftCorrectionParams bad;
+  bad.gain_per_s = std::nan("");
+  EXPECT_NE(tele::validate(bad), "");
+  bad = {};
+  bad.max_m = -1.0;
+  EXPECT_NE(tele::validate(bad), "");
+  tele::TaskHumanBrain brain(tele::task_plan("peg", hemm::test::kWorkbenchScene),
+                             {task_human_test_mapping(), task_human_test_mapping()});
+  EXPECT_THROW(brain.set_drift_correction(bad), std::invalid_argument);
+}
+
+// In the brain: the correction waits until the plan's target has stood
+// still for wait_s, then the wish moves beyond the target by what the
+// believed G lacks, at the gain.
+TEST(TaskHuman, TheBrainCorrectsTheDriftOnlyOnceTheTargetStandsStill) {
+  const tele::ArmMappingParams m = task_human_test_mapping();
+  const hs::TaskScript plan = tele::task_plan("peg", hemm::test::kWorkbenchScene);
+  tele::TaskHumanBrain brain(plan, {m, m});
+  tele::DriftCorrectionParams d;
+  d.gain_per_s = 0.5;
+  d.wait_s = 1.0;
+  brain.set_drift_correction(d);
+  hs::ScriptState twin;
+  const Eigen::Isometry3d rest_r = Eigen::Translation3d(0.73, -0.25, 1.0) * Eigen::Isometry3d::Identity();
+  const Eigen::Isometry3d rest_l = Eigen::Translation3d(0.73, 0.25, 1.0) * Eigen::Isometry3d::Identity();
+  // The peg's first step does not move the right arm: its target stands
+  // still from the first tick where G was first believed. From 0.5 s the
+  // believed right G is 2 cm short of it in y (drifted).
+  const hemm::wire::ArmsState at_rest = hemm::test::believed_arms_state({rest_r, rest_l});
+  const Eigen::Isometry3d drifted = Eigen::Translation3d(0.0, 0.02, 0.0) * rest_r;
+  const hemm::wire::ArmsState lagging = hemm::test::believed_arms_state({drifted, rest_l});
+  brain.believed().publish(at_rest);
+  double first_offset_t = -1.0;
+  Eigen::Vector3d offset = Eigen::Vector3d::Zero();
+  for (double t = 0.0; t < 3.0; t += 0.01) {
+    if (std::abs(t - 0.5) < 0.005) brain.believed().publish(lagging);
+    brain.tick(t);
+    const hs::ScriptOutput out = hs::script_step(plan, twin, t < 0.495 ? &at_rest : &lagging, t);
+    const tele::TaskHandWish* w = brain.wishes(0).take();
+    ASSERT_NE(w, nullptr);
+    EXPECT_LT((out.targets.T_A_G[0].translation() - rest_r.translation()).norm(), 1e-12);
+    offset = w->T_A_G.translation() - rest_r.translation();
+    if (first_offset_t < 0.0 && offset.norm() > 1e-12) first_offset_t = t;
+  }
+  // Not while the target had stood still less than wait_s (the lack was
+  // there from 0.5 s), then 0.5/s of the 2 cm lack for 2 s: 2 cm, in -y.
+  EXPECT_NEAR(first_offset_t, d.wait_s, 0.015);
+  EXPECT_NEAR(offset.y(), -0.5 * 2.0 * 0.02, 5e-4);
+  EXPECT_NEAR(offset.x(), 0.0, 1e-12);
+  EXPECT_NEAR(brain.progress().drift_offset_max_m[0], 0.02, 5e-4);
+}

@@ -53,7 +53,8 @@ TEST(TelemanipRunner, DemoRouteDrivesTheFakeRobotAndTheReportSaysSo) {
   config += "/deploy/configs/operator_telemanip.pbtxt";
   const hemm::test::ProcessResult r = hemm::test::run_to_completion(
       {bin, "--config", config, "--key", key_path, "--session-port", std::to_string(robot.server->session_port()),
-       "--duration", "13", "--stats-json", json_path, "--log-level", "warn", "--hand-trace", dir + "/hands.csv"},
+       "--duration", "13", "--stats-json", json_path, "--log-level", "warn", "--hand-trace", dir + "/hands.csv",
+       "--record", dir + "/session.rec"},
       dir, std::chrono::seconds(100));  // under the sanitizers its start alone took 29 s
   ASSERT_EQ(r.rc, 0) << r.err;
   std::printf("%s", r.out.c_str());
@@ -136,6 +137,35 @@ TEST(TelemanipRunner, DemoRouteDrivesTheFakeRobotAndTheReportSaysSo) {
   // 1.3 ms at the median (CI: 7620 ticks, 5385 periods skipped).
   EXPECT_GT(rep.timing().ticks() + rep.timing().skipped_periods(), 10000u);
   EXPECT_GT(rep.timing().ticks(), hemm::test::kSanitizerBuild ? 5000u : 10000u);
+
+  // --record: the session replays without the robot. Every tick comes back,
+  // each with the ArmsState it took; the ticks that rendered against the live
+  // voxmap are replayed without it and not compared (telemanip_replay.h);
+  // the rest - before the first voxmap, the hands free - give the recorded
+  // wrench exactly. Its MCAP export replays the same.
+  for (const std::string& file : {dir + "/session.rec", dir + "/session.mcap"}) {
+    if (file.ends_with(".mcap")) {
+      const hemm::test::ProcessResult x =
+          hemm::test::run_to_completion({bin, "--export-mcap", dir + "/session.rec", file}, dir, std::chrono::seconds(60));
+      ASSERT_EQ(x.rc, 0) << x.err;
+    }
+    const std::string replay_json = file + ".replay.json";
+    const hemm::test::ProcessResult p = hemm::test::run_to_completion(
+        {bin, "--replay", file, "--replay-speed", "0", "--replay-json", replay_json}, dir, std::chrono::seconds(120));
+    ASSERT_EQ(p.rc, 0) << p.err;
+    std::printf("%s", p.out.c_str());
+    EXPECT_NE(p.out.find("replay (telemanip, model)"), std::string::npos) << p.out;
+    const hemm::report::SessionReplay rr =
+        hemm::test::read_report_json<hemm::report::SessionReplay>(hemm::test::read_file(replay_json));
+    EXPECT_TRUE(rr.complete()) << rr.stopped();
+    EXPECT_EQ(rr.ticks(), rep.timing().ticks());
+    EXPECT_EQ(rr.ticks_missing(), 0u);
+    EXPECT_GT(rr.remote_states(), 1000u);
+    EXPECT_GT(rr.ticks_not_compared(), rr.ticks() / 2);  // the live voxmap came early
+    EXPECT_GT(rr.ticks(), rr.ticks_not_compared());
+    EXPECT_EQ(rr.force_mismatches(), 0u) << "largest " << rr.max_force_error_n() << " N at tick " << rr.max_error_tick();
+    EXPECT_EQ(rr.mode_mismatches(), 0u);
+  }
 }
 
 // --task / --task-scene: bad values are refused with the reason and exit 2
@@ -154,7 +184,7 @@ TEST(TelemanipRunner, TaskArgumentsAreRefusedWithAReason) {
       {{"--task-scene", scene}, "needs telemanip.task"},
       {{"--task", "peg", "--task-scene", dir + "/no_such_scene.xml"}, "no_such_scene.xml"},
       // Outputs this runner does not write are refused, not skipped.
-      {{"--record", dir + "/session.rec"}, "--record: telemanip sessions are not recorded yet"},
+      {{"--record", dir + "/no_such_dir/session.rec"}, "--record:"},
       {{"--log", dir + "/servo.csv"}, "--log: the telemanip servo writes no CSV log"},
       {{"--hand-trace", dir + "/no_such_dir/hands.csv"}, "--hand-trace:"},
   };

@@ -211,6 +211,18 @@ TEST(TelemanipTask, GripperPressedIntoTheBenchPushesItsOwnHandBack) {
       fresh.step(m);
     }
     EXPECT_NEAR(fresh.out.command.ee[0].force_H.z(), f_expected, 0.2 * f_expected);
+    // The lever closes a little past kLeverClosing_m (the remote with it):
+    // already the grasp phase, before the pads could meet anything.
+    const double span = p.mapping[0].opening_open_m - p.mapping[0].opening_closed_m;
+    m.ee[0].handle.grip_position = (tele::TelemanipTask::kLeverClosing_m + 0.001) / span * p.mapping[0].grip_travel_m;
+    for (int i = 0; i < 100; ++i) {
+      fresh.step(m);
+      following.gripper[0].opening_m = fresh.task.command(0).opening_m;
+      fresh.task.remote().publish(following);
+    }
+    EXPECT_LT(fresh.task.command(0).opening_m, p.mapping[0].opening_open_m - tele::TelemanipTask::kLeverClosing_m);
+    EXPECT_GT(fresh.task.command(0).opening_m, p.mapping[0].opening_open_m - 0.005);
+    EXPECT_LT(fresh.out.command.ee[0].force_H.norm(), 0.02 * f_expected);
     m.ee[0].handle.grip_position = 0.5 * p.mapping[0].grip_travel_m;
     for (int i = 0; i < 300; ++i) {
       fresh.step(m);
