@@ -12,37 +12,14 @@
 #include <vector>
 
 #include "common/mapping/depth_stream.h"
+#include "tests/operator/telemanip/arms_state_wire.h"
 
 namespace tele = hemm::op::telemanip;
 namespace hw = hemm::wire;
 
 namespace {
 
-hw::ArmsState link_test_state(double x_right) {
-  hw::ArmsState s;
-  s.set_stamp_ns(5);
-  s.set_frame_epoch(3);
-  for (std::uint32_t k = 0; k < 2; ++k) {
-    hw::ArmState* a = s.add_arm();
-    a->set_index(k);
-    for (int j = 0; j < 7; ++j) {
-      a->add_q(0.0);
-      a->add_qd(0.0);
-      a->add_tau(0.0);
-    }
-    Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-    T.translation() = Eigen::Vector3d(k == 0 ? x_right : 0.6, k == 0 ? -0.25 : 0.25, 0.9);
-    hemm::mapping::pose3_to_wire(T, a->mutable_t_a_g());
-    a->mutable_v_a();
-    a->mutable_omega_a();
-    a->mutable_force_a()->set_z(-2.0);
-    a->mutable_torque_a();
-    hw::GripperState* g = s.add_gripper();
-    g->set_index(k);
-    g->set_opening_m(0.05);
-  }
-  return s;
-}
+hw::ArmsState link_test_state(double x_right) { return hemm::test::telemanip_test_state(x_right); }
 
 struct LinkTestRig {
   asio::io_context io;

@@ -18,7 +18,9 @@
 #include "common/clock/steady_clock.h"
 #include "common/haptics/vps/voxmap.h"
 #include "common/mesh/primitives.h"
+#include "operator/telemanip/telemanip_replay.h"
 #include "tests/operator/servo/alloc_counter.h"
+#include "tests/operator/telemanip/arms_state_wire.h"
 #include "tests/sanitizer_build.h"
 
 namespace tele = hemm::op::telemanip;
@@ -100,6 +102,18 @@ struct TaskTestRun {
     task.tick(s, empty, out);
   }
 };
+
+// The direct mode: no model rendered, the device's peak force as the hands' bound.
+tele::TelemanipTaskParams task_test_direct_params() {
+  tele::TelemanipTaskParams p = task_test_params();
+  p.mode = tele::FeedbackMode::kDirect;
+  p.render = false;
+  for (int k = 0; k < 2; ++k) {
+    p.direct[static_cast<std::size_t>(k)].R_A_D = p.mapping[static_cast<std::size_t>(k)].R_A_D;
+    p.direct[static_cast<std::size_t>(k)].peak_force_n = p.limits[static_cast<std::size_t>(k)].peak_force;
+  }
+  return p;
+}
 
 const Eigen::Vector3d kTaskTestRightA(0.65, -0.25, 0.85), kTaskTestLeftA(0.7, 0.25, 0.9);
 const Eigen::Vector3d kTaskTestRightD(0.3, -0.2, 0.3), kTaskTestLeftD(0.3, 0.2, 0.3);
@@ -391,14 +405,7 @@ TEST(TelemanipTask, TickAllocatesNothingWithBothHandsRendering) {
 // heap allocation in 2000 ticks with both hands moving against a remote
 // wrench.
 TEST(TelemanipTask, DirectModeTickSendsTheTwistAndAllocatesNothing) {
-  tele::TelemanipTaskParams p = task_test_params();
-  p.mode = tele::FeedbackMode::kDirect;
-  p.render = false;
-  for (int k = 0; k < 2; ++k) {
-    p.direct[static_cast<std::size_t>(k)].R_A_D = p.mapping[static_cast<std::size_t>(k)].R_A_D;
-    p.direct[static_cast<std::size_t>(k)].peak_force_n = p.limits[static_cast<std::size_t>(k)].peak_force;
-  }
-  TaskTestRun run(p);
+  TaskTestRun run(task_test_direct_params());
   tele::RemoteArmsState rs = task_test_remote(kTaskTestRightA, kTaskTestLeftA);
   rs.frame_epoch = 4;
   for (tele::RemoteArm& a : rs.arm) {
@@ -463,4 +470,87 @@ TEST(TelemanipTask, DirectModeTickSendsTheTwistAndAllocatesNothing) {
     const auto& side = run.task.direct_hand(k).side;
     EXPECT_TRUE(((side.peer_in_J - side.out_J).array() >= -1e-12).all());
   }
+}
+
+// A direct-mode session recorded as hemm-operator --record does (the task's
+// tick tap, each ArmsState with its datagram sequence), replayed on a fresh
+// task by replay_telemanip: every tick's wrench equal, the operator end's
+// passivity controller acting in it. The same recording with one state's
+// wrench changed differs from that state on; a tick whose state is missing
+// stops the replay there and says why.
+TEST(TelemanipReplay, DirectSessionReplaysTickForTick) {
+  const tele::TelemanipTaskParams p = task_test_direct_params();
+  hemm::op::Recording rec;
+  rec.header.set_end_effectors(2);
+  rec.header.set_servo_period_ns(1'000'000);
+  rec.header.set_telemanip_mode("direct");
+  const auto no_send = [](const hemm::wire::StreamMessage&) { return true; };
+  const auto clock0 = [] { return std::int64_t{0}; };
+  constexpr int kTicks = 3000;
+  double peak_shown = 0.0;
+  {
+    TaskTestRun live(p);
+    hemm::op::ServoTickTap tap(8);
+    live.task.set_tick_tap(&tap);
+    asio::io_context io;
+    tele::TelemanipLink link(io, live.task.setpoints(), live.task.remote(), no_send, clock0, tele::TelemanipLinkParams{});
+    std::uint64_t seq = 0;
+    for (int i = 0; i < kTicks; ++i) {
+      const std::int64_t t = 1'000'000LL * i;
+      if (i % 4 == 0) {  // a state every 4 ms, its remote pushing 2-8 N up, its budget growing
+        hemm::wire::StreamMessage m;
+        hemm::wire::ArmsState& s = *m.mutable_arms_state();
+        s = hemm::test::telemanip_test_state(0.65);
+        for (std::uint32_t k = 0; k < 2; ++k) {
+          hemm::wire::PassivityPort* port = s.add_passivity();
+          port->set_index(k);
+          for (int a = 0; a < 6; ++a) port->add_energy_in_j(2e-4 * i);
+          hemm::wire::DirectWrench* w = s.add_direct_wrench();
+          w->set_index(k);
+          for (int a = 0; a < 6; ++a) w->add_wrench_a(a == 2 ? static_cast<float>(5.0 + 3.0 * std::sin(i / 200.0)) : 0.0f);
+        }
+        link.on_arms_state(++seq, t, s);
+        hemm::rec::StreamEvent& e = rec.streams.emplace_back();
+        e.set_t_ns(t);
+        e.set_seq(seq);
+        *e.mutable_message() = m;
+      }
+      hd::DeviceSample s = task_test_sample(kTaskTestRightD, kTaskTestLeftD, i < 2500);
+      for (int k = 0; k < 2; ++k)
+        s.ee[static_cast<std::size_t>(k)].velocity_H = Eigen::Vector3d(0.01, 0.0, 0.06 * std::sin(i / 150.0 + k));
+      s.t_ns = t;
+      live.step(s);
+      peak_shown = std::max(peak_shown, live.out.command.ee[0].force_H.norm());
+      hemm::op::ServoTickRecord r;
+      ASSERT_TRUE(tap.ring.try_pop(r));
+      hemm::op::to_proto(r, &rec.ticks.emplace_back());
+    }
+    EXPECT_GT(live.task.direct_hand(0).side.dissipated_J.sum(), 0.0);  // the controller acted
+  }
+  EXPECT_GT(peak_shown, 2.0);
+  const auto replay = [&](const hemm::op::Recording& r) {
+    tele::TelemanipTask task(p);
+    asio::io_context io;
+    tele::TelemanipLink link(io, task.setpoints(), task.remote(), no_send, clock0, tele::TelemanipLinkParams{});
+    return tele::replay_telemanip(r, task, link);
+  };
+  const hemm::op::SessionReplayResult same = replay(rec);
+  EXPECT_EQ(same.stopped, "");
+  EXPECT_EQ(same.ticks, static_cast<std::uint64_t>(kTicks));
+  EXPECT_EQ(same.remote_states, static_cast<std::uint64_t>(kTicks / 4));
+  EXPECT_EQ(same.ticks_not_compared, 0u);
+  EXPECT_EQ(same.force_mismatches, 0u) << "largest " << same.max_force_error_N << " N at tick " << same.max_error_tick;
+  EXPECT_EQ(same.mode_mismatches, 0u);
+
+  hemm::op::Recording bent = rec;
+  bent.streams[400].mutable_message()->mutable_arms_state()->mutable_direct_wrench(0)->set_wrench_a(2, 20.0f);
+  const hemm::op::SessionReplayResult differs = replay(bent);
+  EXPECT_GT(differs.force_mismatches, 0u);
+  EXPECT_GE(differs.max_error_tick, 1600u);  // not before the state changed (tick 1600)
+
+  hemm::op::Recording cut = rec;
+  cut.streams.erase(cut.streams.begin() + 600);
+  const hemm::op::SessionReplayResult stops = replay(cut);
+  EXPECT_NE(stops.stopped.find("which the recording does not have"), std::string::npos) << stops.stopped;
+  EXPECT_LT(stops.ticks, static_cast<std::uint64_t>(kTicks));
 }
