@@ -21,9 +21,14 @@
 # Usage: deploy/telemanip_table.sh BUILD_DIR [--out DIR] [--tasks box,peg,bar]
 #          [--rtts 0,300,1000,3000] [--seeds N] [--seeds-3000 N] [--modes model[,direct]]
 #          [--outage] [--outage-at S] [--duration S] [--port-base P] [--truth-trace]
+#          [--direct-feedback spring|measured]
 #   --seeds N       seeds per cell (default 3)
 #   --seeds-3000 N  seeds per model-mediated cell at 3000 ms (default: --seeds)
 #   --modes         model (default) and/or direct (needs hemm-operator --telemanip-mode)
+#   --direct-feedback  the wrench the station's direct mode returns and its passivity
+#                   observer pairs with the tracked twist: spring (default, the station's
+#                   default: the impedance's spring wrench) or measured (the wrist sensor's
+#                   external wrench, twoarm.direct_feedback_measured); shown in the mode column
 #   --outage        also one run per task and mode at 1000 ms with a 1 s outage mid-task
 #   --outage-at S   when the outage starts after the relay does (default 14 s)
 #   --duration S    the operator's time limit per run (default 90 s + 30 s per second of round trip)
@@ -44,7 +49,7 @@ build="${1:-}"
 shift
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 out="$root/out/telemanip-table-$(date -u +%Y%m%dT%H%M%SZ)"
-tasks="box,peg,bar" rtts="0,300,1000,3000" seeds=3 seeds3000="" modes="model" outage=0 outage_at=14 base=47800 limit="" trace=0
+tasks="box,peg,bar" rtts="0,300,1000,3000" seeds=3 seeds3000="" modes="model" outage=0 outage_at=14 base=47800 limit="" trace=0 feedback=spring
 while (($#)); do
   case "$1" in
     --out) out="${2:?--out needs a directory}"; shift 2 ;;
@@ -58,6 +63,7 @@ while (($#)); do
     --port-base) base="${2:?--port-base needs a port}"; shift 2 ;;
     --duration) limit="${2:?--duration needs seconds}"; shift 2 ;;
     --truth-trace) trace=1; shift ;;
+    --direct-feedback) feedback="${2:?--direct-feedback needs spring or measured}"; shift 2 ;;
     -h|--help) usage; exit 0 ;;
     *) echo "telemanip_table: unknown argument '$1' (--help)" >&2; exit 2 ;;
   esac
@@ -72,6 +78,7 @@ for r in "${rtt_list[@]}"; do
   [[ "$r" =~ ^[0-9]+$ ]] && ((r <= 10000)) || fail_arg "--rtts: '$r' is not a round trip in 0..10000 ms"
 done
 for m in "${mode_list[@]}"; do [[ "$m" =~ ^(model|direct)$ ]] || fail_arg "--modes: '$m' is not model or direct"; done
+[[ "$feedback" =~ ^(spring|measured)$ ]] || fail_arg "--direct-feedback '$feedback': spring or measured"
 [[ "$seeds" =~ ^[0-9]+$ ]] && ((seeds >= 1 && seeds <= 100)) || fail_arg "--seeds '$seeds': 1..100"
 [[ "$seeds3000" =~ ^[0-9]+$ ]] && ((seeds3000 >= 1 && seeds3000 <= 100)) || fail_arg "--seeds-3000 '$seeds3000': 1..100"
 [[ "$outage_at" =~ ^[0-9]+(\.[0-9]+)?$ ]] || fail_arg "--outage-at '$outage_at': seconds"
@@ -131,6 +138,11 @@ for run in "${runs[@]}"; do
   sed -e "s|key_file: \"demo.key\"|key_file: \"$cfg/demo.key\"|" -e "s|scene: \"../scenes/workbench.xml\"|scene: \"$scene\"|" \
     -e "s|^twoarm {|twoarm {\n  task: \"$task\"|" -e "s|seed: 1 |seed: $seed |" \
     -e "s|^link {|link {\n  rtt_ms: $rtt|" "$cfg/robot_twoarm.pbtxt" >"$dir/robot.pbtxt"
+  if [[ "$mode" == direct && "$feedback" == measured ]]; then
+    sed -i "s|^  direct_feedback_measured: false|  direct_feedback_measured: true|" "$dir/robot.pbtxt"
+    grep -q "^  direct_feedback_measured: true" "$dir/robot.pbtxt" || { echo "telemanip_table: could not set direct_feedback_measured in $dir/robot.pbtxt" >&2; exit 1; }
+  fi
+  if [[ "$mode" == direct ]]; then echo "$feedback" >"$dir/direct_feedback"; fi
   grep -q "task: \"$task\"" "$dir/robot.pbtxt" || { echo "telemanip_table: could not set the task in $dir/robot.pbtxt" >&2; exit 1; }
   # Both ends know the path's round trip: each handshake step waits
   # handshake_timeout_ms (3 s) plus it, and at 3000 ms one step takes the
@@ -213,6 +225,9 @@ for name in sorted(os.listdir(out)):
     parts = name.split('-')
     task, rtt, mode = parts[0], int(parts[1][:-2]), parts[2]
     cut = 'outage' in parts
+    fb = os.path.join(d, 'direct_feedback')
+    if mode == 'direct' and os.path.exists(fb):
+        mode = 'direct (%s wrench)' % open(fb).read().strip()
     seed = int(parts[-1][1:])
     robot = load(os.path.join(d, 'robot.json')) or {}
     op = load(os.path.join(d, 'operator.json')) or {}
@@ -270,7 +285,7 @@ for key in sorted(cells, key=lambda k: (order.get(k[0], 9), k[2], k[3], k[1])):
                                                              ', steps ended at %s s' % ' '.join('%.0f' % x for x in r['step_done_s']) if r['step_done_s'] else '')
                               for r in rs if not r['success']}))
     table.append(c)
-    energy = '%.2f / %.2f' % (c['energy_in_j'], c['energy_out_j']) if key[2] == 'direct' else '-'
+    energy = '%.2f / %.2f' % (c['energy_in_j'], c['energy_out_j']) if key[2].startswith('direct') else '-'
     lines.append('| %s | %d%s | %s | %d | %d/%d | %s | %s | %s / %s | %s / %s | %s | %s | %s | %s | %s / %s | %s | %s |' % (
         key[0], key[1], ' (1 s outage)' if key[3] else '', key[2], len(rs), len(ok), len(rs), fmt(c['completion_s']),
         fmt(c['script_s']), fmt(c['wrist_peak_n'][0]), fmt(c['wrist_rms_n'][0]), fmt(c['wrist_peak_n'][1]),
