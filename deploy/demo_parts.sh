@@ -169,8 +169,10 @@ telemanip)
     dir="$out/${rtt}ms"
     mkdir -p "$dir"
     step "telemanip: both hands drive the two-arm robot, ${rtt} ms round trip (about 25 s)"
+    rv=()
+    mapfile -t rv < <(view "$dir/robot_view" 5)
     (cd "$cfg" && "$abin/hemm-robot" --config robot_twoarm.pbtxt --session-port "$base" --stream-port $((base + 1)) \
-      --duration 30 --log-level warn --stats-json "$dir/robot.json" >"$dir/robot.txt" 2>"$dir/robot.log") &
+      --duration 30 --log-level warn "${rv[@]}" --stats-json "$dir/robot.json" >"$dir/robot.txt" 2>"$dir/robot.log") &
     robot=$!
     pids+=("$robot")
     port=$base stream=$((base + 1))
@@ -197,6 +199,9 @@ telemanip)
     note "${rtt}ms/station.json" "the operator's telemanip report: commands, refusals seen, per-hand rendered force, servo timing"
     note "${rtt}ms/robot.json" "the two-arm station's report: commands applied and refused, both controllers' compute, energies"
     note "${rtt}ms/operator.txt" "the operator's summary as hemm-operator printed it"
+    if ((${#rv[@]})); then
+      note "${rtt}ms/robot_view/" "the two-arm station's live view every 5 s (SIMULATION ONLY truth: arms, targets, wrist wrenches, contacts)"
+    fi
   done
   ;;
 esac

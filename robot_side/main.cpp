@@ -33,6 +33,7 @@
 #ifdef HEMM_WITH_VIEW
 #include "common/view/view_options.h"
 #include "robot_side/view/robot_view.h"
+#include "robot_side/view/twoarm_view.h"
 #endif
 
 namespace {
@@ -269,12 +270,6 @@ int run(int argc, char** argv) {
     std::cerr << "hemm-robot: --truth-trace is the two-arm station's (kind twoarm with a task)\n";
     return net::kExitUsage;
   }
-#ifdef HEMM_WITH_VIEW
-  if (cfg.kind() == "twoarm" && view_opts.enabled()) {
-    std::cerr << "hemm-robot: the live view shows the mobile robot only (kind twoarm has none yet)\n";
-    return net::kExitUsage;
-  }
-#endif
   const std::string listen_address = listen.empty() ? cfg.net().listen_address() : listen;
   const auto key =
       net::load_station_key("hemm-robot", key_path, config_path, cfg.link().key_file(), listen_address);
@@ -330,13 +325,27 @@ int run(int argc, char** argv) {
                  "head_depth_camera={}",
                  scene_path, station.timestep_ns() * 1e-6, to.realtime, to.state_rate_hz, cfg.safety().watchdog_ms(),
                  station.depth_camera_enabled());
+#ifdef HEMM_WITH_VIEW
+    std::unique_ptr<robot::TwoArmLiveView> twoarm_view;
+    if (view_opts.enabled()) {
+      twoarm_view = std::make_unique<robot::TwoArmLiveView>(view_opts, scene_path);
+      if (auto err = station.attach_view(twoarm_view->feed())) {
+        std::cerr << "hemm-robot: --view: " << *err << "\n";
+        return net::kExitUsage;
+      }
+    }
+#endif
     if (!server.start(&error)) {
       std::cerr << "hemm-robot: " << error << "\n";
       spdlog::error("event=start_failed error=\"{}\"", error);
       return net::kExitUsage;
     }
     bool trace_failed = false;
-    const auto write_trace = [&] {
+    std::function<void()> view_start;
+    const auto before_exit = [&] {
+#ifdef HEMM_WITH_VIEW
+      if (twoarm_view) twoarm_view->stop();
+#endif
       if (truth_trace.empty()) return;
       std::string e;
       if (!net::write_text_file(truth_trace, twoarm::truth_trace_csv(station.truth_trace()), &e)) {
@@ -344,7 +353,12 @@ int run(int argc, char** argv) {
         trace_failed = true;
       }
     };
-    const int rc = serve(io, server, station, serve_options, nullptr, write_trace);
+#ifdef HEMM_WITH_VIEW
+    view_start = [&] {
+      if (twoarm_view) twoarm_view->start();
+    };
+#endif
+    const int rc = serve(io, server, station, serve_options, view_start, before_exit);
     return rc == 0 && trace_failed ? net::kExitInternal : rc;
   }
 

@@ -88,6 +88,14 @@ void run_live_view(mjModel_* m, mjData_* d, const ViewOptions& o, const std::str
   run_view_loop(win, o, pngs, stop, hooks, counters);
 }
 
+std::int64_t station_feed_interval_ns(const ViewOptions& o) {
+  return static_cast<std::int64_t>(1e9 / (o.window ? o.fps : std::max(1.0, 4.0 / o.png_interval_s)));
+}
+
+void ViewThread::start_logged(std::function<void(const std::atomic<bool>& stop)> body) {
+  start(std::move(body), [](const std::string& e) { spdlog::error("event=view_failed error=\"{}\"", e); });
+}
+
 void ViewThread::start(std::function<void(const std::atomic<bool>& stop)> body,
                        std::function<void(const std::string& error)> on_error) {
   if (thread_.joinable()) throw std::logic_error("ViewThread already running");

@@ -54,6 +54,10 @@ void aim_camera(MujocoWindow& win, CameraMode m, const Eigen::Vector3d& target);
 
 using hemm::steady_now_ns;
 
+// How often a station's simulation thread hands its view a frame (robot
+// time): at the window's rate, or a few per PNG interval without a window.
+std::int64_t station_feed_interval_ns(const ViewOptions& o);
+
 // The thread a station's live view runs on (operator/view, robot_side/view
 // start and stop it; this library starts none by itself). The body runs at
 // a lowered priority (nice 10); what it throws ends the view: error() keeps
@@ -70,6 +74,8 @@ class ViewThread {
              std::function<void(const std::string& error)> on_error);
   void stop();  // asks the body to stop and joins; idempotent
   std::string error() const;
+  // start() with the stations' error report (logged as event=view_failed).
+  void start_logged(std::function<void(const std::atomic<bool>& stop)> body);
 
  private:
   std::atomic<bool> stop_{false};

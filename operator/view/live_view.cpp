@@ -74,7 +74,7 @@ OperatorLiveView::OperatorLiveView(const view::ViewOptions& o, LiveViewLinks lin
 OperatorLiveView::~OperatorLiveView() { stop(); }
 
 void start_view_thread(view::ViewThread& thread, std::function<void(const std::atomic<bool>& stop)> body) {
-  thread.start(std::move(body), [](const std::string& e) { spdlog::error("event=view_failed error=\"{}\"", e); });
+  thread.start_logged(std::move(body));
 }
 
 LiveViewStats live_view_stats(const view::ViewLoopCounters& c, std::uint64_t dropped_geoms,

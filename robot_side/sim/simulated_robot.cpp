@@ -1,5 +1,7 @@
 #include "robot_side/sim/simulated_robot.h"
 
+#include "robot_side/sim/sim_contact.h"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -1121,19 +1123,23 @@ void SimulatedRobot::view_frame_sim(SimViewFrame* out) const {
   out->t_ns = time_ns();
   out->qpos.assign(s.d->qpos, s.d->qpos + s.m->nq);
   out->contacts.clear();
-  for (int i = 0; i < s.d->ncon; ++i) {
-    const mjContact& c = s.d->contact[i];
-    if (c.exclude != 0) continue;  // the arm's clearance probes (inactive), not contacts
-    mjtNum f[6];
-    mj_contactForce(s.m.get(), s.d.get(), i, f);
-    // The contact frame's rows are its axes (normal first) in W.
-    const Eigen::Map<const Eigen::Matrix<mjtNum, 3, 3, Eigen::RowMajor>> frame(c.frame);
-    SimContact& o = out->contacts.emplace_back();
-    o.pos_W = Eigen::Vector3d(c.pos[0], c.pos[1], c.pos[2]);
-    o.force_W = frame.transpose() * Eigen::Vector3d(f[0], f[1], f[2]);
-    o.geom1 = c.geom1;
-    o.geom2 = c.geom2;
-  }
+  SimContact c;
+  for (int i = 0; i < s.d->ncon; ++i)
+    if (sim_contact(s.m.get(), s.d.get(), i, &c)) out->contacts.push_back(c);
+}
+
+bool sim_contact(const mjModel_* m, const mjData_* d, int i, SimContact* out) noexcept {
+  const mjContact& c = d->contact[i];
+  if (c.exclude != 0) return false;
+  mjtNum f[6];
+  mj_contactForce(m, d, i, f);
+  // The contact frame's rows are its axes (normal first) in W.
+  const Eigen::Map<const Eigen::Matrix<mjtNum, 3, 3, Eigen::RowMajor>> frame(c.frame);
+  out->pos_W = Eigen::Vector3d(c.pos[0], c.pos[1], c.pos[2]);
+  out->force_W = frame.transpose() * Eigen::Vector3d(f[0], f[1], f[2]);
+  out->geom1 = c.geom1;
+  out->geom2 = c.geom2;
+  return true;
 }
 
 }  // namespace hemm::robot

@@ -23,6 +23,7 @@
 #include "report.pb.h"
 #include "robot_side/sim/depth_camera.h"
 #include "robot_side/sim/mujoco_ray_caster.h"
+#include "robot_side/sim/sim_contact.h"
 #include "robot_side/sim/simulated_robot.h"
 #include "robot_side/station/control_pacer.h"
 
@@ -32,6 +33,32 @@ namespace {
 
 // The first time, then at every doubling: a flood does not flood the log.
 bool twoarm_log_count(uint64_t n) { return std::has_single_bit(n); }
+
+// SIMULATION ONLY: the live view's frame, on the control thread (fixed-size
+// copies only). The contacts drawn: those touching a gripper or a free
+// object first would need a geom lookup per contact; the simulation's own
+// order is kept and the count of the rest reported instead.
+void fill_view_frame(const WorkbenchSim& sim, const TwoArmSnapshot& snap, const TaskTruthData* judged, bool link_up,
+                     bool in_control, int64_t now_ns, robot::TwoArmViewFrame& f) noexcept {
+  const mjModel* m = sim.m();
+  const mjData* d = sim.d();
+  f.t_ns = now_ns;
+  f.nq = m->nq;  // <= kMaxQpos: attach_view checked
+  std::copy(d->qpos, d->qpos + m->nq, f.qpos.begin());
+  f.ncontacts = 0;
+  f.contacts_seen = d->ncon;
+  for (int i = 0; i < d->ncon && f.ncontacts < robot::TwoArmViewFrame::kMaxContacts; ++i)
+    if (robot::sim_contact(m, d, i, &f.contacts[static_cast<std::size_t>(f.ncontacts)])) ++f.ncontacts;
+  f.snapshot = snap;
+  f.link_up = link_up;
+  f.in_control = in_control;
+  f.has_task = judged != nullptr;
+  if (judged != nullptr) {
+    f.task = judged->last;
+    f.lifted = judged->lifted;
+    f.dropped = judged->dropped;
+  }
+}
 
 wire::SessionFrame twoarm_ack(uint64_t request_id, bool ok, const std::string& reason) {
   wire::SessionFrame f;
@@ -833,6 +860,16 @@ TwoArmStationStatistics TwoArmStation::statistics() const {
 
 // The control thread. Nothing here allocates, locks, logs or touches a
 // socket: the network thread does all of that with what is published here.
+std::optional<std::string> TwoArmStation::attach_view(std::shared_ptr<robot::TwoArmViewFeed> feed) {
+  if (!robot_) return std::string("attach_view: load() first");
+  if (thread_.joinable()) return std::string("attach_view: before start()");
+  if (robot_->sim().m()->nq > robot::TwoArmViewFrame::kMaxQpos)
+    return "the scene's " + std::to_string(robot_->sim().m()->nq) + " qpos do not fit the view's frame (" +
+           std::to_string(robot::TwoArmViewFrame::kMaxQpos) + ")";
+  view_ = std::move(feed);
+  return std::nullopt;
+}
+
 void TwoArmStation::run() {
   Shared& sh = *shared_;
   TwoArmRobot& robot = *robot_;
@@ -919,6 +956,11 @@ void TwoArmStation::run() {
       if (next_state_ns <= now) next_state_ns = now + state_period;  // after a resync
       TwoArmSnapshot& snap = sh.states.back();
       robot.snapshot(&snap);
+      if (view_ && view_->due(now)) {
+        fill_view_frame(robot.sim(), snap, judge != nullptr ? &judged : nullptr, link_up, in_control, now,
+                        view_->back());
+        view_->publish();
+      }
       sh.states.publish();
       TwoArmTruthSim& truth = sh.truth.back();
       truth.stamp_ns = now;

@@ -60,6 +60,7 @@
 #include "robot_side/server/robot_server.h"
 #include "robot_side/twoarm/task_truth.h"
 #include "robot_side/twoarm/twoarm_robot.h"
+#include "robot_side/view/twoarm_view_feed.h"
 
 namespace hemm::report {
 class TwoArmStation;  // report.pb.h
@@ -190,6 +191,10 @@ class TwoArmStation {
   // (depth_camera: enabled, size, field of view, ranges, rate; mount unset or
   // "head": the scene's head_depth camera). Before start().
   std::optional<std::string> load(const config::RobotConfig& config, const std::string& scene_path);
+  // SIMULATION ONLY: the live view's feed (robot_side/view/twoarm_view.h),
+  // filled by the control thread at its state publications. After load(),
+  // before start(); an error if the scene's state does not fit a frame.
+  std::optional<std::string> attach_view(std::shared_ptr<robot::TwoArmViewFeed> feed);
   // Registers the handlers on the server and starts the control thread (and
   // the depth worker). Call before the io_context runs or on its thread.
   bool start(std::string* error);
@@ -231,6 +236,7 @@ class TwoArmStation {
   int depth_period_steps_ = 0;
   std::shared_ptr<Shared> shared_;
   std::unique_ptr<DepthWorker> depth_;
+  std::shared_ptr<robot::TwoArmViewFeed> view_;
   std::thread thread_;
   int wake_latency_fd_ = -1;
   bool attached_ = false;

@@ -10,6 +10,7 @@
 
 #include "common/view/mujoco_window.h"
 #include "common/view/png_sequence.h"
+#include "robot_side/view/twoarm_scene.h"
 #include "wire.pb.h"
 
 namespace hemm::robot {
@@ -55,20 +56,6 @@ void build_sim_scene(const SimViewFrame& f, const mjModel* m, view::PrimitiveLis
   }
 }
 
-std::string flags(std::uint32_t s) {
-  std::string out;
-  auto add = [&](std::uint32_t bit, const char* name) {
-    if (s & bit) out += std::string(out.empty() ? "" : " ") + name;
-  };
-  add(wire::SAFETY_NO_OPERATOR, "no-operator");
-  add(wire::SAFETY_WATCHDOG, "watchdog");
-  add(wire::SAFETY_COLLISION_GUARD, "guard");
-  add(wire::SAFETY_ESTOP, "E-STOP");
-  add(wire::SAFETY_JOINT_LIMIT, "joint-limit");
-  add(wire::SAFETY_LINK_LOST, "link-lost");
-  return out.empty() ? "ok" : out;
-}
-
 view::Overlay sim_overlay(const SimViewFrame& f, const mjModel* m, std::int64_t t0_ns) {
   view::Overlay o;
   char buf[512];
@@ -85,7 +72,7 @@ view::Overlay sim_overlay(const SimViewFrame& f, const mjModel* m, std::int64_t 
                 "rad/s\n%s\n%zu (%d not with the floor)\n%s%s",
                 static_cast<double>(f.t_ns - t0_ns) * 1e-9, s.T_W_R_truth.x, s.T_W_R_truth.y,
                 s.T_W_R_truth.theta * 57.29577951308232, s.T_W_R_odom.x, s.T_W_R_odom.y,
-                s.T_W_R_odom.theta * 57.29577951308232, s.v_truth, s.omega_truth, flags(s.safety).c_str(),
+                s.T_W_R_odom.theta * 57.29577951308232, s.v_truth, s.omega_truth, safety_text(s.safety).c_str(),
                 f.contacts.size(), hits, f.link_up ? "up" : "down", f.in_control ? ", operator in control" : "");
   o.right = buf;
   o.bottom = "c: camera (follow / free / top)   mouse: rotate, move, zoom";
@@ -100,17 +87,14 @@ view::Overlay sim_overlay(const SimViewFrame& f, const mjModel* m, std::int64_t 
 RobotLiveView::RobotLiveView(const view::ViewOptions& o, std::string scene_path)
     : o_(o),
       scene_path_(std::move(scene_path)),
-      feed_(std::make_shared<SimViewFeed>(
-          // Frames at the window's rate, or a few per PNG interval headless.
-          static_cast<std::int64_t>(1e9 / (o.window ? o.fps : std::max(1.0, 4.0 / o.png_interval_s))))) {
+      feed_(std::make_shared<SimViewFeed>(view::station_feed_interval_ns(o))) {
   if (!o_.enabled()) throw std::invalid_argument("RobotLiveView: neither a window nor PNGs asked for");
 }
 
 RobotLiveView::~RobotLiveView() { stop(); }
 
 void RobotLiveView::start() {
-  thread_.start([this](const std::atomic<bool>& stop) { run(stop); },
-                [](const std::string& e) { spdlog::error("event=view_failed error=\"{}\"", e); });
+  thread_.start_logged([this](const std::atomic<bool>& stop) { run(stop); });
 }
 
 void RobotLiveView::stop() { thread_.stop(); }

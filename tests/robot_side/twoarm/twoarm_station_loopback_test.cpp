@@ -26,6 +26,7 @@
 #include "common/clock/steady_clock.h"
 #include "common/config/config.h"
 #include "common/mapping/depth_stream.h"
+#include "common/sim/mujoco_owner.h"
 #include "config_robot.pb.h"
 #include "report.pb.h"
 #include "operator/client/operator_client.h"
@@ -78,7 +79,7 @@ struct TwoArmSide : hemm::test::StationIo {
   std::unique_ptr<ht::TwoArmStation> station;
 
   explicit TwoArmSide(const hemm::config::RobotConfig& cfg, std::function<void(bool)> control_thread_hook = {},
-                      double truth_trace_s = 0.0) {
+                      double truth_trace_s = 0.0, std::shared_ptr<hemm::robot::TwoArmViewFeed> view = nullptr) {
     server = std::make_unique<hemm::robot::RobotServer>(io, hemm::test::loopback_server_options(cfg, twoarm_test_key()));
     ht::TwoArmStationOptions so;
     so.truth_trace_s = truth_trace_s;
@@ -89,6 +90,10 @@ struct TwoArmSide : hemm::test::StationIo {
     EXPECT_TRUE(server->start(&err)) << err;
     const auto load_err = station->load(cfg, kWorkbenchScene);
     EXPECT_FALSE(load_err) << *load_err;
+    if (view) {
+      const auto view_err = station->attach_view(std::move(view));
+      EXPECT_FALSE(view_err) << *view_err;
+    }
     EXPECT_TRUE(station->start(&err)) << err;
     run();
   }
@@ -742,14 +747,16 @@ TEST(TwoArmStationLoopback, CommandsOfAnotherSessionModeAreDropped) {
 // allocator (tests/operator/servo/alloc_counter.cpp) on that thread only,
 // while it follows circles, holds through an e-stop, sees refused commands
 // go by and hands frames to the head camera's worker.
-// With a task judged (the bar: SIMULATION ONLY, MuJoCo truth each tick) the
-// control thread allocates nothing either, and the statistics and the report
-// carry the judge's verdict over every tick.
+// With a task judged (the bar: SIMULATION ONLY, MuJoCo truth each tick) and
+// the live view's feed attached the control thread allocates nothing
+// either, and the statistics and the report carry the judge's verdict over
+// every tick.
 TEST(TwoArmStationLoopback, ControlThreadDoesNotAllocate) {
   std::atomic<int> hook_calls{0};
   std::atomic<std::thread::id> hooked_thread{};
   hemm::config::RobotConfig cfg = twoarm_test_config(true);
   cfg.mutable_twoarm()->set_task("bar");
+  auto view = std::make_shared<hemm::robot::TwoArmViewFeed>(20'000'000);
   TwoArmSide robot(
       cfg,
       [&](bool on) {
@@ -757,7 +764,7 @@ TEST(TwoArmStationLoopback, ControlThreadDoesNotAllocate) {
         hooked_thread = std::this_thread::get_id();
         hemm::test::count_allocations_on_this_thread(on);
       },
-      0.5);  // a truth trace shorter than the run (1.3 s): its rows stop at 0.5 s
+      0.5, view);  // a truth trace shorter than the run (1.3 s): its rows stop at 0.5 s
   FakeArmsOperator op(robot.server->session_port(), true);
   const auto held = connected_hold(op);
   ASSERT_TRUE(held);
@@ -783,6 +790,7 @@ TEST(TwoArmStationLoopback, ControlThreadDoesNotAllocate) {
   EXPECT_GT(st.commands_refused, 0u);
   EXPECT_TRUE(st.estop);
   EXPECT_GT(st.depth_frames_sent, 0u);
+  EXPECT_GT(view->published(), 20u);  // a view frame every 20 ms of the run's 1.3 s and more
   EXPECT_EQ(hook_calls.load(), 2);  // on the control thread, around its loop
   EXPECT_NE(hooked_thread.load(), std::this_thread::get_id());
   EXPECT_EQ(n, 0u);
@@ -821,6 +829,57 @@ TEST(TwoArmStationLoopback, ControlThreadDoesNotAllocate) {
   const std::string csv = ht::truth_trace_csv(trace);
   EXPECT_EQ(std::count(csv.begin(), csv.end(), '\n'), 52);
   EXPECT_EQ(csv.rfind("t_s,clock_s,right_G_x,", 0), 0u);
+}
+
+// SIMULATION ONLY: the live view's frames. Without an operator the arms
+// hold; a frame's qpos poses a fresh copy of the workbench so that both
+// grasp sites are where the station's truth has them (1 mm) and where the
+// frame's own controller output says G is; its contacts carry the true
+// forces: the bar resting on its two stands is held up by its weight,
+// 0.5 kg * g (5 %). Frames come at the feed's interval of robot time.
+TEST(TwoArmStationLoopback, ViewFramesPoseTheWorkbenchWhereTheTruthIs) {
+  auto view = std::make_shared<hemm::robot::TwoArmViewFeed>(50'000'000);
+  TwoArmSide robot(twoarm_test_config(), {}, 0.0, view);
+  twoarm_sleep_s(1.5);
+  const hemm::robot::TwoArmViewFrame* f = view->take();
+  ASSERT_NE(f, nullptr);
+  const ht::TwoArmTruthSim truth = robot.truth();
+  hemm::sim::MujocoOwner w = hemm::sim::MujocoOwner::from_file(hemm::test::kWorkbenchScene);
+  ASSERT_EQ(f->nq, w.m()->nq);
+  std::copy(f->qpos.begin(), f->qpos.begin() + f->nq, w.d()->qpos);
+  mj_kinematics(w.m(), w.d());
+  const int torso = mj_name2id(w.m(), mjOBJ_BODY, "torso");
+  ASSERT_GE(torso, 0);
+  const Eigen::Vector3d torso_W(w.d()->xpos[3 * torso], w.d()->xpos[3 * torso + 1], w.d()->xpos[3 * torso + 2]);
+  for (int a = 0; a < 2; ++a) {
+    const int site = mj_name2id(w.m(), mjOBJ_SITE, a == 0 ? "r_grasp" : "l_grasp");
+    ASSERT_GE(site, 0);
+    const Eigen::Vector3d g_W(w.d()->site_xpos[3 * site], w.d()->site_xpos[3 * site + 1], w.d()->site_xpos[3 * site + 2]);
+    const Eigen::Vector3d g_A = g_W - torso_W;  // the torso is not turned in the workbench
+    EXPECT_LT((g_A - truth.T_A_G[static_cast<std::size_t>(a)].translation()).norm(), 1e-3) << "arm " << a;
+    EXPECT_LT((g_A - f->snapshot.control.arm[static_cast<std::size_t>(a)].T_A_G.translation()).norm(), 1e-3)
+        << "arm " << a;
+  }
+  const int bar = mj_name2id(w.m(), mjOBJ_GEOM, "bar_geom");
+  ASSERT_GE(bar, 0);
+  double up_N = 0.0;
+  int on_bar = 0;
+  for (int i = 0; i < f->ncontacts; ++i) {
+    const hemm::robot::SimContact& c = f->contacts[static_cast<std::size_t>(i)];
+    if (c.geom1 != bar && c.geom2 != bar) continue;
+    ++on_bar;
+    up_N += c.geom2 == bar ? c.force_W.z() : -c.force_W.z();  // force_W acts on geom2
+  }
+  EXPECT_GE(on_bar, 2);
+  EXPECT_LE(f->contacts_seen, hemm::robot::TwoArmViewFrame::kMaxContacts);  // all drawn here
+  EXPECT_NEAR(up_N, 0.5 * 9.81, 0.05 * 0.5 * 9.81);
+  EXPECT_TRUE(f->link_up == false && f->in_control == false);
+  EXPECT_FALSE(f->has_task);
+  // 1.5 s of robot time at one frame per 50 ms (the state publications fall
+  // every 4 ms, so a frame is at most 4 ms late).
+  const std::uint64_t n = view->published();
+  EXPECT_GE(n, 20u);
+  EXPECT_LE(n, 32u);
 }
 
 // The truth trace's CSV: a header naming each column, then the rows, the
