@@ -15,8 +15,11 @@
 # and collects both JSON reports into OUT/TASK-RTTms-MODE[-outage]-sSEED/.
 # Writes OUT/table.md and OUT/table.json: per cell the success rate, the
 # completion time (truth), the script's time, remote peak and RMS contact
-# force per gripper, peak squeeze, the rendered-against-remote wrench error
-# when the operator reports it, and the passivity energies (direct cells).
+# force per gripper, peak squeeze, with --truth-trace what each hand felt
+# against the true contact force on its gripper one way delay later (RMS over
+# the contact samples, deploy/telemanip_force_error.py), and the passivity
+# energies (direct cells). table.json also keeps the direct mode's own
+# shown-against-received wrench error (the operator's report).
 #
 # Usage: deploy/telemanip_table.sh BUILD_DIR [--out DIR] [--tasks box,peg,bar]
 #          [--rtts 0,300,1000,3000] [--seeds N] [--seeds-3000 N] [--modes model[,direct]]
@@ -189,9 +192,11 @@ for run in "${runs[@]}"; do
   grep -E "task .*SIMULATION ONLY" "$dir/robot.txt" | sed 's/^ */   robot: /' || true
 done
 
-"$py" - "$out" <<'EOF'
+"$py" - "$out" "$root/deploy" <<'EOF'
 import json, os, sys, statistics
 out = sys.argv[1]
+sys.path.insert(0, sys.argv[2])
+from telemanip_force_error import force_error  # deploy/telemanip_force_error.py
 
 def load(p):
     try:
@@ -234,6 +239,13 @@ for name in sorted(os.listdir(out)):
     v = (robot.get('twoarm') or {}).get('task') or {}
     tp = op.get('task') or {}
     ports = (robot.get('twoarm') or {}).get('passivity') or []
+    felt_err = None
+    if os.path.exists(os.path.join(d, 'hands.csv')) and os.path.exists(os.path.join(d, 'truth.csv')):
+        try:
+            fe = force_error(d)
+            felt_err = [fe[a]['rms_error_n'] for a in ('right', 'left')]
+        except (OSError, ValueError, KeyError) as e:
+            print('telemanip_table: %s: no force error (%s)' % (name, e), file=sys.stderr)
     rows.append(dict(
         task=task, rtt_ms=rtt, mode=mode, outage=cut, seed=seed,
         judged=bool(v), success=bool(v.get('success')), why=v.get('why', 'no verdict (robot report missing)'),
@@ -242,7 +254,7 @@ for name in sorted(os.listdir(out)):
         wrist_peak_n=v.get('wrist_peak_n', [0, 0]), wrist_rms_n=v.get('wrist_rms_n', [0, 0]),
         squeeze_peak_n=v.get('squeeze_peak_n', 0.0), hand_squeeze_peak_n=v.get('hand_squeeze_peak_n', [0, 0]),
         object_env_peak_n=v.get('object_env_peak_n', 0.0),
-        wrench_error=find_key(op, 'wrench_err'),
+        wrench_error=find_key(op, 'wrench_err'), felt_error_n=felt_err,
         energy_in_j=[p.get('energy_in_j', 0.0) for p in ports], energy_out_j=[p.get('energy_out_j', 0.0) for p in ports],
         dissipated_j=[p.get('dissipated_j', 0.0) for p in ports],
         refusals=(robot.get('twoarm') or {}).get('commands_refused', 0),
@@ -265,7 +277,7 @@ def fmt(x, f='%.1f'):
 order = {'box': 0, 'peg': 1, 'bar': 2}
 table = []
 lines = ['| task | rtt [ms] | mode | runs | success | completion [s] (truth) | script [s] | right wrist peak / RMS [N] | '
-         'left wrist peak / RMS [N] | peak squeeze [N] | object contact peak [N] | wrench error [N] | energy in / out [J] | '
+         'left wrist peak / RMS [N] | peak squeeze [N] | object contact peak [N] | felt vs true force RMS right / left [N] | energy in / out [J] | '
          'servo compute p99 [us] / misses [%] | robot controllers p99 [us] | failures |',
          '| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |']
 for key in sorted(cells, key=lambda k: (order.get(k[0], 9), k[2], k[3], k[1])):
@@ -277,6 +289,7 @@ for key in sorted(cells, key=lambda k: (order.get(k[0], 9), k[2], k[3], k[1])):
              wrist_rms_n=[mean([r['wrist_rms_n'][a] for r in rs]) for a in range(2)],
              squeeze_peak_n=max(r['squeeze_peak_n'] for r in rs), object_env_peak_n=max(r['object_env_peak_n'] for r in rs),
              wrench_error=mean([r['wrench_error'] for r in rs if r['wrench_error'] is not None]) if any(r['wrench_error'] is not None for r in rs) else None,
+             felt_error_n=[mean([r['felt_error_n'][a] for r in rs if r['felt_error_n'] is not None and r['felt_error_n'][a] == r['felt_error_n'][a]]) for a in range(2)],
              energy_in_j=sum(sum(r['energy_in_j']) for r in rs) / len(rs), energy_out_j=sum(sum(r['energy_out_j']) for r in rs) / len(rs),
              servo_compute_p99_us=max((r['servo_compute_p99_us'] for r in rs if r['servo_compute_p99_us'] is not None), default=None),
              servo_miss_pct=100.0 * sum(r['servo_misses'] for r in rs) / max(1, sum(r['servo_ticks'] for r in rs)),
@@ -290,7 +303,7 @@ for key in sorted(cells, key=lambda k: (order.get(k[0], 9), k[2], k[3], k[1])):
         key[0], key[1], ' (1 s outage)' if key[3] else '', key[2], len(rs), len(ok), len(rs), fmt(c['completion_s']),
         fmt(c['script_s']), fmt(c['wrist_peak_n'][0]), fmt(c['wrist_rms_n'][0]), fmt(c['wrist_peak_n'][1]),
         fmt(c['wrist_rms_n'][1]), fmt(c['squeeze_peak_n']) if key[0] == 'box' else '-', fmt(c['object_env_peak_n']),
-        fmt(c['wrench_error'], '%.2f'), energy, fmt(c['servo_compute_p99_us'], '%.0f'), fmt(c['servo_miss_pct'], '%.2f'),
+        '%s / %s' % (fmt(c['felt_error_n'][0]), fmt(c['felt_error_n'][1])), energy, fmt(c['servo_compute_p99_us'], '%.0f'), fmt(c['servo_miss_pct'], '%.2f'),
         fmt(c['control_compute_p99_us'], '%.0f'), '; '.join(c['failures']) or '-'))
 with open(os.path.join(out, 'table.md'), 'w') as f:
     f.write('\n'.join(lines) + '\n')
