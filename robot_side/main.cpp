@@ -341,7 +341,6 @@ int run(int argc, char** argv) {
       return net::kExitUsage;
     }
     bool trace_failed = false;
-    std::function<void()> view_start;
     const auto before_exit = [&] {
 #ifdef HEMM_WITH_VIEW
       if (twoarm_view) twoarm_view->stop();
@@ -353,6 +352,7 @@ int run(int argc, char** argv) {
         trace_failed = true;
       }
     };
+    std::function<void()> view_start;
 #ifdef HEMM_WITH_VIEW
     view_start = [&] {
       if (twoarm_view) twoarm_view->start();

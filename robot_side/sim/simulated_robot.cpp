@@ -19,6 +19,7 @@
 
 #include "common/config/config.h"
 #include "common/sim/mujoco_owner.h"
+#include "common/sim/mujoco_pose.h"
 #include "config_robot.pb.h"
 #include "robot_side/control/arm_control.h"
 #include "robot_side/control/arm_keep_out.h"
@@ -49,13 +50,6 @@ Eigen::Isometry3d pose_from(const mjtNum* pos, const mjtNum* quat) {
   Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
   T.translation() << pos[0], pos[1], pos[2];
   T.linear() = Eigen::Quaterniond(quat[0], quat[1], quat[2], quat[3]).normalized().toRotationMatrix();
-  return T;
-}
-
-Eigen::Isometry3d xpose(const mjtNum* xpos, const mjtNum* xmat) {
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.translation() << xpos[0], xpos[1], xpos[2];
-  T.linear() << xmat[0], xmat[1], xmat[2], xmat[3], xmat[4], xmat[5], xmat[6], xmat[7], xmat[8];
   return T;
 }
 
@@ -1095,8 +1089,8 @@ Eigen::Isometry3d SimulatedRobot::mujoco_T_A_E_sim() const {
   const Impl& s = *impl_;
   // Kinematics only: the site and body poses of the current qpos.
   mj_kinematics(s.m.get(), s.d.get());
-  const Eigen::Isometry3d T_W_A = xpose(s.d->xpos + 3 * s.arm_base_body, s.d->xmat + 9 * s.arm_base_body);
-  const Eigen::Isometry3d T_W_E = xpose(s.d->site_xpos + 3 * s.ee_site, s.d->site_xmat + 9 * s.ee_site);
+  const Eigen::Isometry3d T_W_A = sim::mujoco_pose(s.d->xpos + 3 * s.arm_base_body, s.d->xmat + 9 * s.arm_base_body);
+  const Eigen::Isometry3d T_W_E = sim::mujoco_pose(s.d->site_xpos + 3 * s.ee_site, s.d->site_xmat + 9 * s.ee_site);
   return T_W_A.inverse() * T_W_E;
 }
 

@@ -35,9 +35,8 @@ namespace {
 bool twoarm_log_count(uint64_t n) { return std::has_single_bit(n); }
 
 // SIMULATION ONLY: the live view's frame, on the control thread (fixed-size
-// copies only). The contacts drawn: those touching a gripper or a free
-// object first would need a geom lookup per contact; the simulation's own
-// order is kept and the count of the rest reported instead.
+// copies only): the first kMaxContacts contacts in MuJoCo's order, and the
+// count of all of them.
 void fill_view_frame(const WorkbenchSim& sim, const TwoArmSnapshot& snap, const TaskTruthData* judged, bool link_up,
                      bool in_control, int64_t now_ns, robot::TwoArmViewFrame& f) noexcept {
   const mjModel* m = sim.m();
@@ -858,8 +857,6 @@ TwoArmStationStatistics TwoArmStation::statistics() const {
   return s;
 }
 
-// The control thread. Nothing here allocates, locks, logs or touches a
-// socket: the network thread does all of that with what is published here.
 std::optional<std::string> TwoArmStation::attach_view(std::shared_ptr<robot::TwoArmViewFeed> feed) {
   if (!robot_) return std::string("attach_view: load() first");
   if (thread_.joinable()) return std::string("attach_view: before start()");
@@ -870,6 +867,8 @@ std::optional<std::string> TwoArmStation::attach_view(std::shared_ptr<robot::Two
   return std::nullopt;
 }
 
+// The control thread. Nothing here allocates, locks, logs or touches a
+// socket: the network thread does all of that with what is published here.
 void TwoArmStation::run() {
   Shared& sh = *shared_;
   TwoArmRobot& robot = *robot_;

@@ -7,6 +7,7 @@
 #include <mujoco/mujoco.h>
 
 #include "common/sim/mujoco_owner.h"
+#include "common/sim/mujoco_pose.h"
 
 namespace hemm::twoarm {
 
@@ -20,18 +21,11 @@ int id_of(const mjModel* m, mjtObj type, const std::string& name) {
   return id;
 }
 
-Eigen::Isometry3d pose_of(const mjtNum* pos, const mjtNum* mat) {
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.translation() << pos[0], pos[1], pos[2];
-  T.linear() << mat[0], mat[1], mat[2], mat[3], mat[4], mat[5], mat[6], mat[7], mat[8];
-  return T;
-}
-
 // A body's mass, centre of mass and inertia about it, in frame F (T_F_W).
 hk::RigidBodyInertia body_inertia_in(const mjModel* m, const mjData* d, int b, const Eigen::Isometry3d& T_F_W) {
   hk::RigidBodyInertia r;
   r.mass = m->body_mass[b];
-  const Eigen::Isometry3d T_W_I = pose_of(d->xipos + 3 * b, d->ximat + 9 * b);
+  const Eigen::Isometry3d T_W_I = sim::mujoco_pose(d->xipos + 3 * b, d->ximat + 9 * b);
   const Eigen::Matrix3d R = T_F_W.linear() * T_W_I.linear();
   r.com = T_F_W * T_W_I.translation();
   r.inertia = R * Eigen::Vector3d(m->body_inertia[3 * b], m->body_inertia[3 * b + 1], m->body_inertia[3 * b + 2]).asDiagonal() *
@@ -54,7 +48,7 @@ void check_link(const mjModel* m, const mjData* d, int b, int jnt, const hk::Arm
       std::abs(m->jnt_range[2 * jnt + 1] - lwr.q_max(i)) > kTol)
     throw std::runtime_error(what + "joint type or range");
   if (std::abs(m->dof_armature[m->jnt_dofadr[jnt]] - lwr.armature(i)) > kTol) throw std::runtime_error(what + "armature");
-  const Eigen::Isometry3d T_W_B = pose_of(d->xpos + 3 * b, d->xmat + 9 * b);
+  const Eigen::Isometry3d T_W_B = sim::mujoco_pose(d->xpos + 3 * b, d->xmat + 9 * b);
   const hk::RigidBodyInertia in = body_inertia_in(m, d, b, T_W_B.inverse());
   if (std::abs(in.mass - lwr.link[k].mass) > kTol || (in.com - lwr.link[k].com).norm() > kTol ||
       (in.inertia - lwr.link[k].inertia).norm() > 1e-7)
@@ -83,7 +77,7 @@ WorkbenchSim::WorkbenchSim(const std::string& scene_path) : impl_(std::make_uniq
   mjData* d = I.d.get();
   I.torso = id_of(m, mjOBJ_BODY, "torso");
   mj_forward(m, d);  // the reference pose: every joint at 0
-  const Eigen::Isometry3d T_A_W = pose_of(d->xpos + 3 * I.torso, d->xmat + 9 * I.torso).inverse();
+  const Eigen::Isometry3d T_A_W = sim::mujoco_pose(d->xpos + 3 * I.torso, d->xmat + 9 * I.torso).inverse();
   const hk::Arm7Model lwr = hk::lwr_arm_model();
   for (Side s : {Side::kRight, Side::kLeft}) {
     Impl::Arm& a = I.arm[idx(s)];
@@ -103,10 +97,10 @@ WorkbenchSim::WorkbenchSim(const std::string& scene_path) : impl_(std::make_uniq
       mount.link_radius(i) = m->geom_size[3 * g];
     }
     const int link7 = id_of(m, mjOBJ_BODY, p + "link7");
-    const Eigen::Isometry3d T_W_Ar = pose_of(d->xpos + 3 * id_of(m, mjOBJ_BODY, p + "mount"),
+    const Eigen::Isometry3d T_W_Ar = sim::mujoco_pose(d->xpos + 3 * id_of(m, mjOBJ_BODY, p + "mount"),
                                              d->xmat + 9 * id_of(m, mjOBJ_BODY, p + "mount"));
     mount.T_A_Ar = T_A_W * T_W_Ar;
-    const Eigen::Isometry3d T_J7_W = pose_of(d->xpos + 3 * link7, d->xmat + 9 * link7).inverse();
+    const Eigen::Isometry3d T_J7_W = sim::mujoco_pose(d->xpos + 3 * link7, d->xmat + 9 * link7).inverse();
     // The gripper (palm and fingers, fingers closed) as link 7's payload.
     hk::RigidBodyInertia payload;
     for (const char* body : {"gripper", "finger_a", "finger_b"}) {
@@ -116,7 +110,7 @@ WorkbenchSim::WorkbenchSim(const std::string& scene_path) : impl_(std::make_uniq
     mount.gripper_J7 = payload;
     mount.arm = hk::with_payload(lwr, payload);
     a.grasp_site = id_of(m, mjOBJ_SITE, p + "grasp");
-    mount.T_J7_G = T_J7_W * pose_of(d->site_xpos + 3 * a.grasp_site, d->site_xmat + 9 * a.grasp_site);
+    mount.T_J7_G = T_J7_W * sim::mujoco_pose(d->site_xpos + 3 * a.grasp_site, d->site_xmat + 9 * a.grasp_site);
     const char* finger[2] = {"finger_a", "finger_b"};
     const char* pad[2] = {"pad_a", "pad_b"};
     for (int f = 0; f < 2; ++f) {
@@ -133,7 +127,7 @@ WorkbenchSim::WorkbenchSim(const std::string& scene_path) : impl_(std::make_uniq
     a.ft_torque = m->sensor_adr[id_of(m, mjOBJ_SENSOR, p + "ft_torque")];
     // The palm box as a capsule along its long (y) axis.
     const int palm = id_of(m, mjOBJ_GEOM, p + "palm");
-    const Eigen::Isometry3d T_J7_palm = T_J7_W * pose_of(d->geom_xpos + 3 * palm, d->geom_xmat + 9 * palm);
+    const Eigen::Isometry3d T_J7_palm = T_J7_W * sim::mujoco_pose(d->geom_xpos + 3 * palm, d->geom_xmat + 9 * palm);
     const double* sz = m->geom_size + 3 * palm;
     mount.palm_radius_m = std::max(sz[0], sz[2]);
     mount.palm_a_J7 = T_J7_palm * Eigen::Vector3d(0.0, -sz[1], 0.0);
@@ -223,15 +217,15 @@ Eigen::Isometry3d WorkbenchSim::body_pose_A(const std::string& body) const {
   const mjData* d = impl_->d.get();
   const int b = mj_name2id(m, mjOBJ_BODY, body.c_str());
   if (b < 0) throw std::invalid_argument("no body " + body);
-  const Eigen::Isometry3d T_W_A = pose_of(d->xpos + 3 * impl_->torso, d->xmat + 9 * impl_->torso);
-  return T_W_A.inverse() * pose_of(d->xpos + 3 * b, d->xmat + 9 * b);
+  const Eigen::Isometry3d T_W_A = sim::mujoco_pose(d->xpos + 3 * impl_->torso, d->xmat + 9 * impl_->torso);
+  return T_W_A.inverse() * sim::mujoco_pose(d->xpos + 3 * b, d->xmat + 9 * b);
 }
 
 Eigen::Isometry3d WorkbenchSim::grasp_site_A(Side s) const noexcept {
   const mjData* d = impl_->d.get();
   const int g = impl_->arm[idx(s)].grasp_site;
-  const Eigen::Isometry3d T_W_A = pose_of(d->xpos + 3 * impl_->torso, d->xmat + 9 * impl_->torso);
-  return T_W_A.inverse() * pose_of(d->site_xpos + 3 * g, d->site_xmat + 9 * g);
+  const Eigen::Isometry3d T_W_A = sim::mujoco_pose(d->xpos + 3 * impl_->torso, d->xmat + 9 * impl_->torso);
+  return T_W_A.inverse() * sim::mujoco_pose(d->site_xpos + 3 * g, d->site_xmat + 9 * g);
 }
 
 }  // namespace hemm::twoarm

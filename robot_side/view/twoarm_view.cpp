@@ -8,21 +8,11 @@
 #include <stdexcept>
 
 #include "common/sim/mujoco_owner.h"
+#include "common/sim/mujoco_pose.h"
 #include "common/view/mujoco_window.h"
 #include "robot_side/view/twoarm_scene.h"
 
 namespace hemm::robot {
-namespace {
-
-Eigen::Isometry3d body_pose_W(const mjData* d, int body) {
-  Eigen::Isometry3d T = Eigen::Isometry3d::Identity();
-  T.translation() = Eigen::Vector3d(d->xpos[3 * body], d->xpos[3 * body + 1], d->xpos[3 * body + 2]);
-  T.linear() = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(d->xmat + 9 * body);
-  return T;
-}
-
-}  // namespace
-
 TwoArmLiveView::TwoArmLiveView(const view::ViewOptions& o, std::string scene_path)
     : o_(o),
       scene_path_(std::move(scene_path)),
@@ -67,7 +57,7 @@ void TwoArmLiveView::run(const std::atomic<bool>& stop) {
       mj_kinematics(model.get(), data.get());
       mj_comPos(model.get(), data.get());
       mj_camlight(model.get(), data.get());
-      T_W_A = body_pose_W(data.get(), torso);
+      T_W_A = sim::mujoco_pose(data->xpos + 3 * torso, data->xmat + 9 * torso);
     }
     view::Overlay overlay;
     if (have) {
